@@ -1,0 +1,1 @@
+"""LeRobot plugin entry point."""

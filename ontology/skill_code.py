@@ -1,0 +1,87 @@
+"""Static analysis of skill code: the primitive call sites the ontology reasons about."""
+
+from __future__ import annotations
+
+import ast
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class CodeSpan:
+    """A half-open character range of the source, with 1-based lines as ``ast`` reports them."""
+
+    start: int
+    end: int
+    line: int
+    end_line: int
+
+    def text(self, code: str) -> str:
+        return code[self.start : self.end]
+
+
+@dataclass(frozen=True)
+class CallSite:
+    function: str  # the skill function that contains the call
+    name: str  # the callee
+    span: CodeSpan  # the whole statement that holds the call
+    keywords: tuple[str, ...]
+    positional: int
+
+
+class SkillCodeError(ValueError):
+    pass
+
+
+def _offsets(code: str) -> list[int]:
+    starts, total = [], 0
+    for line in code.splitlines(keepends=True):
+        starts.append(total)
+        total += len(line)
+    starts.append(total)
+    return starts
+
+
+def span_of(node: ast.AST, code: str, line_starts: list[int] | None = None) -> CodeSpan:
+    """Character span of ``node`` (lines and columns from ``ast``; columns are UTF-8 byte offsets)."""
+    starts = line_starts or _offsets(code)
+    lines = code.splitlines(keepends=True)
+
+    def char(line: int, col_bytes: int) -> int:
+        text = lines[line - 1].encode()[:col_bytes].decode(errors="ignore")
+        return starts[line - 1] + len(text)
+
+    return CodeSpan(
+        start=char(node.lineno, node.col_offset),
+        end=char(node.end_lineno, node.end_col_offset),
+        line=node.lineno,
+        end_line=node.end_lineno,
+    )
+
+
+def parse_skill(code: str, filename: str = "<skill>") -> ast.Module:
+    try:
+        return ast.parse(code, filename=filename)
+    except SyntaxError as exc:
+        raise SkillCodeError(f"{filename}:{exc.lineno}: skill code does not parse: {exc.msg}") from None
+
+
+def call_sites(code: str, filename: str = "<skill>") -> list[CallSite]:
+    """Every statement of the form ``f(...)`` or ``x = f(...)`` inside a skill function, in source order."""
+    tree = parse_skill(code, filename)
+    starts = _offsets(code)
+    sites = []
+    for func in (n for n in tree.body if isinstance(n, ast.FunctionDef)):
+        for stmt in ast.walk(func):
+            call = getattr(stmt, "value", None) if isinstance(stmt, ast.Expr | ast.Assign) else None
+            if not (isinstance(call, ast.Call) and isinstance(call.func, ast.Name)):
+                continue
+            sites.append(
+                CallSite(
+                    function=func.name,
+                    name=call.func.id,
+                    span=span_of(stmt, code, starts),
+                    keywords=tuple(k.arg for k in call.keywords if k.arg),
+                    positional=len(call.args),
+                )
+            )
+    return sorted(sites, key=lambda s: s.span.start)

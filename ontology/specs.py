@@ -1,0 +1,160 @@
+"""Primitive-API metadata files: parsed into typed specs, every error naming file and field."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+PARAM_TYPES = ("position", "quaternion", "float", "int", "str", "bool", "object_name")
+
+
+class SpecError(ValueError):
+    """A metadata file is malformed; the message names the file and the field."""
+
+    def __init__(self, path: Path | str, where: str, problem: str):
+        super().__init__(f"{path}: {where}: {problem}")
+        self.path = str(path)
+        self.where = where
+
+
+@dataclass(frozen=True)
+class ParameterSpec:
+    name: str
+    type: str
+    role: str
+    required: bool = False
+    default: Any = None
+    unit: str | None = None
+    frame: str | None = None
+    range: tuple[float, float] | None = None
+    choices: tuple[Any, ...] | None = None
+
+    def render(self) -> str:
+        """``name: type [unit]`` or ``name: type = default`` — how hints show a parameter."""
+        unit = f" [{self.unit}]" if self.unit else ""
+        default = "" if self.required else f" = {self.default!r}"
+        return f"{self.name}: {self.type}{unit}{default}"
+
+
+@dataclass(frozen=True)
+class PrimitiveSpec:
+    name: str
+    embodiment: str
+    description: str
+    parameters: tuple[ParameterSpec, ...]
+    capabilities: frozenset[str]
+    preconditions: frozenset[str]
+    effects: frozenset[str]
+
+    def parameter(self, name: str) -> ParameterSpec | None:
+        return next((p for p in self.parameters if p.name == name), None)
+
+    def by_role(self, role: str) -> ParameterSpec | None:
+        return next((p for p in self.parameters if p.role == role), None)
+
+    def signature(self) -> str:
+        params = ", ".join(["env", "task", *(p.render() for p in self.parameters)])
+        return f"{self.name}({params})"
+
+
+@dataclass(frozen=True)
+class ApiSpec:
+    embodiment: str
+    module: str
+    path: Path
+    primitives: tuple[PrimitiveSpec, ...] = field(default_factory=tuple)
+
+    def names(self) -> list[str]:
+        return [p.name for p in self.primitives]
+
+    def get(self, name: str) -> PrimitiveSpec | None:
+        return next((p for p in self.primitives if p.name == name), None)
+
+
+def load_api_spec(path: Path | str) -> ApiSpec:
+    path = Path(path)
+    try:
+        data = yaml.safe_load(path.read_text())
+    except FileNotFoundError:
+        raise SpecError(path, "file", "does not exist") from None
+    except yaml.YAMLError as exc:
+        raise SpecError(path, "file", f"not valid YAML ({exc})") from None
+    if not isinstance(data, dict):
+        raise SpecError(path, "file", "top level must be a mapping with 'embodiment', 'module', 'primitives'")
+    embodiment = _require(data, "embodiment", str, path, "top level")
+    module = _require(data, "module", str, path, "top level")
+    raw = _require(data, "primitives", list, path, "top level")
+    primitives = []
+    seen: set[str] = set()
+    for i, item in enumerate(raw):
+        prim = _parse_primitive(item, embodiment, path, f"primitives[{i}]")
+        if prim.name in seen:
+            raise SpecError(path, f"primitives[{i}].name", f"duplicate primitive {prim.name!r}")
+        seen.add(prim.name)
+        primitives.append(prim)
+    return ApiSpec(embodiment=embodiment, module=module, path=path, primitives=tuple(primitives))
+
+
+def _parse_primitive(item: Any, embodiment: str, path: Path, where: str) -> PrimitiveSpec:
+    if not isinstance(item, dict):
+        raise SpecError(path, where, "must be a mapping")
+    name = _require(item, "name", str, path, where)
+    where = f"{where} ({name})"
+    params = []
+    for j, raw in enumerate(_require(item, "parameters", list, path, where)):
+        params.append(_parse_parameter(raw, path, f"{where}.parameters[{j}]"))
+    return PrimitiveSpec(
+        name=name,
+        embodiment=embodiment,
+        description=_require(item, "description", str, path, where),
+        parameters=tuple(params),
+        capabilities=frozenset(_str_list(item, "capabilities", path, where)),
+        preconditions=frozenset(_str_list(item, "preconditions", path, where)),
+        effects=frozenset(_str_list(item, "effects", path, where)),
+    )
+
+
+def _parse_parameter(raw: Any, path: Path, where: str) -> ParameterSpec:
+    if not isinstance(raw, dict):
+        raise SpecError(path, where, "must be a mapping")
+    name = _require(raw, "name", str, path, where)
+    ptype = _require(raw, "type", str, path, f"{where} ({name})")
+    if ptype not in PARAM_TYPES:
+        raise SpecError(path, f"{where}.type", f"unknown type {ptype!r}; known types: {', '.join(PARAM_TYPES)}")
+    required = bool(raw.get("required", False))
+    if not required and "default" not in raw:
+        raise SpecError(path, f"{where} ({name})", "an optional parameter needs a 'default' (or set required: true)")
+    rng = raw.get("range")
+    if rng is not None and (not isinstance(rng, list) or len(rng) != 2):
+        raise SpecError(path, f"{where}.range", "must be [low, high]")
+    choices = raw.get("choices")
+    return ParameterSpec(
+        name=name,
+        type=ptype,
+        role=_require(raw, "role", str, path, f"{where} ({name})"),
+        required=required,
+        default=raw.get("default"),
+        unit=raw.get("unit"),
+        frame=raw.get("frame"),
+        range=tuple(rng) if rng is not None else None,
+        choices=tuple(choices) if choices is not None else None,
+    )
+
+
+def _require(data: dict, key: str, kind: type, path: Path, where: str) -> Any:
+    if key not in data:
+        raise SpecError(path, f"{where}.{key}", "missing required field")
+    value = data[key]
+    if not isinstance(value, kind):
+        raise SpecError(path, f"{where}.{key}", f"must be a {kind.__name__}, got {type(value).__name__}")
+    return value
+
+
+def _str_list(data: dict, key: str, path: Path, where: str) -> list[str]:
+    values = _require(data, key, list, path, where)
+    if not all(isinstance(v, str) for v in values):
+        raise SpecError(path, f"{where}.{key}", "must be a list of strings")
+    return values

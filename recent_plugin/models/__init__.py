@@ -1,0 +1,14 @@
+"""Offline code language models: which ones we know, and how they are provisioned."""
+
+from recent_plugin.models.fetch import ModelIntegrityError, ensure_model, fetch_model, model_path
+from recent_plugin.models.registry import MODELS, ModelSpec, get_model_spec
+
+__all__ = [
+    "MODELS",
+    "ModelIntegrityError",
+    "ModelSpec",
+    "ensure_model",
+    "fetch_model",
+    "get_model_spec",
+    "model_path",
+]

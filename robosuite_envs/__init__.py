@@ -1,0 +1,1 @@
+"""The world RECENT is tested in: robosuite embodiments, their primitive APIs, tasks, and envs."""

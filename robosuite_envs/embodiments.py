@@ -1,0 +1,54 @@
+"""Embodiments: a robosuite robot, its gripper, and the primitive API it exposes.
+
+Adding an embodiment is data: a row here names the robosuite models, and
+``primitives/<api>.yaml`` + ``primitives/<api>.py`` give its primitive API.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class Embodiment:
+    name: str
+    robot: str  # robosuite robot class
+    gripper: str  # robosuite gripper class
+    api: str  # primitive API: robosuite_envs/primitives/<api>.{py,yaml}
+    robot_mjcf: str  # MJCF paths inside robosuite's package, read by the ontology builder
+    gripper_mjcf: str
+    description: str
+
+
+EMBODIMENTS: dict[str, Embodiment] = {
+    e.name: e
+    for e in (
+        Embodiment(
+            name="Panda",
+            robot="Panda",
+            gripper="PandaGripper",
+            api="panda",
+            robot_mjcf="models/assets/robots/panda/robot.xml",
+            gripper_mjcf="models/assets/grippers/panda_gripper.xml",
+            description="Franka Panda, 7-DoF, parallel-jaw Franka Hand (source robot)",
+        ),
+        Embodiment(
+            name="UR5e",
+            robot="UR5e",
+            gripper="LinkedRobotiq85Gripper",
+            api="ur5e",
+            robot_mjcf="models/assets/robots/ur5e/robot.xml",
+            gripper_mjcf="models/assets/grippers/robotiq_gripper_85.xml",
+            description="Universal Robots UR5e, 6-DoF, Robotiq 2F-85",
+        ),
+    )
+}
+
+SOURCE_EMBODIMENT = "Panda"
+
+
+def get_embodiment(name: str) -> Embodiment:
+    try:
+        return EMBODIMENTS[name]
+    except KeyError:
+        raise KeyError(f"unknown embodiment {name!r}; known embodiments: {', '.join(EMBODIMENTS)}") from None

@@ -1,0 +1,60 @@
+"""The flat observation vectors shared by the env (encoder) and the policy (decoder).
+
+``agent_pos``         = eef position (3), grip-site quaternion xyzw (4), gripper opening (1)
+``environment_state`` = per object slot: position (3), quaternion xyzw (4), present (1), grasped (1)
+
+Slots follow the order of the task's objects; unused slots are zero with present=0.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+AGENT_POS_DIM = 8
+MAX_OBJECTS = 8
+SLOT_DIM = 9
+ENV_STATE_DIM = MAX_OBJECTS * SLOT_DIM
+ACTION_DIM = 7  # OSC_POSE delta (6) + gripper (1): -1 opens, +1 closes
+
+
+@dataclass(frozen=True)
+class ObjectState:
+    pos: np.ndarray
+    quat: np.ndarray
+    grasped: bool
+
+
+@dataclass(frozen=True)
+class Observation:
+    """What primitives see: the robot's end effector and the named objects of the task."""
+
+    eef_pos: np.ndarray
+    eef_quat: np.ndarray
+    gripper_opening: float
+    objects: dict[str, ObjectState]
+
+    def encode(self, object_names: list[str]) -> tuple[np.ndarray, np.ndarray]:
+        agent = np.concatenate([self.eef_pos, self.eef_quat, [self.gripper_opening]]).astype(np.float32)
+        env_state = np.zeros(ENV_STATE_DIM, dtype=np.float32)
+        for slot, name in enumerate(object_names):
+            state = self.objects[name]
+            env_state[slot * SLOT_DIM : (slot + 1) * SLOT_DIM] = [*state.pos, *state.quat, 1.0, float(state.grasped)]
+        return agent, env_state
+
+    @classmethod
+    def decode(cls, agent_pos: np.ndarray, env_state: np.ndarray, object_names: list[str]) -> Observation:
+        agent_pos = np.asarray(agent_pos, dtype=np.float64)
+        env_state = np.asarray(env_state, dtype=np.float64)
+        objects = {}
+        for slot, name in enumerate(object_names):
+            row = env_state[slot * SLOT_DIM : (slot + 1) * SLOT_DIM]
+            if row[7] > 0.5:
+                objects[name] = ObjectState(pos=row[0:3].copy(), quat=row[3:7].copy(), grasped=bool(row[8] > 0.5))
+        return cls(
+            eef_pos=agent_pos[0:3].copy(),
+            eef_quat=agent_pos[3:7].copy(),
+            gripper_opening=float(agent_pos[7]),
+            objects=objects,
+        )

@@ -1,0 +1,39 @@
+"""Primitive APIs, one module + one metadata file per embodiment API.
+
+``api_functions("ur5e")`` returns the callables the executor binds into skill code;
+``api_spec_path("ur5e")`` is the metadata file the ontology builder reads.
+"""
+
+from __future__ import annotations
+
+import importlib
+import inspect
+from pathlib import Path
+
+from robosuite_envs.primitives.session import PrimitiveFailure, RobotSession, TaskContext
+
+SPEC_DIR = Path(__file__).parent
+
+__all__ = ["PrimitiveFailure", "RobotSession", "TaskContext", "api_functions", "api_spec_path", "available_apis"]
+
+
+def available_apis() -> list[str]:
+    return sorted(p.stem for p in SPEC_DIR.glob("*.yaml"))
+
+
+def api_spec_path(api: str) -> Path:
+    path = SPEC_DIR / f"{api}.yaml"
+    if not path.is_file():
+        raise KeyError(f"no primitive API {api!r}; known APIs: {', '.join(available_apis())}")
+    return path
+
+
+def api_functions(api: str) -> dict[str, object]:
+    """Public generator functions of ``robosuite_envs.primitives.<api>``, by name."""
+    api_spec_path(api)
+    module = importlib.import_module(f"robosuite_envs.primitives.{api}")
+    return {
+        name: fn
+        for name, fn in vars(module).items()
+        if inspect.isgeneratorfunction(fn) and not name.startswith("_") and fn.__module__ == module.__name__
+    }

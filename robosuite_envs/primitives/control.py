@@ -1,0 +1,104 @@
+"""Closed-loop controllers from observation to an OSC_POSE delta action, one step per ``next()``.
+
+Every embodiment's primitive API is a thin, differently-named layer over these generators, so the
+behaviour a skill relies on is identical across robots and only the bindings differ.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Generator, Sequence
+
+import numpy as np
+from robosuite.utils.transform_utils import quat2mat, mat2quat, quat2axisangle
+
+from robosuite_envs.observation import ACTION_DIM
+from robosuite_envs.primitives.session import CONTROL_FREQ, PrimitiveFailure, RobotSession
+
+Action = np.ndarray
+Steps = Generator[Action, None, None]
+
+POS_SCALE = 0.05  # metres per unit action (robosuite OSC_POSE output_max)
+ROT_SCALE = 0.5  # radians per unit action
+MAX_STEP = 0.02  # metres of goal displacement per control step (~0.4 m/s)
+POS_TOL = 0.008
+APPROACH_HEIGHT = 0.10
+TABLE_CLEARANCE = 0.805  # z below which the fingers would hit the table top (metres, world)
+
+
+def servo_action(session: RobotSession, target_pos: np.ndarray) -> Action:
+    """One P-step towards ``target_pos`` holding the session's orientation, with its gripper command."""
+    obs = session.obs
+    delta = np.clip(target_pos - obs.eef_pos, -MAX_STEP, MAX_STEP)
+    r_err = quat2mat(session.hold_quat) @ quat2mat(obs.eef_quat).T
+    rot = quat2axisangle(mat2quat(r_err))
+    action = np.zeros(ACTION_DIM)
+    action[:3] = np.clip(delta / POS_SCALE, -1.0, 1.0)
+    action[3:6] = np.clip(rot / ROT_SCALE, -1.0, 1.0)
+    action[6] = session.gripper_command
+    return action
+
+
+def as_position(value: Sequence[float], what: str) -> np.ndarray:
+    arr = np.asarray(value, dtype=np.float64).reshape(-1)
+    if arr.shape != (3,) or not np.all(np.isfinite(arr)):
+        raise PrimitiveFailure("unreachable", f"{what} must be three finite numbers [x, y, z], got {value!r}")
+    return arr
+
+
+def move_to(session: RobotSession, target: Sequence[float], *, timeout_s: float = 6.0, tol: float = POS_TOL) -> Steps:
+    """Servo the grip site to ``target`` (world frame, metres); fail with ``timeout`` if it does not settle."""
+    goal = as_position(target, "target position")
+    if goal[2] < TABLE_CLEARANCE:
+        raise PrimitiveFailure("out_of_workspace", f"target z={goal[2]:.3f} m is below the table surface")
+    max_steps = max(1, int(timeout_s * CONTROL_FREQ))
+    for _ in range(max_steps):
+        if np.linalg.norm(goal - session.obs.eef_pos) < tol:
+            return
+        yield servo_action(session, goal)
+    err = np.linalg.norm(goal - session.obs.eef_pos)
+    raise PrimitiveFailure("timeout", f"did not reach {np.round(goal, 3).tolist()} within {timeout_s:.1f} s (error {err * 100:.1f} cm)")
+
+
+def actuate_gripper(session: RobotSession, command: float, *, duration_s: float = 0.4, max_duration_s: float = 3.0) -> Steps:
+    """Drive the gripper to ``command`` (-1 open … +1 closed), holding the arm, until the fingers settle.
+
+    Runs at least ``duration_s`` and then until the opening stops changing (fingers closed on an
+    object or at their limit), at most ``max_duration_s``: slow linkages such as the 2F-85 need it.
+    """
+    session.gripper_command = float(np.clip(command, -1.0, 1.0))
+    hold = np.array(session.obs.eef_pos)
+    min_steps = max(1, int(duration_s * CONTROL_FREQ))
+    previous, still = session.obs.gripper_opening, 0
+    for step in range(max(min_steps, int(max_duration_s * CONTROL_FREQ))):
+        yield servo_action(session, hold)
+        opening = session.obs.gripper_opening
+        still = still + 1 if abs(opening - previous) < 1e-3 else 0
+        previous = opening
+        if step + 1 >= min_steps and still >= 3:
+            return
+
+
+def grasp_at(session: RobotSession, position: Sequence[float], *, timeout_s: float = 10.0, object_name: str | None = None) -> Steps:
+    """Open, approach from above, descend, close, and lift; fail with ``grasp_lost`` if nothing is held."""
+    target = as_position(position, "grasp position")
+    above = target + np.array([0.0, 0.0, APPROACH_HEIGHT])
+    yield from actuate_gripper(session, -1.0)
+    yield from move_to(session, above, timeout_s=timeout_s)
+    yield from move_to(session, target, timeout_s=timeout_s / 2, tol=0.006)
+    yield from actuate_gripper(session, 1.0)
+    yield from move_to(session, above, timeout_s=timeout_s / 2)
+    held = [name for name, state in session.obs.objects.items() if state.grasped]
+    if not held or (object_name is not None and object_name not in held):
+        raise PrimitiveFailure("grasp_lost", f"nothing is held after grasping at {np.round(target, 3).tolist()}")
+
+
+def release_at(session: RobotSession, position: Sequence[float], *, timeout_s: float = 10.0) -> Steps:
+    """Carry the held object above ``position``, lower to it, open, and retreat upwards."""
+    target = as_position(position, "release position")
+    above = target + np.array([0.0, 0.0, APPROACH_HEIGHT / 2])
+    lift = np.array([session.obs.eef_pos[0], session.obs.eef_pos[1], max(session.obs.eef_pos[2], above[2])])
+    yield from move_to(session, lift, timeout_s=timeout_s / 2, tol=0.02)
+    yield from move_to(session, above, timeout_s=timeout_s)
+    yield from move_to(session, target, timeout_s=timeout_s / 2)
+    yield from actuate_gripper(session, -1.0)
+    yield from move_to(session, above, timeout_s=timeout_s / 2, tol=0.02)

@@ -1,0 +1,44 @@
+"""Primitive API of the source robot: Franka Panda with its parallel-jaw hand.
+
+Each primitive is a generator of actions (see :mod:`robosuite_envs.primitives.control`);
+``primitives/panda.yaml`` describes them for the ontology.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+from robosuite_envs.primitives import control
+from robosuite_envs.primitives.session import RobotSession, TaskContext
+
+
+def pick(env: RobotSession, task: TaskContext, target_pos: Sequence[float], approach_axis: str = "z") -> control.Steps:
+    """Grasp the object at ``target_pos`` approaching along ``approach_axis`` and lift it."""
+    _check_axis(approach_axis)
+    yield from control.grasp_at(env, target_pos)
+
+
+def place(env: RobotSession, task: TaskContext, target_pos: Sequence[float], approach_axis: str = "z") -> control.Steps:
+    """Lower the held object to ``target_pos`` along ``approach_axis`` and let go of it."""
+    _check_axis(approach_axis)
+    yield from control.release_at(env, target_pos)
+
+
+def move(env: RobotSession, task: TaskContext, target_pos: Sequence[float], timeout: float = 6.0) -> control.Steps:
+    """Move the hand to ``target_pos`` keeping its orientation."""
+    yield from control.move_to(env, target_pos, timeout_s=timeout)
+
+
+def open_gripper(env: RobotSession, task: TaskContext) -> control.Steps:
+    """Open the Franka hand fully."""
+    yield from control.actuate_gripper(env, -1.0)
+
+
+def close_gripper(env: RobotSession, task: TaskContext) -> control.Steps:
+    """Close the Franka hand."""
+    yield from control.actuate_gripper(env, 1.0)
+
+
+def _check_axis(axis: str) -> None:
+    if axis != "z":
+        raise control.PrimitiveFailure("misaligned", f"approach_axis={axis!r}: only top-down ('z') approaches are supported")

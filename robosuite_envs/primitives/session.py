@@ -1,0 +1,76 @@
+"""What a primitive is handed: the robot session (``env``) and the task context (``task``).
+
+Primitives never see the simulator. The executor writes the newest observation into the session
+before it advances a primitive by one control step, and reads back the action it yields.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from robosuite_envs.observation import Observation
+
+CONTROL_FREQ = 20  # Hz; one yielded action = one env step
+
+
+class PrimitiveFailure(RuntimeError):
+    """A primitive could not do what it promised. ``kind`` follows the paper's failure taxonomy."""
+
+    KINDS = (
+        "unreachable",
+        "out_of_workspace",
+        "waypoint_blocked",
+        "misaligned",
+        "timeout",
+        "object_not_found",
+        "grasp_lost",
+    )
+
+    def __init__(self, kind: str, message: str):
+        if kind not in self.KINDS:
+            raise ValueError(f"unknown failure kind {kind!r}; known: {self.KINDS}")
+        super().__init__(f"{kind}: {message}")
+        self.kind = kind
+
+
+@dataclass
+class RobotSession:
+    """The robot as primitives see it: latest observation plus state that persists across steps."""
+
+    embodiment: str
+    obs: Observation
+    gripper_command: float = -1.0  # robosuite convention: -1 open, +1 closed
+    hold_quat: np.ndarray = field(default=None)  # type: ignore[assignment]
+    steps: int = 0
+
+    def __post_init__(self) -> None:
+        if self.hold_quat is None:
+            self.hold_quat = np.array(self.obs.eef_quat, dtype=np.float64)
+
+    def update(self, obs: Observation) -> None:
+        self.obs = obs
+        self.steps += 1
+
+
+class TaskContext:
+    """Read-only queries about the scene that skill code may call (``task.get_object_position``)."""
+
+    QUERIES = ("get_object_position", "get_object_names", "is_grasped")
+
+    def __init__(self, session: RobotSession):
+        self._session = session
+
+    def get_object_names(self) -> list[str]:
+        return sorted(self._session.obs.objects)
+
+    def get_object_position(self, name: str) -> list[float]:
+        state = self._session.obs.objects.get(name)
+        if state is None:
+            raise PrimitiveFailure("object_not_found", f"object {name!r} not found in scene; objects: {self.get_object_names()}")
+        return [float(v) for v in state.pos]
+
+    def is_grasped(self, name: str) -> bool:
+        state = self._session.obs.objects.get(name)
+        return bool(state is not None and state.grasped)

@@ -1,0 +1,121 @@
+"""A robosuite manipulation environment built from a :class:`~robosuite_envs.tasks.TaskSpec`.
+
+Follows robosuite's layering: a ``ManipulationEnv`` whose ``_load_model`` composes a
+``TableArena``, the robot (with the embodiment's gripper) and the task's objects.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from robosuite.environments.manipulation.manipulation_env import ManipulationEnv
+from robosuite.models.arenas import TableArena
+from robosuite.models.objects import BoxObject
+from robosuite.models.objects.composite import Bin
+from robosuite.models.tasks import ManipulationTask
+from robosuite.utils.transform_utils import convert_quat, mat2quat
+
+import robosuite_envs.grippers  # noqa: F401  (registers our gripper models with robosuite)
+from robosuite_envs.observation import ObjectState, Observation
+from robosuite_envs.tasks import ObjectSpec, TaskSpec
+
+TABLE_SIZE = (0.8, 0.8, 0.05)
+TABLE_OFFSET = np.array((0.0, 0.0, 0.8))
+
+
+class RecentTabletopEnv(ManipulationEnv):
+    """One robot at a table with the objects of one task; success is the task's predicate."""
+
+    def __init__(self, task: TaskSpec, robots: str, gripper_types: str, **kwargs):
+        self.task_spec = task
+        self.table_top_z = float(TABLE_OFFSET[2])
+        self._objects: dict[str, BoxObject | Bin] = {}
+        self._body_ids: dict[str, int] = {}
+        super().__init__(robots=robots, gripper_types=gripper_types, base_types="default", **kwargs)
+
+    # ----------------------------------------------------------------- model
+    def _load_model(self):
+        super()._load_model()
+        robot = self.robots[0]
+        robot.robot_model.set_base_xpos(robot.robot_model.base_xpos_offset["table"](TABLE_SIZE[0]))
+        arena = TableArena(table_full_size=TABLE_SIZE, table_offset=TABLE_OFFSET)
+        arena.set_origin([0, 0, 0])
+        self._objects = {spec.name: self._make_object(spec) for spec in self.task_spec.objects}
+        self.model = ManipulationTask(
+            mujoco_arena=arena,
+            mujoco_robots=[robot.robot_model],
+            mujoco_objects=list(self._objects.values()),
+        )
+
+    @staticmethod
+    def _make_object(spec: ObjectSpec):
+        if spec.kind == "box":
+            return BoxObject(name=spec.name, size=np.array(spec.size) / 2, rgba=list(spec.rgba), density=400.0, friction=(1.5, 0.005, 0.0001))
+        if spec.kind == "bin":
+            return Bin(
+                name=spec.name,
+                bin_size=spec.size,
+                wall_thickness=0.01,
+                transparent_walls=False,
+                use_texture=False,
+                rgba=spec.rgba,
+                density=20000.0,  # heavy enough that a brushing arm does not shove it
+            )
+        raise ValueError(f"object {spec.name!r}: unknown kind {spec.kind!r} (known: box, bin)")
+
+    def _setup_references(self):
+        super()._setup_references()
+        self._body_ids = {name: self.sim.model.body_name2id(obj.root_body) for name, obj in self._objects.items()}
+
+    # ----------------------------------------------------------------- reset
+    def _reset_internal(self):
+        super()._reset_internal()
+        rng = self.rng
+        for spec in self.task_spec.objects:
+            jitter = rng.uniform(-spec.xy_jitter, spec.xy_jitter, size=2) if spec.xy_jitter else np.zeros(2)
+            xy = np.array(spec.xy) + jitter
+            obj = self._objects[spec.name]
+            z = self.table_top_z + spec.size[2] / 2 + 0.001
+            pos = np.array([xy[0], xy[1], z])
+            self.sim.data.set_joint_qpos(obj.joints[0], np.concatenate([pos, [1.0, 0.0, 0.0, 0.0]]))
+        self.sim.forward()
+
+    # ----------------------------------------------------------- observation
+    def observe(self) -> Observation:
+        """The state primitives may use: end effector, gripper opening, object poses and grasps."""
+        robot = self.robots[0]
+        arm = robot.arms[0]
+        site = robot.eef_site_id[arm]
+        eef_pos = np.array(self.sim.data.site_xpos[site])
+        eef_quat = mat2quat(np.array(self.sim.data.site_xmat[site]).reshape(3, 3))
+        gripper = robot.gripper[arm]
+        qpos = self.sim.data.qpos[robot._ref_gripper_joint_pos_indexes[arm]] if gripper.dof > 0 else np.zeros(1)
+        opening = float(np.mean(np.abs(qpos))) if len(qpos) else 0.0
+        objects = {}
+        for spec in self.task_spec.objects:
+            body = self._body_ids[spec.name]
+            pos = np.array(self.sim.data.body_xpos[body])
+            quat = convert_quat(np.array(self.sim.data.body_xquat[body]), to="xyzw")
+            grasped = spec.kind == "box" and self._check_grasp(gripper=gripper, object_geoms=self._objects[spec.name])
+            objects[spec.name] = ObjectState(pos=pos, quat=quat, grasped=bool(grasped))
+        return Observation(eef_pos=eef_pos, eef_quat=eef_quat, gripper_opening=opening, objects=objects)
+
+    # --------------------------------------------------------------- success
+    def object_in_receptacle(self, obj: str, receptacle: str) -> bool:
+        spec = {o.name: o for o in self.task_spec.objects}[receptacle]
+        centre = self.sim.data.body_xpos[self._body_ids[receptacle]]
+        pos = self.sim.data.body_xpos[self._body_ids[obj]]
+        inner = np.array(spec.size[:2]) / 2 - 0.01
+        inside_xy = bool(np.all(np.abs(pos[:2] - centre[:2]) < inner))
+        below_rim = bool(pos[2] < centre[2] + spec.size[2])
+        return inside_xy and below_rim and not self.observe().objects[obj].grasped
+
+    def subtask_success(self, subtask: str, args: dict[str, str]) -> bool:
+        if subtask == "put_in_bin":
+            return self.object_in_receptacle(args["obj"], args["receptacle"])
+        raise KeyError(f"no success predicate for subtask {subtask!r}")
+
+    def _check_success(self):
+        return all(self.subtask_success(step.subtask, step.args) for step in self.task_spec.plan)
+
+    def reward(self, action=None):
+        return float(self._check_success())
