@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
-from importlib.resources import files
+import importlib.util
 from pathlib import Path
 
 from ontology.specs import SpecError
@@ -35,7 +35,10 @@ def resolve_mjcf(path: str) -> Path:
     candidate = Path(path)
     if candidate.is_file():
         return candidate
-    return Path(str(files("robosuite").joinpath(path)))
+    spec = importlib.util.find_spec("robosuite")  # locate without importing robosuite (slow)
+    if spec is None or not spec.submodule_search_locations:
+        raise SpecError(path, "mjcf", "robosuite is not installed, and the path is not a file")
+    return Path(spec.submodule_search_locations[0]) / path
 
 
 def _parse(path: str) -> ET.Element:

@@ -49,7 +49,7 @@ TASKS: dict[str, TaskSpec] = {
                 ObjectSpec("cube", "box", (0.045, 0.045, 0.045), (-0.02, -0.12), 0.03, (0.85, 0.15, 0.1, 1.0)),
                 ObjectSpec("bin", "bin", (0.20, 0.20, 0.08), (0.02, 0.16), 0.0, (0.35, 0.25, 0.15, 1.0)),
             ),
-            plan=(PlanStep("put_in_bin", "put_cube_in_bin", {"obj": "cube", "receptacle": "bin"}),),
+            plan=(PlanStep("put_in_bin", "put_in_bin", {"obj": "cube", "receptacle": "bin"}),),
         ),
     )
 }

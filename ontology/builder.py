@@ -1,0 +1,237 @@
+"""Deterministic construction of the skill ontology from MJCF, primitive metadata and skill code.
+
+Relations come from fixed matching rules over effects, preconditions and parameter roles; no rule
+names a robot pair or a task, so a new embodiment is a metadata file and two MJCF paths.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import pyoxigraph as ox
+
+from ontology.mjcf import ArmFacts, GripperFacts, read_arm, read_gripper
+from ontology.skill_code import call_sites
+from ontology.specs import ApiSpec, PrimitiveSpec, SpecError, load_api_spec
+
+RC = "https://w3id.org/recent/ontology#"
+INST = "https://w3id.org/recent/instance/"
+RDF_TYPE = ox.NamedNode("http://www.w3.org/1999/02/22-rdf-syntax-ns#type")
+SCHEMA_PATH = Path(__file__).with_name("schema.ttl")
+
+# Capability inference from hardware: what a grasp mechanism or an arm implies by itself.
+MECHANISM_CAPABILITIES = {
+    "parallel_jaw": ("grasp_object", "release_object", "open_fingers", "close_fingers"),
+    "multi_finger": ("grasp_object", "release_object", "open_fingers", "close_fingers"),
+    "suction": ("attach_object", "detach_object", "activate_suction", "deactivate_suction"),
+    "none": (),
+}
+ARM_CAPABILITIES = ("move_end_effector", "orient_end_effector")
+
+
+def rc(term: str) -> ox.NamedNode:
+    return ox.NamedNode(RC + term)
+
+
+def inst(*parts: str) -> ox.NamedNode:
+    return ox.NamedNode(INST + "/".join(parts))
+
+
+@dataclass(frozen=True)
+class EmbodimentSource:
+    """The only per-robot inputs: a name, its primitive metadata file, robot and gripper MJCF."""
+
+    name: str
+    api_spec: Path
+    robot_mjcf: str
+    gripper_mjcf: str
+
+
+@dataclass(frozen=True)
+class SkillSource:
+    name: str
+    code: str
+    path: str = "<skill>"
+
+
+@dataclass
+class Ontology:
+    store: ox.Store
+    apis: dict[str, ApiSpec]
+    arms: dict[str, ArmFacts]
+    grippers: dict[str, GripperFacts]
+    build_seconds: float = 0.0
+    counts: dict[str, int] = field(default_factory=dict)
+
+    def robot_names(self) -> list[str]:
+        return list(self.apis)
+
+    def api(self, robot: str) -> ApiSpec:
+        try:
+            return self.apis[robot]
+        except KeyError:
+            raise KeyError(f"unknown robot {robot!r}; known robots: {', '.join(self.apis)}") from None
+
+    def substitutes(self, source: str, primitive: str, target: str) -> list[PrimitiveSpec]:
+        """Primitives of ``target`` that ``source.primitive`` is ``substitutableBy`` (SPARQL over the graph)."""
+        query = f"""
+            PREFIX rc: <{RC}>
+            SELECT ?name WHERE {{
+                <{inst(source, primitive).value}> rc:substitutableBy ?q .
+                <{inst(target).value}> rc:hasPrimitive ?q .
+                ?q rc:name ?name .
+            }} ORDER BY ?name"""
+        names = [solution["name"].value for solution in self.store.query(query)]
+        api = self.api(target)
+        return [p for n in names if (p := api.get(n)) is not None]
+
+    def to_turtle(self) -> str:
+        prefixes = {"rc": RC, "inst": INST, "rdf": "http://www.w3.org/1999/02/22-rdf-syntax-ns#",
+                    "rdfs": "http://www.w3.org/2000/01/rdf-schema#", "owl": "http://www.w3.org/2002/07/owl#",
+                    "xsd": "http://www.w3.org/2001/XMLSchema#"}
+        return self.store.dump(format=ox.RdfFormat.TURTLE, from_graph=ox.DefaultGraph(), prefixes=prefixes).decode()
+
+    def stats(self) -> dict[str, float | int]:
+        return {**self.counts, "triples": len(self.store), "build_seconds": round(self.build_seconds, 4)}
+
+
+def default_embodiment_sources() -> list[EmbodimentSource]:
+    from robosuite_envs.embodiments import EMBODIMENTS
+    from robosuite_envs.primitives import api_spec_path
+
+    return [EmbodimentSource(e.name, api_spec_path(e.api), e.robot_mjcf, e.gripper_mjcf) for e in EMBODIMENTS.values()]
+
+
+def build_ontology(
+    embodiments: Iterable[EmbodimentSource] | None = None,
+    skills: Iterable[SkillSource] = (),
+) -> Ontology:
+    started = time.perf_counter()
+    sources = list(embodiments) if embodiments is not None else default_embodiment_sources()
+    quads: list[ox.Quad] = []
+
+    def add(s: ox.NamedNode, p: ox.NamedNode, o) -> None:
+        quads.append(ox.Quad(s, p, o if not isinstance(o, str | int | float | bool) else _literal(o)))
+
+    apis: dict[str, ApiSpec] = {}
+    arms: dict[str, ArmFacts] = {}
+    grippers: dict[str, GripperFacts] = {}
+    capabilities: set[str] = set()
+    conditions: set[str] = set()
+    n_params = 0
+    for src in sources:
+        api = load_api_spec(src.api_spec)
+        if api.embodiment != src.name:
+            raise SpecError(src.api_spec, "embodiment", f"says {api.embodiment!r} but is registered for {src.name!r}")
+        apis[src.name] = api
+        arms[src.name] = arm = read_arm(src.robot_mjcf)
+        grippers[src.name] = grip = read_gripper(src.gripper_mjcf)
+        robot, arm_node, ee = inst(src.name), inst(src.name, "arm"), inst(src.name, "end_effector")
+        add(robot, RDF_TYPE, rc("Robot"))
+        add(robot, rc("name"), src.name)
+        add(robot, rc("hasArm"), arm_node)
+        add(arm_node, RDF_TYPE, rc("Arm"))
+        add(arm_node, rc("dof"), arm.dof)
+        for joint in arm.joints:
+            node = inst(src.name, "joint", joint.name)
+            add(arm_node, rc("hasJoint"), node)
+            add(node, RDF_TYPE, rc("Joint"))
+            add(node, rc("lowerLimit"), joint.lower)
+            add(node, rc("upperLimit"), joint.upper)
+        add(robot, rc("hasEndEffector"), ee)
+        add(ee, RDF_TYPE, rc("EndEffector"))
+        add(ee, rc("graspMechanism"), grip.mechanism)
+        inferred = set(MECHANISM_CAPABILITIES[grip.mechanism]) | (set(ARM_CAPABILITIES) if arm.dof >= 6 else set())
+        for prim in api.primitives:
+            node = inst(src.name, prim.name)
+            add(robot, rc("hasPrimitive"), node)
+            add(node, RDF_TYPE, rc("Primitive"))
+            add(node, rc("name"), prim.name)
+            for param in prim.parameters:
+                pnode = inst(src.name, prim.name, param.name)
+                n_params += 1
+                add(node, rc("hasParameter"), pnode)
+                add(pnode, RDF_TYPE, rc("Parameter"))
+                add(pnode, rc("name"), param.name)
+                add(pnode, rc("paramType"), param.type)
+                add(pnode, rc("paramRole"), param.role)
+                add(pnode, rc("required"), param.required)
+                if param.unit:
+                    add(pnode, rc("unit"), param.unit)
+                if not param.required:
+                    add(pnode, rc("defaultValue"), repr(param.default))
+            for cond in prim.preconditions:
+                add(node, rc("hasPrecondition"), inst("condition", cond))
+            for cond in prim.effects:
+                add(node, rc("hasEffect"), inst("condition", cond))
+            for cap in prim.capabilities:
+                add(node, rc("provides"), inst("capability", cap))
+            inferred |= prim.capabilities
+            conditions |= prim.preconditions | prim.effects
+        for cap in sorted(inferred):
+            add(robot, rc("provides"), inst("capability", cap))
+        capabilities |= inferred
+
+    for cap in sorted(capabilities):
+        add(inst("capability", cap), RDF_TYPE, rc("Capability"))
+    for cond in sorted(conditions):
+        add(inst("condition", cond), RDF_TYPE, rc("Condition"))
+
+    relations = 0
+    prims = [(emb, p) for emb, api in apis.items() for p in api.primitives]
+    for emb_a, a in prims:
+        for emb_b, b in prims:
+            if a is b or not _same_function(a, b):
+                continue
+            relation = "functionalEquivalent" if emb_a == emb_b else "substitutableBy"
+            add(inst(emb_a, a.name), rc(relation), inst(emb_b, b.name))
+            relations += 1
+
+    for skill in skills:
+        node = inst("skill", skill.name)
+        add(node, RDF_TYPE, rc("Skill"))
+        add(node, rc("name"), skill.name)
+        for i, site in enumerate(call_sites(skill.code, skill.path)):
+            for emb, api in apis.items():
+                prim = api.get(site.name)
+                if prim is None:
+                    continue
+                site_node = inst("skill", skill.name, f"call{i}")
+                add(node, rc("hasCallSite"), site_node)
+                add(site_node, RDF_TYPE, rc("CallSite"))
+                add(site_node, rc("calls"), inst(emb, prim.name))
+                add(site_node, rc("line"), site.span.line)
+                for cap in prim.capabilities:
+                    add(node, rc("requires"), inst("capability", cap))
+
+    store = ox.Store()
+    store.load(SCHEMA_PATH.read_bytes(), format=ox.RdfFormat.TURTLE)
+    store.extend(quads)
+    counts = {
+        "robots": len(apis),
+        "primitives": len(prims),
+        "capabilities": len(capabilities),
+        "parameters": n_params,
+        "preconditions": sum(len(p.preconditions) for _, p in prims),
+        "effects": sum(len(p.effects) for _, p in prims),
+        "substitution_relations": relations,
+    }
+    return Ontology(store, apis, arms, grippers, time.perf_counter() - started, counts)
+
+
+def _same_function(a: PrimitiveSpec, b: PrimitiveSpec) -> bool:
+    """The matching rule: equal, non-empty effects under preconditions the substitute does not add to."""
+    return bool(a.effects) and a.effects == b.effects and b.preconditions <= a.preconditions | a.effects
+
+
+def _literal(value: str | int | float | bool) -> ox.Literal:
+    if isinstance(value, bool):
+        return ox.Literal(str(value).lower(), datatype=ox.NamedNode("http://www.w3.org/2001/XMLSchema#boolean"))
+    if isinstance(value, int):
+        return ox.Literal(str(value), datatype=ox.NamedNode("http://www.w3.org/2001/XMLSchema#integer"))
+    if isinstance(value, float):
+        return ox.Literal(repr(value), datatype=ox.NamedNode("http://www.w3.org/2001/XMLSchema#double"))
+    return ox.Literal(value)

@@ -1,0 +1,30 @@
+"""The failure taxonomy of the RECENT paper (appendix "Failure Categorization")."""
+
+from __future__ import annotations
+
+from enum import StrEnum
+
+
+class FailureCategory(StrEnum):
+    HALLUCINATED_NAME = "hallucinated_name"  # NameError: undefined variable or object
+    HALLUCINATED_API = "hallucinated_api"  # AttributeError / a primitive the robot does not have
+    HALLUCINATED_KWARG = "hallucinated_kwarg"  # TypeError: unexpected or missing keyword argument
+    NON_EXECUTABLE = "non_executable"  # SyntaxError, forbidden construct
+    EMPTY_CONTINUATION = "empty_continuation"  # the LM returned nothing usable
+    MOTION_PLANNING = "motion_planning"  # waypoint blocked, misaligned gripper, IK failure
+    WORKSPACE = "workspace"  # target outside the robot's workspace
+    UNREACHABLE_OBJECT = "unreachable_object"  # object not reachable / not found
+    GRASP_LOST = "grasp_lost"
+    TIMEOUT = "timeout"
+    SUBTASK_FAILED = "subtask_failed"  # ran to the end, success predicate false
+
+
+PRIMITIVE_FAILURE_CATEGORY = {
+    "unreachable": FailureCategory.UNREACHABLE_OBJECT,
+    "out_of_workspace": FailureCategory.WORKSPACE,
+    "waypoint_blocked": FailureCategory.MOTION_PLANNING,
+    "misaligned": FailureCategory.MOTION_PLANNING,
+    "timeout": FailureCategory.TIMEOUT,
+    "object_not_found": FailureCategory.HALLUCINATED_NAME,
+    "grasp_lost": FailureCategory.GRASP_LOST,
+}

@@ -1,0 +1,1 @@
+"""The grounding core: diagnosis → refactoring unit → infiller → validation → executor."""

@@ -1,0 +1,165 @@
+"""Pre-execution grounding: resolve each determined conflict with one localized FIM edit.
+
+Conflicts are resolved last-to-first, so offsets of the pending ones stay valid and consecutive
+prompts share the longest possible prefix (llama.cpp reuses its KV cache for it). Each generated
+span is validated — with the still-pending spans blanked out — before it is accepted; a rejected
+span is retried with the rejection as an extra hint, up to ``max_retries`` times.
+"""
+
+from __future__ import annotations
+
+import difflib
+import time
+from dataclasses import dataclass, field
+
+from ontology.builder import Ontology
+from ontology.diagnosis import Conflict, Diagnosis, diagnose
+from recent_plugin.failures import FailureCategory
+from recent_plugin.grounding.units import RefactoringUnit, apply_unit, unit_from_conflict
+from recent_plugin.grounding.validation import Verdict, validate_program
+from recent_plugin.infillers.base import Infiller
+from skills.repository import Skill
+
+
+@dataclass(frozen=True)
+class LMCall:
+    """One infiller call; GO/EI/IT/IGT are sums over these records, never estimates."""
+
+    kind: str  # "ground" (before execution), "revise" (in-situ), "repair" (after a failure)
+    span_type: str
+    original: str
+    text: str
+    generated_tokens: int
+    seconds: float
+    accepted: bool
+    category: str | None = None
+    message: str = ""
+
+
+@dataclass
+class GroundedSkill:
+    skill: str
+    entry: str
+    robot: str
+    original: str
+    code: str
+    diagnosis: Diagnosis
+    skill_tokens: int
+    backend: str
+    model: str
+    calls: list[LMCall] = field(default_factory=list)
+    verdict: Verdict | None = None
+    seconds: float = 0.0  # wall time from diagnosis to validated code (IGT for this skill)
+
+    @property
+    def valid(self) -> bool:
+        return self.verdict is not None and self.verdict.ok
+
+    @property
+    def generated_tokens(self) -> int:
+        return sum(c.generated_tokens for c in self.calls)
+
+    @property
+    def lm_seconds(self) -> float:
+        return sum(c.seconds for c in self.calls)
+
+    @property
+    def retries(self) -> int:
+        return sum(1 for c in self.calls if not c.accepted)
+
+    @property
+    def go(self) -> float:
+        """Grounding overhead: generated tokens ÷ tokens of the original skill code × 100."""
+        return 100.0 * self.generated_tokens / max(1, self.skill_tokens)
+
+    def diff(self) -> str:
+        return "".join(
+            difflib.unified_diff(
+                self.original.splitlines(keepends=True),
+                self.code.splitlines(keepends=True),
+                fromfile=f"{self.skill}.py (Panda)",
+                tofile=f"{self.skill}.py ({self.robot})",
+            )
+        )
+
+
+def strip_imports(code: str) -> str:
+    return "".join(line for line in code.splitlines(keepends=True) if not line.lstrip().startswith(("import ", "from ")))
+
+
+def clean_completion(text: str, unit: RefactoringUnit) -> str:
+    """The span as it goes into the code: indentation of later lines restored, trailing space dropped."""
+    lines = text.strip().splitlines()
+    if not lines:
+        return ""
+    return "\n".join([lines[0], *(unit.indent + line.lstrip() for line in lines[1:])])
+
+
+def ground_skill(skill: Skill, robot: str, onto: Ontology, infiller: Infiller, *, max_retries: int = 2) -> GroundedSkill:
+    started = time.perf_counter()
+    diagnosis = diagnose(onto, skill.name, skill.code, robot, source=skill.source_embodiment)
+    result = GroundedSkill(
+        skill=skill.name,
+        entry=skill.entry,
+        robot=robot,
+        original=skill.code,
+        code=skill.code,
+        diagnosis=diagnosis,
+        skill_tokens=infiller.count_tokens(strip_imports(skill.code)),
+        backend=infiller.name,
+        model=infiller.model,
+    )
+    api, apis = onto.api(robot), onto.apis
+    pending = list(diagnosis.conflicts)
+    while pending:
+        conflict = pending.pop()  # last first: earlier offsets stay valid
+        accepted = _resolve(result, conflict, pending, robot, infiller, api, apis, max_retries)
+        if accepted is None:
+            result.verdict = Verdict.reject(
+                FailureCategory(result.calls[-1].category or FailureCategory.EMPTY_CONTINUATION),
+                f"unrecoverable: could not ground {conflict.original!r} at line {conflict.span.line} after {max_retries + 1} attempts",
+            )
+            result.seconds = time.perf_counter() - started
+            return result
+        result.code = accepted
+    result.verdict = validate_program(result.code, api, skill.entry, apis)
+    result.seconds = time.perf_counter() - started
+    return result
+
+
+def _resolve(result, conflict: Conflict, pending, robot, infiller, api, apis, max_retries) -> str | None:
+    feedback = None
+    for _ in range(max_retries + 1):
+        unit = unit_from_conflict(result.code, conflict, robot, feedback=feedback)
+        completion = infiller.infill(unit)
+        text = clean_completion(completion.text, unit)
+        candidate = apply_unit(result.code, unit, text)
+        verdict = (
+            validate_program(_blank(candidate, pending), api, result.entry, apis)
+            if text
+            else Verdict.reject(FailureCategory.EMPTY_CONTINUATION, "the infiller returned an empty span")
+        )
+        result.calls.append(
+            LMCall(
+                kind="ground",
+                span_type=unit.span_type,
+                original=unit.span,
+                text=text,
+                generated_tokens=completion.generated_tokens,
+                seconds=completion.seconds,
+                accepted=verdict.ok,
+                category=None if verdict.ok else str(verdict.category),
+                message=verdict.message,
+            )
+        )
+        if verdict.ok:
+            return candidate
+        feedback = verdict.message
+    return None
+
+
+def _blank(code: str, pending: list[Conflict]) -> str:
+    """Replace still-unresolved conflict spans with ``pass`` so the rest can be validated now."""
+    for conflict in sorted(pending, key=lambda c: c.span.start, reverse=True):
+        code = code[: conflict.span.start] + "pass" + code[conflict.span.end :]
+    return code

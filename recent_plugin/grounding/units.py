@@ -1,0 +1,91 @@
+"""Refactoring units z = ⟨span m, prefix, suffix, span type ρ, hints κ⟩.
+
+A unit is cut from the current skill code around one conflict. Its prefix and suffix reach only
+to the enclosing function (a tight window keeps CPU prompt evaluation cheap); the hints are the
+ontology's cues for this one edit, rendered later as comments before the span.
+"""
+
+from __future__ import annotations
+
+import ast
+from dataclasses import dataclass
+
+from ontology.diagnosis import Conflict
+
+
+@dataclass(frozen=True)
+class Hints:
+    """κ: the grounding metadata for one span."""
+
+    robot: str
+    original_call: str
+    substitute_signature: str | None = None
+    substitute_template: str | None = None
+    mapping: tuple[tuple[str, str], ...] = ()
+    dropped: tuple[str, ...] = ()
+    unfilled: tuple[str, ...] = ()
+    reason: str = ""
+    feedback: str | None = None  # why the previous attempt was rejected, on a retry
+
+
+@dataclass(frozen=True)
+class RefactoringUnit:
+    span_start: int  # character offsets of m in the whole code
+    span_end: int
+    span: str  # m
+    prefix: str  # ψ_pre: enclosing function up to the span's line, excluding its indentation
+    suffix: str  # ψ_suf: from the end of the span to the end of the enclosing function
+    indent: str
+    span_type: str  # ρ
+    hints: Hints  # κ
+    substitute: str | None = None
+
+
+def enclosing_function(code: str, offset: int) -> tuple[int, int]:
+    """Character range of the top-level function containing ``offset`` (whole code if none)."""
+    lines = code.splitlines(keepends=True)
+    starts = [0]
+    for line in lines:
+        starts.append(starts[-1] + len(line))
+    for node in ast.parse(code).body:
+        if isinstance(node, ast.FunctionDef):
+            first = node.decorator_list[0].lineno if node.decorator_list else node.lineno
+            lo, hi = starts[first - 1], starts[node.end_lineno]
+            if lo <= offset < hi:
+                return lo, hi
+    return 0, len(code)
+
+
+def unit_from_conflict(code: str, conflict: Conflict, robot: str, shift: int = 0, feedback: str | None = None) -> RefactoringUnit:
+    """Cut a unit for ``conflict`` from ``code`` (whose offsets moved by ``shift`` since diagnosis)."""
+    start, end = conflict.span.start + shift, conflict.span.end + shift
+    line_start = code.rfind("\n", 0, start) + 1
+    indent = code[line_start:start]
+    lo, hi = enclosing_function(code, start)
+    sub = conflict.substitute
+    hints = Hints(
+        robot=robot,
+        original_call=code[start:end],
+        substitute_signature=sub.signature() if sub else None,
+        substitute_template=sub.call_template() if sub else None,
+        mapping=tuple((m.source, m.target) for m in conflict.mapping),
+        dropped=conflict.dropped,
+        unfilled=conflict.unfilled,
+        reason=conflict.reason,
+        feedback=feedback,
+    )
+    return RefactoringUnit(
+        span_start=start,
+        span_end=end,
+        span=code[start:end],
+        prefix=code[lo:line_start],
+        suffix=code[end:hi],
+        indent=indent,
+        span_type=conflict.span_type,
+        hints=hints,
+        substitute=sub.name if sub else None,
+    )
+
+
+def apply_unit(code: str, unit: RefactoringUnit, replacement: str) -> str:
+    return code[: unit.span_start] + replacement + code[unit.span_end :]

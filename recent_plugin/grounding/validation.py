@@ -1,0 +1,218 @@
+"""Validation before anything runs: generated code is untrusted.
+
+An AST allowlist: the skill may define its entry function and call only the target robot's
+primitives (with their declared keywords), the task's read-only queries and a few pure helpers.
+No imports, no dunder or private attributes, no dynamic execution, no unbounded loops, and every
+name must be defined. A verdict carries the paper's failure category for the first violation.
+"""
+
+from __future__ import annotations
+
+import ast
+import builtins
+from dataclasses import dataclass
+
+from ontology.specs import ApiSpec, ParameterSpec
+from recent_plugin.failures import FailureCategory
+
+SAFE_HELPERS = frozenset({"abs", "min", "max", "round", "len", "range", "list", "tuple", "float", "int", "bool", "sum", "zip", "enumerate", "sorted"})
+TASK_QUERIES = frozenset({"get_object_position", "get_object_names", "is_grasped"})
+FORBIDDEN_CALLS = frozenset({"exec", "eval", "compile", "open", "getattr", "setattr", "delattr", "globals", "locals", "vars", "__import__", "input", "breakpoint", "exit", "quit", "help", "memoryview", "type", "object", "super", "dir", "id"})
+MAX_CONSTANT = 1e4  # no literal this large belongs in a skill (it is how huge allocations start)
+MAX_RANGE = 1000
+FORBIDDEN_NODES = (
+    ast.Import, ast.ImportFrom, ast.While, ast.Lambda, ast.ClassDef, ast.AsyncFunctionDef, ast.Await,
+    ast.Global, ast.Nonlocal, ast.Try, ast.With, ast.AsyncWith, ast.AsyncFor, ast.Yield, ast.YieldFrom,
+    ast.Delete, ast.Raise, ast.NamedExpr, ast.JoinedStr, ast.Starred, ast.Set, ast.SetComp, ast.DictComp, ast.GeneratorExp,
+)  # fmt: skip
+
+
+@dataclass(frozen=True)
+class Verdict:
+    ok: bool
+    category: FailureCategory | None = None
+    message: str = ""
+    line: int | None = None
+
+    @classmethod
+    def reject(cls, category: FailureCategory, message: str, node: ast.AST | None = None) -> Verdict:
+        return cls(False, category, message, getattr(node, "lineno", None))
+
+
+ACCEPT = Verdict(True)
+
+
+class _Rejected(Exception):
+    def __init__(self, verdict: Verdict):
+        self.verdict = verdict
+
+
+def validate_program(code: str, api: ApiSpec, entry: str, other_apis: dict[str, ApiSpec] | None = None) -> Verdict:
+    """Check a whole skill program against ``api`` (the target robot's primitives)."""
+    if not code.strip():
+        return Verdict.reject(FailureCategory.EMPTY_CONTINUATION, "the program is empty")
+    try:
+        tree = ast.parse(code)
+    except SyntaxError as exc:
+        return Verdict(False, FailureCategory.NON_EXECUTABLE, f"SyntaxError: {exc.msg}", exc.lineno)
+    functions = [n for n in tree.body if isinstance(n, ast.FunctionDef)]
+    extra = [n for n in tree.body if not isinstance(n, ast.FunctionDef) and not _is_docstring(n)]
+    if extra:
+        return Verdict.reject(FailureCategory.NON_EXECUTABLE, "only function definitions may appear at top level", extra[0])
+    if entry not in {f.name for f in functions}:
+        return Verdict.reject(FailureCategory.HALLUCINATED_NAME, f"entry function {entry!r} is not defined")
+    try:
+        for func in functions:
+            _Checker(api, other_apis or {}, {f.name for f in functions}).check_function(func)
+    except _Rejected as rejected:
+        return rejected.verdict
+    return ACCEPT
+
+
+def _is_docstring(node: ast.stmt) -> bool:
+    return isinstance(node, ast.Expr) and isinstance(node.value, ast.Constant) and isinstance(node.value.value, str)
+
+
+class _Checker(ast.NodeVisitor):
+    def __init__(self, api: ApiSpec, other_apis: dict[str, ApiSpec], functions: set[str]):
+        self.api = api
+        self.other = {name: robot for robot, spec in other_apis.items() if robot != api.embodiment for name in spec.names()}
+        self.functions = functions
+        self.defined: set[str] = set()
+
+    def fail(self, category: FailureCategory, message: str, node: ast.AST) -> None:
+        raise _Rejected(Verdict.reject(category, message, node))
+
+    def check_function(self, func: ast.FunctionDef) -> None:
+        if func.decorator_list:
+            self.fail(FailureCategory.NON_EXECUTABLE, "decorators are not allowed", func)
+        args = func.args
+        if args.vararg or args.kwarg or args.kwonlyargs:
+            self.fail(FailureCategory.NON_EXECUTABLE, "*args/**kwargs are not allowed in skills", func)
+        params = [a.arg for a in args.args]
+        if params[:2] != ["env", "task"]:
+            self.fail(FailureCategory.NON_EXECUTABLE, "a skill takes (env, task, ...) as its first parameters", func)
+        self.defined = set(params) | self._assigned_names(func)
+        for default in args.defaults:
+            self.visit(default)
+        for stmt in func.body:
+            self.visit(stmt)
+
+    @staticmethod
+    def _assigned_names(func: ast.FunctionDef) -> set[str]:
+        names = set()
+        for node in ast.walk(func):
+            if isinstance(node, ast.Name) and isinstance(node.ctx, ast.Store):
+                names.add(node.id)
+        return names
+
+    def generic_visit(self, node: ast.AST) -> None:
+        if isinstance(node, FORBIDDEN_NODES):
+            self.fail(FailureCategory.NON_EXECUTABLE, f"{type(node).__name__} is not allowed in skill code", node)
+        if isinstance(node, ast.FunctionDef):
+            self.fail(FailureCategory.NON_EXECUTABLE, "nested function definitions are not allowed", node)
+        super().generic_visit(node)
+
+    def visit_Name(self, node: ast.Name) -> None:
+        """A name used as a value: a parameter or assigned variable (callables only in call position)."""
+        if node.id.startswith("_"):
+            self.fail(FailureCategory.NON_EXECUTABLE, f"private or dunder name {node.id!r}", node)
+        if isinstance(node.ctx, ast.Load) and node.id not in self.defined | {"True", "False", "None"}:
+            self._unknown_name(node.id, node)
+
+    def _unknown_name(self, name: str, node: ast.AST) -> None:
+        if name in self.other:
+            self.fail(FailureCategory.HALLUCINATED_API, f"{name} is a {self.other[name]} primitive, not available on {self.api.embodiment}", node)
+        if name in self.api.names() or name in self.functions or name in SAFE_HELPERS:
+            self.fail(FailureCategory.NON_EXECUTABLE, f"{name!r} may only be called, not used as a value", node)
+        if name in FORBIDDEN_CALLS or hasattr(builtins, name):
+            self.fail(FailureCategory.NON_EXECUTABLE, f"builtin {name!r} is not allowed in skill code", node)
+        self.fail(FailureCategory.HALLUCINATED_NAME, f"name {name!r} is not defined", node)
+
+    def visit_Attribute(self, node: ast.Attribute) -> None:
+        if node.attr.startswith("_"):
+            self.fail(FailureCategory.NON_EXECUTABLE, f"private or dunder attribute {node.attr!r}", node)
+        if not (isinstance(node.value, ast.Name) and node.value.id == "task" and node.attr in TASK_QUERIES):
+            self.fail(FailureCategory.HALLUCINATED_API, f"attribute access .{node.attr} is not allowed (task queries: {', '.join(sorted(TASK_QUERIES))})", node)
+
+    def visit_Constant(self, node: ast.Constant) -> None:
+        if isinstance(node.value, int | float) and not isinstance(node.value, bool) and abs(node.value) > MAX_CONSTANT:
+            self.fail(FailureCategory.NON_EXECUTABLE, f"constant {node.value!r} is out of range for a skill", node)
+        if isinstance(node.value, str | bytes) and len(node.value) > 200:
+            self.fail(FailureCategory.NON_EXECUTABLE, "string literal too long", node)
+
+    def visit_BinOp(self, node: ast.BinOp) -> None:
+        if isinstance(node.op, ast.Pow | ast.LShift):
+            self.fail(FailureCategory.NON_EXECUTABLE, "power and shift operators are not allowed (unbounded results)", node)
+        if isinstance(node.op, ast.Mult) and any(isinstance(side, ast.List | ast.Tuple | ast.Constant) and not isinstance(getattr(side, "value", 0), int | float) for side in (node.left, node.right)):
+            self.fail(FailureCategory.NON_EXECUTABLE, "sequence repetition is not allowed", node)
+        self.generic_visit(node)
+
+    def visit_For(self, node: ast.For) -> None:
+        it = node.iter
+        bounded = isinstance(it, ast.List | ast.Tuple | ast.Name) or (
+            isinstance(it, ast.Call) and isinstance(it.func, ast.Name) and it.func.id in {"range", "enumerate", "zip", "sorted"}
+        )
+        if isinstance(it, ast.Call) and isinstance(it.func, ast.Name) and it.func.id == "range":
+            if not all(isinstance(a, ast.Constant) and isinstance(a.value, int) and abs(a.value) <= MAX_RANGE for a in it.args):
+                self.fail(FailureCategory.NON_EXECUTABLE, f"range() bounds must be integer literals up to {MAX_RANGE}", node)
+        if not bounded:
+            self.fail(FailureCategory.NON_EXECUTABLE, "for-loops must iterate over a literal, a variable or range()", node)
+        self.generic_visit(node)
+
+    def visit_Call(self, node: ast.Call) -> None:
+        func = node.func
+        if isinstance(func, ast.Attribute):
+            self.visit_Attribute(func)
+        elif isinstance(func, ast.Name):
+            spec = self.api.get(func.id)
+            if spec is not None:
+                self._check_primitive_call(node, spec.name, {p.name: p for p in spec.parameters})
+            elif func.id in FORBIDDEN_CALLS:
+                self.fail(FailureCategory.NON_EXECUTABLE, f"call to {func.id}() is forbidden", node)
+            elif func.id in self.defined:
+                self.fail(FailureCategory.NON_EXECUTABLE, f"{func.id!r} is a variable; only primitives and helpers may be called", node)
+            elif func.id not in SAFE_HELPERS | self.functions:
+                self._unknown_name(func.id, node)
+        else:
+            self.fail(FailureCategory.NON_EXECUTABLE, "only plain functions and task queries may be called", node)
+        for arg in node.args:
+            self.visit(arg)
+        for kw in node.keywords:
+            if kw.arg is None:
+                self.fail(FailureCategory.NON_EXECUTABLE, "**kwargs expansion is not allowed", node)
+            self.visit(kw.value)
+
+    def _check_primitive_call(self, node: ast.Call, name: str, params: dict[str, ParameterSpec]) -> None:
+        if len(node.args) != 2 or not all(isinstance(a, ast.Name) for a in node.args) or [a.id for a in node.args] != ["env", "task"]:
+            self.fail(FailureCategory.HALLUCINATED_KWARG, f"{name}() takes env, task positionally and everything else by keyword", node)
+        given = {kw.arg for kw in node.keywords}
+        for kw in node.keywords:
+            spec = params.get(kw.arg)
+            if spec is None:
+                self.fail(FailureCategory.HALLUCINATED_KWARG, f"{name}() got an unexpected keyword argument {kw.arg!r} (accepts: {', '.join(params) or 'none'})", node)
+            problem = _literal_type_problem(kw.value, spec)
+            if problem:
+                self.fail(FailureCategory.HALLUCINATED_KWARG, f"{name}({kw.arg}=...): {problem}", node)
+        missing = [p for p, spec in params.items() if spec.required and p not in given]
+        if missing:
+            self.fail(FailureCategory.HALLUCINATED_KWARG, f"{name}() missing required keyword argument(s): {', '.join(missing)}", node)
+
+
+def _literal_type_problem(value: ast.expr, spec: ParameterSpec) -> str | None:
+    """Type-check literal arguments against the parameter spec; variables are checked at run time."""
+    if isinstance(value, ast.Constant):
+        v = value.value
+        if spec.type in {"float", "int"} and (isinstance(v, bool) or not isinstance(v, int | float)):
+            return f"expects a number, got {v!r}"
+        if spec.type in {"float", "int"} and spec.range and not spec.range[0] <= v <= spec.range[1]:
+            return f"{v!r} is outside {list(spec.range)}"
+        if spec.type in {"str", "object_name"} and not isinstance(v, str):
+            return f"expects a string, got {v!r}"
+        if spec.choices and v not in spec.choices:
+            return f"{v!r} is not one of {list(spec.choices)}"
+        if spec.type in {"position", "quaternion"}:
+            return f"expects a {spec.type} (list of numbers), got {v!r}"
+    if isinstance(value, ast.List | ast.Tuple) and spec.type == "position" and len(value.elts) != 3:
+        return f"a position has 3 elements, got {len(value.elts)}"
+    return None

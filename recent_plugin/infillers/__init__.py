@@ -1,0 +1,24 @@
+"""Span generators behind one interface (:class:`~recent_plugin.infillers.base.Infiller`)."""
+
+from __future__ import annotations
+
+from recent_plugin.infillers.base import Completion, Infiller
+
+BACKENDS = ("llamacpp", "rule")
+
+
+def make_infiller(backend: str, model: str = "qwen2.5-coder-1.5b", *, n_threads: int | None = None, seed: int = 0) -> Infiller:
+    """Build the infiller ``backend``; ``model`` is a known model name or a path to a GGUF file."""
+    if backend == "rule":
+        from recent_plugin.infillers.rule import RuleInfiller
+
+        return RuleInfiller()
+    if backend == "llamacpp":
+        from recent_plugin.infillers.llamacpp import LlamaCppInfiller
+        from recent_plugin.models import ensure_model
+
+        return LlamaCppInfiller(str(ensure_model(model)), n_threads=n_threads, seed=seed)
+    raise ValueError(f"unknown backend {backend!r}; choose one of: {', '.join(BACKENDS)}")
+
+
+__all__ = ["BACKENDS", "Completion", "Infiller", "make_infiller"]

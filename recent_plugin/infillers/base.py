@@ -1,0 +1,38 @@
+"""One interface for every span generator: an LM with FIM, or the ontology's rule renderer."""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from typing import Protocol
+
+from recent_plugin.grounding.units import RefactoringUnit
+
+
+@dataclass(frozen=True)
+class Completion:
+    text: str
+    generated_tokens: int  # counted by the model's own tokenizer
+    seconds: float  # wall time of the call
+    prompt_tokens: int = 0
+
+
+class Infiller(Protocol):
+    name: str
+    model: str
+
+    def infill(self, unit: RefactoringUnit) -> Completion:
+        """Return a replacement for ``unit.span`` (one or more statements, without leading indent)."""
+        ...
+
+    def count_tokens(self, text: str) -> int:
+        """Tokens of ``text`` under this backend's tokenizer (the GO denominator)."""
+        ...
+
+
+_CODE_TOKEN = re.compile(r"[A-Za-z_]+|\d+|\S")
+
+
+def approximate_tokens(text: str) -> int:
+    """A tokenizer-free count (identifiers, numbers, symbols) for backends without a model."""
+    return len(_CODE_TOKEN.findall(text))

@@ -1,0 +1,57 @@
+"""The ``llamacpp`` backend: a GGUF code model on CPU, prompted with Qwen2.5-Coder FIM tokens.
+
+llama-cpp-python 0.3.36's ``create_completion(suffix=...)`` uses the wrong token ids for FIM, so
+the FIM string is built here; its special markers are tokenized as special tokens.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+
+from recent_plugin.grounding.fim_prompt import build_prompt
+from recent_plugin.grounding.units import RefactoringUnit
+from recent_plugin.infillers.base import Completion
+
+FIM_PREFIX, FIM_SUFFIX, FIM_MIDDLE = "<|fim_prefix|>", "<|fim_suffix|>", "<|fim_middle|>"
+# The official Qwen2.5-Coder FIM example stops on all of these.
+SPECIAL_STOPS = ("<|endoftext|>", "<|file_sep|>", "<|fim_prefix|>", "<|fim_suffix|>", "<|fim_middle|>", "<|im_end|>", "<|repo_name|>", "<|fim_pad|>")
+
+
+class LlamaCppInfiller:
+    name = "llamacpp"
+
+    def __init__(self, model_path: str, *, n_threads: int | None = None, n_ctx: int = 2048, seed: int = 0):
+        from llama_cpp import Llama
+
+        self.model = os.path.basename(model_path)
+        self.llm = Llama(
+            model_path=model_path,
+            n_ctx=n_ctx,
+            n_threads=n_threads or min(2, os.cpu_count() or 1),
+            seed=seed,
+            verbose=False,
+        )
+
+    def count_tokens(self, text: str) -> int:
+        return len(self.llm.tokenize(text.encode(), add_bos=False, special=False))
+
+    def infill(self, unit: RefactoringUnit) -> Completion:
+        prompt = build_prompt(unit, self.count_tokens(unit.span))
+        text = f"{FIM_PREFIX}{prompt.prefix}{FIM_SUFFIX}{prompt.suffix}{FIM_MIDDLE}"
+        started = time.perf_counter()
+        out = self.llm.create_completion(
+            text,
+            max_tokens=prompt.max_tokens,
+            temperature=0.0,
+            top_k=1,
+            stop=[*prompt.stop, *SPECIAL_STOPS],
+        )
+        seconds = time.perf_counter() - started
+        usage = out.get("usage", {})
+        return Completion(
+            text=out["choices"][0]["text"],
+            generated_tokens=int(usage.get("completion_tokens", 0)),
+            seconds=seconds,
+            prompt_tokens=int(usage.get("prompt_tokens", 0)),
+        )

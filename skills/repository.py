@@ -1,0 +1,63 @@
+"""The offline skill repository: Panda reference skills as plain Python plus metadata.
+
+A skill file holds one function ``entry(env, task)`` written against the source robot's
+primitive API, with no imports: the executor binds the primitives of the robot it runs on.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from dataclasses import dataclass
+from pathlib import Path
+
+import yaml
+
+from ontology.skill_code import parse_skill
+
+LIBRARY = Path(__file__).with_name("library")
+
+
+class SkillNotFoundError(KeyError):
+    pass
+
+
+@dataclass(frozen=True)
+class Skill:
+    name: str
+    entry: str
+    subtask: str
+    source_embodiment: str
+    intent: str
+    code: str
+    path: Path
+
+    @property
+    def code_sha256(self) -> str:
+        return hashlib.sha256(self.code.encode()).hexdigest()
+
+
+def list_skills(library: Path = LIBRARY) -> list[str]:
+    return sorted(p.stem for p in library.glob("*.py") if p.with_suffix(".yaml").is_file())
+
+
+def load_skill(name: str, library: Path = LIBRARY) -> Skill:
+    code_path, meta_path = library / f"{name}.py", library / f"{name}.yaml"
+    if not code_path.is_file() or not meta_path.is_file():
+        raise SkillNotFoundError(f"unknown skill {name!r}; known skills: {', '.join(list_skills(library)) or '(none)'}")
+    meta = yaml.safe_load(meta_path.read_text()) or {}
+    missing = [k for k in ("entry", "subtask", "source_embodiment", "intent") if k not in meta]
+    if missing:
+        raise ValueError(f"{meta_path}: missing field(s) {', '.join(missing)}")
+    code = code_path.read_text()
+    tree = parse_skill(code, str(code_path))
+    if not any(getattr(node, "name", None) == meta["entry"] for node in tree.body):
+        raise ValueError(f"{meta_path}: entry {meta['entry']!r} is not a function defined in {code_path.name}")
+    return Skill(
+        name=name,
+        entry=meta["entry"],
+        subtask=meta["subtask"],
+        source_embodiment=meta["source_embodiment"],
+        intent=meta["intent"],
+        code=code,
+        path=code_path,
+    )
