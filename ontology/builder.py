@@ -89,9 +89,14 @@ class Ontology:
         return [p for n in names if (p := api.get(n)) is not None]
 
     def to_turtle(self) -> str:
-        prefixes = {"rc": RC, "inst": INST, "rdf": "http://www.w3.org/1999/02/22-rdf-syntax-ns#",
-                    "rdfs": "http://www.w3.org/2000/01/rdf-schema#", "owl": "http://www.w3.org/2002/07/owl#",
-                    "xsd": "http://www.w3.org/2001/XMLSchema#"}
+        prefixes = {
+            "rc": RC,
+            "inst": INST,
+            "rdf": "http://www.w3.org/1999/02/22-rdf-syntax-ns#",
+            "rdfs": "http://www.w3.org/2000/01/rdf-schema#",
+            "owl": "http://www.w3.org/2002/07/owl#",
+            "xsd": "http://www.w3.org/2001/XMLSchema#",
+        }
         return self.store.dump(format=ox.RdfFormat.TURTLE, from_graph=ox.DefaultGraph(), prefixes=prefixes).decode()
 
     def stats(self) -> dict[str, float | int]:

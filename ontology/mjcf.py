@@ -2,9 +2,9 @@
 
 from __future__ import annotations
 
+import importlib.util
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
-import importlib.util
 from pathlib import Path
 
 from ontology.specs import SpecError

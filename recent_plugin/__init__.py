@@ -1,0 +1,1 @@
+"""RECENT as a LeRobot policy plugin: ontology-guided FIM grounding of robot skill code."""

@@ -49,7 +49,13 @@ class RecentTabletopEnv(ManipulationEnv):
     @staticmethod
     def _make_object(spec: ObjectSpec):
         if spec.kind == "box":
-            return BoxObject(name=spec.name, size=np.array(spec.size) / 2, rgba=list(spec.rgba), density=400.0, friction=(1.5, 0.005, 0.0001))
+            return BoxObject(
+                name=spec.name,
+                size=np.array(spec.size) / 2,
+                rgba=list(spec.rgba),
+                density=400.0,
+                friction=(1.5, 0.005, 0.0001),
+            )
         if spec.kind == "bin":
             return Bin(
                 name=spec.name,

@@ -1,0 +1,1 @@
+"""Entry points: the ``recent`` command and its subcommands."""

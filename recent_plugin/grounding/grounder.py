@@ -84,7 +84,9 @@ class GroundedSkill:
 
 
 def strip_imports(code: str) -> str:
-    return "".join(line for line in code.splitlines(keepends=True) if not line.lstrip().startswith(("import ", "from ")))
+    return "".join(
+        line for line in code.splitlines(keepends=True) if not line.lstrip().startswith(("import ", "from "))
+    )
 
 
 def clean_completion(text: str, unit: RefactoringUnit) -> str:
@@ -95,7 +97,9 @@ def clean_completion(text: str, unit: RefactoringUnit) -> str:
     return "\n".join([lines[0], *(unit.indent + line.lstrip() for line in lines[1:])])
 
 
-def ground_skill(skill: Skill, robot: str, onto: Ontology, infiller: Infiller, *, max_retries: int = 2) -> GroundedSkill:
+def ground_skill(
+    skill: Skill, robot: str, onto: Ontology, infiller: Infiller, *, max_retries: int = 2
+) -> GroundedSkill:
     started = time.perf_counter()
     diagnosis = diagnose(onto, skill.name, skill.code, robot, source=skill.source_embodiment)
     result = GroundedSkill(

@@ -56,7 +56,9 @@ def enclosing_function(code: str, offset: int) -> tuple[int, int]:
     return 0, len(code)
 
 
-def unit_from_conflict(code: str, conflict: Conflict, robot: str, shift: int = 0, feedback: str | None = None) -> RefactoringUnit:
+def unit_from_conflict(
+    code: str, conflict: Conflict, robot: str, shift: int = 0, feedback: str | None = None
+) -> RefactoringUnit:
     """Cut a unit for ``conflict`` from ``code`` (whose offsets moved by ``shift`` since diagnosis)."""
     start, end = conflict.span.start + shift, conflict.span.end + shift
     line_start = code.rfind("\n", 0, start) + 1

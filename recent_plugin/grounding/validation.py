@@ -15,9 +15,52 @@ from dataclasses import dataclass
 from ontology.specs import ApiSpec, ParameterSpec
 from recent_plugin.failures import FailureCategory
 
-SAFE_HELPERS = frozenset({"abs", "min", "max", "round", "len", "range", "list", "tuple", "float", "int", "bool", "sum", "zip", "enumerate", "sorted"})
+SAFE_HELPERS = frozenset(
+    {
+        "abs",
+        "min",
+        "max",
+        "round",
+        "len",
+        "range",
+        "list",
+        "tuple",
+        "float",
+        "int",
+        "bool",
+        "sum",
+        "zip",
+        "enumerate",
+        "sorted",
+    }
+)
 TASK_QUERIES = frozenset({"get_object_position", "get_object_names", "is_grasped"})
-FORBIDDEN_CALLS = frozenset({"exec", "eval", "compile", "open", "getattr", "setattr", "delattr", "globals", "locals", "vars", "__import__", "input", "breakpoint", "exit", "quit", "help", "memoryview", "type", "object", "super", "dir", "id"})
+FORBIDDEN_CALLS = frozenset(
+    {
+        "exec",
+        "eval",
+        "compile",
+        "open",
+        "getattr",
+        "setattr",
+        "delattr",
+        "globals",
+        "locals",
+        "vars",
+        "__import__",
+        "input",
+        "breakpoint",
+        "exit",
+        "quit",
+        "help",
+        "memoryview",
+        "type",
+        "object",
+        "super",
+        "dir",
+        "id",
+    }
+)
 MAX_CONSTANT = 1e4  # no literal this large belongs in a skill (it is how huge allocations start)
 MAX_RANGE = 1000
 FORBIDDEN_NODES = (
@@ -58,7 +101,9 @@ def validate_program(code: str, api: ApiSpec, entry: str, other_apis: dict[str, 
     functions = [n for n in tree.body if isinstance(n, ast.FunctionDef)]
     extra = [n for n in tree.body if not isinstance(n, ast.FunctionDef) and not _is_docstring(n)]
     if extra:
-        return Verdict.reject(FailureCategory.NON_EXECUTABLE, "only function definitions may appear at top level", extra[0])
+        return Verdict.reject(
+            FailureCategory.NON_EXECUTABLE, "only function definitions may appear at top level", extra[0]
+        )
     if entry not in {f.name for f in functions}:
         return Verdict.reject(FailureCategory.HALLUCINATED_NAME, f"entry function {entry!r} is not defined")
     try:
@@ -76,7 +121,9 @@ def _is_docstring(node: ast.stmt) -> bool:
 class _Checker(ast.NodeVisitor):
     def __init__(self, api: ApiSpec, other_apis: dict[str, ApiSpec], functions: set[str]):
         self.api = api
-        self.other = {name: robot for robot, spec in other_apis.items() if robot != api.embodiment for name in spec.names()}
+        self.other = {
+            name: robot for robot, spec in other_apis.items() if robot != api.embodiment for name in spec.names()
+        }
         self.functions = functions
         self.defined: set[str] = set()
 
@@ -122,7 +169,11 @@ class _Checker(ast.NodeVisitor):
 
     def _unknown_name(self, name: str, node: ast.AST) -> None:
         if name in self.other:
-            self.fail(FailureCategory.HALLUCINATED_API, f"{name} is a {self.other[name]} primitive, not available on {self.api.embodiment}", node)
+            self.fail(
+                FailureCategory.HALLUCINATED_API,
+                f"{name} is a {self.other[name]} primitive, not available on {self.api.embodiment}",
+                node,
+            )
         if name in self.api.names() or name in self.functions or name in SAFE_HELPERS:
             self.fail(FailureCategory.NON_EXECUTABLE, f"{name!r} may only be called, not used as a value", node)
         if name in FORBIDDEN_CALLS or hasattr(builtins, name):
@@ -133,7 +184,11 @@ class _Checker(ast.NodeVisitor):
         if node.attr.startswith("_"):
             self.fail(FailureCategory.NON_EXECUTABLE, f"private or dunder attribute {node.attr!r}", node)
         if not (isinstance(node.value, ast.Name) and node.value.id == "task" and node.attr in TASK_QUERIES):
-            self.fail(FailureCategory.HALLUCINATED_API, f"attribute access .{node.attr} is not allowed (task queries: {', '.join(sorted(TASK_QUERIES))})", node)
+            self.fail(
+                FailureCategory.HALLUCINATED_API,
+                f"attribute access .{node.attr} is not allowed (task queries: {', '.join(sorted(TASK_QUERIES))})",
+                node,
+            )
 
     def visit_Constant(self, node: ast.Constant) -> None:
         if isinstance(node.value, int | float) and not isinstance(node.value, bool) and abs(node.value) > MAX_CONSTANT:
@@ -143,21 +198,35 @@ class _Checker(ast.NodeVisitor):
 
     def visit_BinOp(self, node: ast.BinOp) -> None:
         if isinstance(node.op, ast.Pow | ast.LShift):
-            self.fail(FailureCategory.NON_EXECUTABLE, "power and shift operators are not allowed (unbounded results)", node)
-        if isinstance(node.op, ast.Mult) and any(isinstance(side, ast.List | ast.Tuple | ast.Constant) and not isinstance(getattr(side, "value", 0), int | float) for side in (node.left, node.right)):
+            self.fail(
+                FailureCategory.NON_EXECUTABLE, "power and shift operators are not allowed (unbounded results)", node
+            )
+        if isinstance(node.op, ast.Mult) and any(
+            isinstance(side, ast.List | ast.Tuple | ast.Constant)
+            and not isinstance(getattr(side, "value", 0), int | float)
+            for side in (node.left, node.right)
+        ):
             self.fail(FailureCategory.NON_EXECUTABLE, "sequence repetition is not allowed", node)
         self.generic_visit(node)
 
     def visit_For(self, node: ast.For) -> None:
         it = node.iter
         bounded = isinstance(it, ast.List | ast.Tuple | ast.Name) or (
-            isinstance(it, ast.Call) and isinstance(it.func, ast.Name) and it.func.id in {"range", "enumerate", "zip", "sorted"}
+            isinstance(it, ast.Call)
+            and isinstance(it.func, ast.Name)
+            and it.func.id in {"range", "enumerate", "zip", "sorted"}
         )
         if isinstance(it, ast.Call) and isinstance(it.func, ast.Name) and it.func.id == "range":
-            if not all(isinstance(a, ast.Constant) and isinstance(a.value, int) and abs(a.value) <= MAX_RANGE for a in it.args):
-                self.fail(FailureCategory.NON_EXECUTABLE, f"range() bounds must be integer literals up to {MAX_RANGE}", node)
+            if not all(
+                isinstance(a, ast.Constant) and isinstance(a.value, int) and abs(a.value) <= MAX_RANGE for a in it.args
+            ):
+                self.fail(
+                    FailureCategory.NON_EXECUTABLE, f"range() bounds must be integer literals up to {MAX_RANGE}", node
+                )
         if not bounded:
-            self.fail(FailureCategory.NON_EXECUTABLE, "for-loops must iterate over a literal, a variable or range()", node)
+            self.fail(
+                FailureCategory.NON_EXECUTABLE, "for-loops must iterate over a literal, a variable or range()", node
+            )
         self.generic_visit(node)
 
     def visit_Call(self, node: ast.Call) -> None:
@@ -171,7 +240,11 @@ class _Checker(ast.NodeVisitor):
             elif func.id in FORBIDDEN_CALLS:
                 self.fail(FailureCategory.NON_EXECUTABLE, f"call to {func.id}() is forbidden", node)
             elif func.id in self.defined:
-                self.fail(FailureCategory.NON_EXECUTABLE, f"{func.id!r} is a variable; only primitives and helpers may be called", node)
+                self.fail(
+                    FailureCategory.NON_EXECUTABLE,
+                    f"{func.id!r} is a variable; only primitives and helpers may be called",
+                    node,
+                )
             elif func.id not in SAFE_HELPERS | self.functions:
                 self._unknown_name(func.id, node)
         else:
@@ -184,19 +257,35 @@ class _Checker(ast.NodeVisitor):
             self.visit(kw.value)
 
     def _check_primitive_call(self, node: ast.Call, name: str, params: dict[str, ParameterSpec]) -> None:
-        if len(node.args) != 2 or not all(isinstance(a, ast.Name) for a in node.args) or [a.id for a in node.args] != ["env", "task"]:
-            self.fail(FailureCategory.HALLUCINATED_KWARG, f"{name}() takes env, task positionally and everything else by keyword", node)
+        if (
+            len(node.args) != 2
+            or not all(isinstance(a, ast.Name) for a in node.args)
+            or [a.id for a in node.args] != ["env", "task"]
+        ):
+            self.fail(
+                FailureCategory.HALLUCINATED_KWARG,
+                f"{name}() takes env, task positionally and everything else by keyword",
+                node,
+            )
         given = {kw.arg for kw in node.keywords}
         for kw in node.keywords:
             spec = params.get(kw.arg)
             if spec is None:
-                self.fail(FailureCategory.HALLUCINATED_KWARG, f"{name}() got an unexpected keyword argument {kw.arg!r} (accepts: {', '.join(params) or 'none'})", node)
+                self.fail(
+                    FailureCategory.HALLUCINATED_KWARG,
+                    f"{name}() got an unexpected keyword argument {kw.arg!r} (accepts: {', '.join(params) or 'none'})",
+                    node,
+                )
             problem = _literal_type_problem(kw.value, spec)
             if problem:
                 self.fail(FailureCategory.HALLUCINATED_KWARG, f"{name}({kw.arg}=...): {problem}", node)
         missing = [p for p, spec in params.items() if spec.required and p not in given]
         if missing:
-            self.fail(FailureCategory.HALLUCINATED_KWARG, f"{name}() missing required keyword argument(s): {', '.join(missing)}", node)
+            self.fail(
+                FailureCategory.HALLUCINATED_KWARG,
+                f"{name}() missing required keyword argument(s): {', '.join(missing)}",
+                node,
+            )
 
 
 def _literal_type_problem(value: ast.expr, spec: ParameterSpec) -> str | None:

@@ -7,7 +7,9 @@ from recent_plugin.infillers.base import Completion, Infiller
 BACKENDS = ("llamacpp", "rule")
 
 
-def make_infiller(backend: str, model: str = "qwen2.5-coder-1.5b", *, n_threads: int | None = None, seed: int = 0) -> Infiller:
+def make_infiller(
+    backend: str, model: str = "qwen2.5-coder-1.5b", *, n_threads: int | None = None, seed: int = 0
+) -> Infiller:
     """Build the infiller ``backend``; ``model`` is a known model name or a path to a GGUF file."""
     if backend == "rule":
         from recent_plugin.infillers.rule import RuleInfiller

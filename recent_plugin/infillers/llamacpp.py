@@ -15,7 +15,16 @@ from recent_plugin.infillers.base import Completion
 
 FIM_PREFIX, FIM_SUFFIX, FIM_MIDDLE = "<|fim_prefix|>", "<|fim_suffix|>", "<|fim_middle|>"
 # The official Qwen2.5-Coder FIM example stops on all of these.
-SPECIAL_STOPS = ("<|endoftext|>", "<|file_sep|>", "<|fim_prefix|>", "<|fim_suffix|>", "<|fim_middle|>", "<|im_end|>", "<|repo_name|>", "<|fim_pad|>")
+SPECIAL_STOPS = (
+    "<|endoftext|>",
+    "<|file_sep|>",
+    "<|fim_prefix|>",
+    "<|fim_suffix|>",
+    "<|fim_middle|>",
+    "<|im_end|>",
+    "<|repo_name|>",
+    "<|fim_pad|>",
+)
 
 
 class LlamaCppInfiller:

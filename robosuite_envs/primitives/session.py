@@ -68,7 +68,9 @@ class TaskContext:
     def get_object_position(self, name: str) -> list[float]:
         state = self._session.obs.objects.get(name)
         if state is None:
-            raise PrimitiveFailure("object_not_found", f"object {name!r} not found in scene; objects: {self.get_object_names()}")
+            raise PrimitiveFailure(
+                "object_not_found", f"object {name!r} not found in scene; objects: {self.get_object_names()}"
+            )
         return [float(v) for v in state.pos]
 
     def is_grasped(self, name: str) -> bool:

@@ -8,27 +8,37 @@ from robosuite_envs.primitives import control
 from robosuite_envs.primitives.session import RobotSession, TaskContext
 
 
-def ur5_grasp_at(env: RobotSession, task: TaskContext, grasp_pos: Sequence[float], timeout_s: float = 5.0) -> control.Steps:
+def ur5_grasp_at(
+    env: RobotSession, task: TaskContext, grasp_pos: Sequence[float], timeout_s: float = 5.0
+) -> control.Steps:
     """Grasp whatever lies at ``grasp_pos`` from above and lift it; give up after ``timeout_s`` per motion."""
     yield from control.grasp_at(env, grasp_pos, timeout_s=timeout_s)
 
 
-def ur5_release_at(env: RobotSession, task: TaskContext, place_pos: Sequence[float], timeout_s: float = 5.0) -> control.Steps:
+def ur5_release_at(
+    env: RobotSession, task: TaskContext, place_pos: Sequence[float], timeout_s: float = 5.0
+) -> control.Steps:
     """Lower the held object to ``place_pos`` and open the gripper."""
     yield from control.release_at(env, place_pos, timeout_s=timeout_s)
 
 
-def ur5_move_to(env: RobotSession, task: TaskContext, target_pos: Sequence[float], timeout_s: float = 3.0) -> control.Steps:
+def ur5_move_to(
+    env: RobotSession, task: TaskContext, target_pos: Sequence[float], timeout_s: float = 3.0
+) -> control.Steps:
     """Move the tool centre point to ``target_pos``."""
     yield from control.move_to(env, target_pos, timeout_s=timeout_s)
 
 
-def open_ur5_ee(env: RobotSession, task: TaskContext, gripper_open: float = 1.0, velocity: float = 0.2) -> control.Steps:
+def open_ur5_ee(
+    env: RobotSession, task: TaskContext, gripper_open: float = 1.0, velocity: float = 0.2
+) -> control.Steps:
     """Open the end effector to fraction ``gripper_open`` (1.0 = fully open)."""
     yield from control.actuate_gripper(env, -float(gripper_open), max_duration_s=_duration(velocity))
 
 
-def close_ur5_ee(env: RobotSession, task: TaskContext, gripper_close: float = 0.0, velocity: float = 0.2) -> control.Steps:
+def close_ur5_ee(
+    env: RobotSession, task: TaskContext, gripper_close: float = 0.0, velocity: float = 0.2
+) -> control.Steps:
     """Close the end effector to fraction ``gripper_close`` of its opening (0.0 = fully closed)."""
     yield from control.actuate_gripper(env, 1.0 - 2.0 * float(gripper_close), max_duration_s=_duration(velocity))
 

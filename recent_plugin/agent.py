@@ -1,0 +1,92 @@
+"""The RECENT agent: from a task id and a robot to a task executor of grounded skills.
+
+It owns what lives across episodes — the ontology, the infiller (the loaded LM) and a cache of
+grounded skills keyed by everything that could change the result — and nothing per-step.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import logging
+import time
+from itertools import takewhile
+from dataclasses import dataclass, field
+
+from ontology.builder import Ontology, build_ontology
+from recent_plugin.executor import PlannedSkill, TaskExecutor
+from recent_plugin.grounding.grounder import GroundedSkill, ground_skill
+from recent_plugin.infillers import Infiller, make_infiller
+from robosuite_envs.embodiments import get_embodiment
+from robosuite_envs.observation import Observation
+from robosuite_envs.primitives import api_functions
+from robosuite_envs.tasks import get_task
+from skills.repository import load_skill
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class AgentSettings:
+    backend: str = "llamacpp"
+    model: str = "qwen2.5-coder-1.5b"
+    n_threads: int | None = None
+    max_retries: int = 2
+    seed: int = 0
+    max_skill_steps: int = 3000
+
+
+@dataclass
+class EpisodeGrounding:
+    """What grounding cost for one episode: the skills and the seconds until the first executable code."""
+
+    task_id: str
+    robot: str
+    skills: list[GroundedSkill] = field(default_factory=list)
+    igt_seconds: float = 0.0
+    cached: bool = False
+
+
+class RecentAgent:
+    def __init__(self, settings: AgentSettings | None = None, *, infiller: Infiller | None = None, ontology: Ontology | None = None):
+        self.settings = settings or AgentSettings()
+        self._infiller = infiller
+        self.ontology = ontology or build_ontology()
+        self._ontology_hash = hashlib.sha256(self.ontology.to_turtle().encode()).hexdigest()
+        self._cache: dict[tuple[str, ...], GroundedSkill] = {}
+
+    @property
+    def infiller(self) -> Infiller:
+        if self._infiller is None:
+            s = self.settings
+            self._infiller = make_infiller(s.backend, s.model, n_threads=s.n_threads, seed=s.seed)
+        return self._infiller
+
+    def ground(self, skill_name: str, robot: str) -> tuple[GroundedSkill, bool]:
+        """Ground ``skill_name`` for ``robot``, reusing a cached result unless code, ontology or LM changed."""
+        skill = load_skill(skill_name)
+        key = (skill.name, skill.code_sha256, robot, self._ontology_hash, self.infiller.name, self.infiller.model)
+        if key in self._cache:
+            return self._cache[key], True
+        grounded = ground_skill(skill, robot, self.ontology, self.infiller, max_retries=self.settings.max_retries)
+        if grounded.valid:
+            self._cache[key] = grounded
+        else:
+            log.warning("grounding %s for %s failed: %s", skill_name, robot, grounded.verdict.message if grounded.verdict else "")
+        return grounded, False
+
+    def start_episode(self, task_id: str, robot: str, first_obs: Observation) -> tuple[TaskExecutor, EpisodeGrounding]:
+        started = time.perf_counter()
+        task = get_task(task_id)
+        embodiment = get_embodiment(robot)
+        report = EpisodeGrounding(task_id=task_id, robot=robot)
+        plan, all_cached = [], True
+        for step in task.plan:
+            grounded, cached = self.ground(step.skill, robot)
+            all_cached &= cached
+            report.skills.append(grounded)
+            plan.append(PlannedSkill(grounded, dict(step.args)))
+        report.cached = all_cached
+        report.igt_seconds = time.perf_counter() - started
+        runnable = list(takewhile(lambda p: p.grounded.valid, plan))  # run what can run, then hold still
+        executor = TaskExecutor(runnable, api_functions(embodiment.api), first_obs, embodiment.name, max_steps=self.settings.max_skill_steps)
+        return executor, report

@@ -1,0 +1,81 @@
+"""``RecentConfig``: the LeRobot policy config of RECENT (``--policy.type=recent``)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from lerobot.configs import NormalizationMode, PreTrainedConfig
+from lerobot.optim import AdamConfig
+
+from recent_plugin.agent import AgentSettings
+from recent_plugin.infillers import BACKENDS
+
+
+@PreTrainedConfig.register_subclass("recent")
+@dataclass
+class RecentConfig(PreTrainedConfig):
+    """Grounds Panda reference skills onto the env's robot and executes them; nothing is trained.
+
+    ``backend``: ``llamacpp`` (GGUF on CPU) or ``rule`` (ontology substitution, no LM).
+    ``model``: a known model name (``recent model list``) or a path to a ``.gguf`` file.
+    """
+
+    backend: str = "llamacpp"
+    model: str = "qwen2.5-coder-1.5b"
+    n_threads: int | None = None
+    max_retries: int = 2
+    seed: int = 0
+    max_skill_steps: int = 3000
+    device: str | None = "cpu"
+    normalization_mapping: dict[str, NormalizationMode] = field(
+        default_factory=lambda: {
+            "STATE": NormalizationMode.IDENTITY,
+            "ENV": NormalizationMode.IDENTITY,
+            "ACTION": NormalizationMode.IDENTITY,
+            "VISUAL": NormalizationMode.IDENTITY,
+        }
+    )
+
+    def __post_init__(self):
+        super().__post_init__()
+        if self.backend not in BACKENDS:
+            raise ValueError(f"policy.backend={self.backend!r} is not known; choose one of: {', '.join(BACKENDS)}")
+        if self.max_retries < 0:
+            raise ValueError("policy.max_retries must be >= 0")
+
+    def agent_settings(self) -> AgentSettings:
+        return AgentSettings(
+            backend=self.backend,
+            model=self.model,
+            n_threads=self.n_threads,
+            max_retries=self.max_retries,
+            seed=self.seed,
+            max_skill_steps=self.max_skill_steps,
+        )
+
+    @property
+    def observation_delta_indices(self) -> None:
+        return None
+
+    @property
+    def action_delta_indices(self) -> None:
+        return None
+
+    @property
+    def reward_delta_indices(self) -> None:
+        return None
+
+    def get_optimizer_preset(self) -> AdamConfig:
+        return AdamConfig(lr=0.0)
+
+    def get_scheduler_preset(self) -> None:
+        return None
+
+    def validate_features(self) -> None:
+        from lerobot.utils.constants import OBS_ENV_STATE, OBS_STATE
+
+        missing = [k for k in (OBS_STATE, OBS_ENV_STATE) if k not in (self.input_features or {})]
+        if missing:
+            raise ValueError(
+                f"RECENT needs {', '.join(missing)} among the input features (use --env.type=recent); got {sorted(self.input_features or {})}"
+            )

@@ -1,0 +1,87 @@
+"""One grounded episode outside LeRobot's loop: env → agent → executor → env, with a result record."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+from recent_plugin.agent import EpisodeGrounding, RecentAgent
+from recent_plugin.executor import SkillFailure
+from robosuite_envs.gym_env import RecentEnv
+from robosuite_envs.observation import Observation
+
+SETTLE_STEPS = 20  # after the plan ends, let objects come to rest before judging success
+
+
+@dataclass
+class EpisodeResult:
+    task_id: str
+    robot: str
+    seed: int
+    success: bool
+    steps: int
+    wall_seconds: float
+    grounding: EpisodeGrounding
+    failures: list[SkillFailure] = field(default_factory=list)
+
+    @property
+    def generated_tokens(self) -> int:
+        return sum(s.generated_tokens for s in self.grounding.skills)
+
+    @property
+    def skill_tokens(self) -> int:
+        return sum(s.skill_tokens for s in self.grounding.skills)
+
+    @property
+    def go(self) -> float:
+        return 100.0 * self.generated_tokens / max(1, self.skill_tokens)
+
+    @property
+    def lm_seconds(self) -> float:
+        return sum(s.lm_seconds for s in self.grounding.skills)
+
+
+def run_episode(
+    agent: RecentAgent,
+    task_id: str,
+    robot: str,
+    *,
+    seed: int = 0,
+    max_steps: int | None = None,
+    progress: bool = False,
+    env: RecentEnv | None = None,
+) -> EpisodeResult:
+    """Ground the task's skills for ``robot`` and execute them until success or the step limit."""
+    env = env or RecentEnv(task=task_id, robot=robot, render_mode="none", max_episode_steps=max_steps)
+    started = time.perf_counter()
+    raw, _ = env.reset(seed=seed)
+    names = env.spec_task.object_names()
+    executor, grounding = agent.start_episode(task_id, robot, Observation.decode(raw["agent_pos"], raw["environment_state"], names))
+    bar = _bar(env._max_episode_steps, progress, f"{task_id} on {robot}")
+    success, steps, settled = False, 0, 0
+    while True:
+        action = executor.act(Observation.decode(raw["agent_pos"], raw["environment_state"], names))
+        raw, _, terminated, truncated, info = env.step(action)
+        steps += 1
+        bar.update(1)
+        success = bool(info["is_success"])
+        settled = settled + 1 if executor.finished else 0
+        if terminated or truncated or settled > SETTLE_STEPS:
+            break
+    bar.close()
+    return EpisodeResult(
+        task_id=task_id,
+        robot=robot,
+        seed=seed,
+        success=success,
+        steps=steps,
+        wall_seconds=time.perf_counter() - started,
+        grounding=grounding,
+        failures=list(executor.failures),
+    )
+
+
+def _bar(total: int, enabled: bool, desc: str):
+    from tqdm import tqdm
+
+    return tqdm(total=total, desc=desc, unit="step", disable=not enabled, leave=False)

@@ -1,0 +1,222 @@
+"""Run grounded skills one control step at a time, segment by segment.
+
+Each top-level statement of a skill's entry function is a *segment*, compiled on its own into a
+generator in which every primitive call becomes ``yield from primitive(...)``. LeRobot calls
+``select_action`` once per step; the executor advances the current segment by one action. A
+segment that has not started yet can still be swapped (in-situ patching) without touching the
+ones that ran. Only code that passed validation is ever compiled here.
+"""
+
+from __future__ import annotations
+
+import ast
+import builtins
+import copy
+from collections.abc import Callable, Generator
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from recent_plugin.failures import PRIMITIVE_FAILURE_CATEGORY, FailureCategory
+from recent_plugin.grounding.grounder import GroundedSkill
+from recent_plugin.grounding.validation import SAFE_HELPERS
+from robosuite_envs.observation import Observation
+from robosuite_envs.primitives import PrimitiveFailure, RobotSession, TaskContext
+from robosuite_envs.primitives.control import servo_action
+
+_SAFE_BUILTINS = {name: getattr(builtins, name) for name in SAFE_HELPERS}
+
+
+@dataclass
+class Segment:
+    index: int
+    line: int
+    source: str
+    node: ast.stmt
+
+
+@dataclass
+class SkillFailure:
+    skill: str
+    segment: int
+    line: int
+    category: FailureCategory
+    message: str
+
+
+class _YieldFromPrimitives(ast.NodeTransformer):
+    def __init__(self, primitives: set[str]):
+        self.primitives = primitives
+
+    def visit_Call(self, node: ast.Call) -> ast.AST:
+        self.generic_visit(node)
+        if isinstance(node.func, ast.Name) and node.func.id in self.primitives:
+            return ast.copy_location(ast.YieldFrom(value=node), node)
+        return node
+
+
+def split_segments(code: str, entry: str) -> list[Segment]:
+    tree = ast.parse(code)
+    func = next(n for n in tree.body if isinstance(n, ast.FunctionDef) and n.name == entry)
+    body = (
+        func.body[1:]
+        if func.body
+        and isinstance(func.body[0], ast.Expr)
+        and isinstance(getattr(func.body[0], "value", None), ast.Constant)
+        else func.body
+    )
+    return [
+        Segment(i, stmt.lineno, ast.get_source_segment(code, stmt) or ast.unparse(stmt), stmt)
+        for i, stmt in enumerate(body)
+    ]
+
+
+class SkillExecutor:
+    """One grounded skill bound to a robot session: ``step()`` returns the next action or ``None``."""
+
+    def __init__(
+        self,
+        grounded: GroundedSkill,
+        args: dict[str, object],
+        primitives: dict[str, Callable[..., Generator]],
+        session: RobotSession,
+        *,
+        max_steps: int = 3000,
+    ):
+        if not grounded.valid:
+            raise ValueError(
+                f"refusing to execute {grounded.skill} for {grounded.robot}: it did not pass validation ({grounded.verdict})"
+            )
+        self.grounded = grounded
+        self.session = session
+        self.primitives = primitives
+        self.segments = split_segments(grounded.code, grounded.entry)
+        self.max_steps = max_steps
+        self.namespace: dict[str, object] = {
+            "__builtins__": _SAFE_BUILTINS,
+            **primitives,
+            "env": session,
+            "task": TaskContext(session),
+        }
+        self.namespace.update(self._defaults(grounded.code, grounded.entry))
+        self.namespace.update(args)
+        self.cursor = 0  # index of the segment running (or next to run)
+        self._running: Generator | None = None
+        self.steps = 0
+        self.failure: SkillFailure | None = None
+
+    @staticmethod
+    def _defaults(code: str, entry: str) -> dict[str, object]:
+        func = next(n for n in ast.parse(code).body if isinstance(n, ast.FunctionDef) and n.name == entry)
+        names = [a.arg for a in func.args.args][-len(func.args.defaults) :] if func.args.defaults else []
+        return {name: ast.literal_eval(default) for name, default in zip(names, func.args.defaults, strict=True)}
+
+    @property
+    def done(self) -> bool:
+        return self.failure is None and self.cursor >= len(self.segments)
+
+    @property
+    def failed(self) -> bool:
+        return self.failure is not None
+
+    def replace_segment(self, index: int, source: str) -> None:
+        """Swap a segment that has not started (in-situ adaptation never rewrites the past)."""
+        if index < self.cursor or (index == self.cursor and self._running is not None):
+            raise ValueError(f"segment {index} has already started; only upcoming segments can be patched")
+        node = ast.parse(source).body[0]
+        old = self.segments[index]
+        self.segments[index] = Segment(index, old.line, source, ast.copy_location(node, old.node))
+
+    def _compile(self, segment: Segment) -> Generator:
+        template = ast.parse("def _recent_segment():\n    if False:\n        yield\n")
+        fn = template.body[0]
+        stmt = _YieldFromPrimitives(set(self.primitives)).visit(copy.deepcopy(segment.node))
+        assigned = sorted({n.id for n in ast.walk(stmt) if isinstance(n, ast.Name) and isinstance(n.ctx, ast.Store)})
+        fn.body = ([ast.Global(names=assigned)] if assigned else []) + [stmt] + fn.body
+        ast.fix_missing_locations(template)
+        scope: dict[str, object] = {}
+        exec(compile(template, f"<{self.grounded.skill}:{self.grounded.robot}>", "exec"), self.namespace, scope)
+        return scope["_recent_segment"]()
+
+    def step(self) -> np.ndarray | None:
+        """Advance by one action; segments without primitive calls complete within the same step."""
+        while self.failure is None and self.cursor < len(self.segments):
+            if self.steps >= self.max_steps:
+                self._fail(FailureCategory.TIMEOUT, f"skill exceeded {self.max_steps} control steps")
+                return None
+            try:
+                if self._running is None:
+                    self._running = self._compile(self.segments[self.cursor])
+                action = next(self._running)
+                self.steps += 1
+                return action
+            except StopIteration:
+                self._running = None
+                self.cursor += 1
+            except PrimitiveFailure as exc:
+                self._fail(PRIMITIVE_FAILURE_CATEGORY[exc.kind], str(exc))
+            except NameError as exc:
+                self._fail(FailureCategory.HALLUCINATED_NAME, f"NameError: {exc}")
+            except TypeError as exc:
+                self._fail(FailureCategory.HALLUCINATED_KWARG, f"TypeError: {exc}")
+            except Exception as exc:  # noqa: BLE001 - any error in skill code fails the skill, not the episode
+                self._fail(FailureCategory.NON_EXECUTABLE, f"{type(exc).__name__}: {exc}")
+        return None
+
+    def _fail(self, category: FailureCategory, message: str) -> None:
+        segment = self.segments[min(self.cursor, len(self.segments) - 1)]
+        self.failure = SkillFailure(self.grounded.skill, segment.index, segment.line, category, message)
+        self._running = None
+
+
+@dataclass
+class PlannedSkill:
+    grounded: GroundedSkill
+    args: dict[str, object] = field(default_factory=dict)
+
+
+class TaskExecutor:
+    """Runs the skills of a task plan in order for one robot; holds still once finished or failed."""
+
+    def __init__(
+        self,
+        plan: list[PlannedSkill],
+        primitives: dict[str, Callable[..., Generator]],
+        first_obs: Observation,
+        embodiment: str,
+        *,
+        max_steps: int = 3000,
+    ):
+        self.session = RobotSession(embodiment, first_obs)
+        self.plan = plan
+        self.primitives = primitives
+        self.max_steps = max_steps
+        self.index = 0
+        self.current: SkillExecutor | None = None
+        self.failures: list[SkillFailure] = []
+        self._hold: np.ndarray | None = None
+
+    @property
+    def finished(self) -> bool:
+        return self.index >= len(self.plan) or bool(self.failures)
+
+    def act(self, obs: Observation) -> np.ndarray:
+        self.session.update(obs)
+        while not self.finished:
+            if self.current is None:
+                planned = self.plan[self.index]
+                self.current = SkillExecutor(
+                    planned.grounded, planned.args, self.primitives, self.session, max_steps=self.max_steps
+                )
+            action = self.current.step()
+            if action is not None:
+                self._hold = None
+                return action
+            if self.current.failed:
+                self.failures.append(self.current.failure)
+            else:
+                self.index += 1
+            self.current = None
+        if self._hold is None:
+            self._hold = np.array(self.session.obs.eef_pos)
+        return servo_action(self.session, self._hold)

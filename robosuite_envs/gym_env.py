@@ -1,0 +1,111 @@
+"""A gymnasium env around :class:`RecentTabletopEnv`, in LeRobot's observation conventions.
+
+Observations: ``agent_pos`` (8) and ``environment_state`` (72, object slots), see
+:mod:`robosuite_envs.observation`. ``info["is_success"]`` is the task's success predicate; an
+episode terminates on success and truncates at ``max_episode_steps``.
+"""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+
+from robosuite_envs.embodiments import get_embodiment
+from robosuite_envs.observation import ACTION_DIM, AGENT_POS_DIM, ENV_STATE_DIM, MAX_OBJECTS
+from robosuite_envs.primitives.session import CONTROL_FREQ
+from robosuite_envs.tasks import get_task, task_string
+
+
+class RecentEnv(gym.Env):
+    metadata = {"render_modes": ["rgb_array"], "render_fps": CONTROL_FREQ}
+
+    def __init__(
+        self,
+        task: str = "cube_in_bin",
+        robot: str = "UR5e",
+        max_episode_steps: int | None = None,
+        render_mode: str = "rgb_array",
+        visualization_width: int = 128,
+        visualization_height: int = 128,
+        render_camera: str = "frontview",
+    ):
+        super().__init__()
+        self.spec_task = get_task(task)
+        if len(self.spec_task.objects) > MAX_OBJECTS:
+            raise ValueError(f"task {task!r} has {len(self.spec_task.objects)} objects; at most {MAX_OBJECTS} fit the observation")
+        self.embodiment = get_embodiment(robot)
+        self.render_mode = render_mode
+        self._max_episode_steps = max_episode_steps or self.spec_task.max_steps
+        self._render_size = (visualization_height, visualization_width)
+        self._render_camera = render_camera
+        self.task_description = task_string(self.spec_task, self.embodiment.name)
+        self.task = self.task_description
+        self.observation_space = spaces.Dict(
+            {
+                "agent_pos": spaces.Box(-np.inf, np.inf, (AGENT_POS_DIM,), np.float32),
+                "environment_state": spaces.Box(-np.inf, np.inf, (ENV_STATE_DIM,), np.float32),
+            }
+        )
+        self.action_space = spaces.Box(-1.0, 1.0, (ACTION_DIM,), np.float32)
+        self._env = None
+        self._steps = 0
+
+    def _make(self, seed: int | None):
+        from robosuite.controllers import load_composite_controller_config
+
+        from robosuite_envs.tabletop import RecentTabletopEnv
+
+        return RecentTabletopEnv(
+            self.spec_task,
+            robots=self.embodiment.robot,
+            gripper_types=self.embodiment.gripper,
+            controller_configs=load_composite_controller_config(controller="BASIC", robot=self.embodiment.robot),
+            has_renderer=False,
+            has_offscreen_renderer=self.render_mode == "rgb_array",
+            use_camera_obs=False,
+            ignore_done=True,
+            hard_reset=False,
+            control_freq=CONTROL_FREQ,
+            horizon=10**9,
+            seed=seed,
+        )
+
+    def _observation(self) -> dict[str, np.ndarray]:
+        agent, env_state = self._env.observe().encode(self.spec_task.object_names())
+        return {"agent_pos": agent, "environment_state": env_state}
+
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        super().reset(seed=seed)
+        if self._env is None:
+            self._env = self._make(seed)
+        if seed is not None:
+            self._env.rng = np.random.default_rng(seed)
+        self._env.reset()
+        self._steps = 0
+        return self._observation(), {"is_success": False}
+
+    def step(self, action):
+        action = np.asarray(action, dtype=np.float64)
+        if action.shape != (ACTION_DIM,):
+            raise ValueError(f"action must have shape ({ACTION_DIM},) [dx dy dz dax day daz gripper], got {action.shape}")
+        if not np.all(np.isfinite(action)):
+            raise ValueError(f"action contains NaN or inf and was not stepped: {action.tolist()}")
+        self._env.step(np.clip(action, -1.0, 1.0))
+        self._steps += 1
+        success = bool(self._env._check_success())
+        obs = self._observation()
+        truncated = self._steps >= self._max_episode_steps
+        return obs, float(success), success, truncated, {"is_success": success}
+
+    def render(self):
+        if self._env is None:
+            raise RuntimeError("call reset() before render()")
+        height, width = self._render_size
+        frame = self._env.sim.render(camera_name=self._render_camera, width=width, height=height)
+        return np.ascontiguousarray(frame[::-1])
+
+    def close(self):
+        if self._env is not None:
+            self._env.close()
+            self._env = None

@@ -1,0 +1,73 @@
+"""The LeRobot env type ``recent``: ``lerobot-eval --env.type=recent --env.task=cube_in_bin --env.robot=UR5e``."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import gymnasium as gym
+from lerobot.configs import FeatureType, PolicyFeature
+from lerobot.envs.configs import EnvConfig
+from lerobot.utils.constants import ACTION, OBS_ENV_STATE, OBS_STATE
+
+from robosuite_envs.observation import ACTION_DIM, AGENT_POS_DIM, ENV_STATE_DIM
+from robosuite_envs.primitives.session import CONTROL_FREQ
+
+
+@EnvConfig.register_subclass("recent")
+@dataclass
+class RecentEnvConfig(EnvConfig):
+    """Our robosuite tasks; ``task`` may list several comma-separated task ids."""
+
+    task: str = "cube_in_bin"
+    robot: str = "UR5e"
+    fps: int = CONTROL_FREQ
+    episode_length: int | None = None
+    render_mode: str = "rgb_array"
+    visualization_width: int = 128
+    visualization_height: int = 128
+    features: dict[str, PolicyFeature] = field(
+        default_factory=lambda: {
+            ACTION: PolicyFeature(type=FeatureType.ACTION, shape=(ACTION_DIM,)),
+            "agent_pos": PolicyFeature(type=FeatureType.STATE, shape=(AGENT_POS_DIM,)),
+            "environment_state": PolicyFeature(type=FeatureType.ENV, shape=(ENV_STATE_DIM,)),
+        }
+    )
+    features_map: dict[str, str] = field(
+        default_factory=lambda: {ACTION: ACTION, "agent_pos": OBS_STATE, "environment_state": OBS_ENV_STATE}
+    )
+
+    def __post_init__(self):
+        from robosuite_envs.embodiments import get_embodiment
+        from robosuite_envs.tasks import get_task
+
+        for task_id in self.task_ids:
+            get_task(task_id)  # unknown names fail here, listing the valid ones
+        get_embodiment(self.robot)
+
+    @property
+    def task_ids(self) -> list[str]:
+        return [t.strip() for t in (self.task or "").split(",") if t.strip()]
+
+    @property
+    def gym_kwargs(self) -> dict:
+        return {
+            "robot": self.robot,
+            "max_episode_steps": self.episode_length,
+            "render_mode": self.render_mode,
+            "visualization_width": self.visualization_width,
+            "visualization_height": self.visualization_height,
+        }
+
+    def create_envs(self, n_envs: int, use_async_envs: bool = False) -> dict[str, dict[int, gym.vector.VectorEnv]]:
+        from robosuite_envs.gym_env import RecentEnv
+
+        env_cls = gym.vector.AsyncVectorEnv if use_async_envs and n_envs > 1 else gym.vector.SyncVectorEnv
+        extra = {"context": "forkserver"} if env_cls is gym.vector.AsyncVectorEnv else {}
+        envs = {}
+        for task_id in self.task_ids:
+
+            def make(task_id: str = task_id) -> RecentEnv:
+                return RecentEnv(task=task_id, **self.gym_kwargs)
+
+            envs[task_id] = {0: env_cls([make] * n_envs, autoreset_mode=gym.vector.AutoresetMode.SAME_STEP, **extra)}
+        return envs

@@ -1,0 +1,45 @@
+"""``recent``: one command for RECENT, with subcommands in the spirit of LeRobot's CLIs.
+
+    recent run                 ground a Panda skill onto a robot and execute it (the main job)
+    recent ground              ground one skill and print the diff and the numbers
+    recent model fetch|list|path
+    recent ontology build|stats|diagnose
+    recent skills list|show
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import sys
+
+from scripts import episode_cmd, ground_cmd, model_cmd, ontology_cmd, skills_cmd
+
+COMMANDS = (episode_cmd, ground_cmd, model_cmd, ontology_cmd, skills_cmd)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="recent",
+        description="RECENT for LeRobot: ground robot skill code across embodiments with a small code LM.",
+    )
+    parser.add_argument("-v", "--verbose", action="store_true", help="log debug messages")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
+    for module in COMMANDS:
+        module.register(sub)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    logging.basicConfig(level=logging.DEBUG if args.verbose else logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
+    try:
+        return int(args.handler(args) or 0)
+    except (KeyError, ValueError, FileNotFoundError, RuntimeError) as exc:
+        message = exc.args[0] if isinstance(exc, KeyError) and exc.args else exc
+        print(f"recent {args.command}: error: {message}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

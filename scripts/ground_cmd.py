@@ -1,0 +1,59 @@
+"""``recent ground``: ground one skill for one robot and show the diff and the numbers."""
+
+from __future__ import annotations
+
+import json
+
+from scripts.common import add_lm_arguments, agent_from_args
+
+
+def register(sub) -> None:
+    parser = sub.add_parser("ground", help="ground a Panda skill for a target robot (no execution)")
+    parser.add_argument("--skill", required=True, help="skill name (see `recent skills list`)")
+    parser.add_argument("--robot", required=True, help="target embodiment, e.g. UR5e")
+    parser.add_argument("--json", action="store_true", help="print one JSON object instead of text")
+    add_lm_arguments(parser)
+    parser.set_defaults(handler=_run)
+
+
+def grounding_summary(grounded) -> dict:
+    return {
+        "skill": grounded.skill,
+        "robot": grounded.robot,
+        "backend": grounded.backend,
+        "model": grounded.model,
+        "valid": grounded.valid,
+        "diff": grounded.diff(),
+        "conflicts": [
+            {"line": c.span.line, "original": c.original, "substitute": c.substitute.name if c.substitute else None, "span_type": c.span_type}
+            for c in grounded.diagnosis.conflicts
+        ],
+        "generated_tokens": grounded.generated_tokens,
+        "skill_tokens": grounded.skill_tokens,
+        "go": round(grounded.go, 2),
+        "lm_seconds": round(grounded.lm_seconds, 3),
+        "retries": grounded.retries,
+        "failure": None if grounded.valid else {"category": str(grounded.verdict.category), "message": grounded.verdict.message},
+    }
+
+
+def print_grounding(summary: dict) -> None:
+    print(summary["diff"] or "(no change: the skill is directly compatible)")
+    for c in summary["conflicts"]:
+        print(f"  line {c['line']}: {c['original']} -> {c['substitute']} ({c['span_type']})")
+    verdict = "valid" if summary["valid"] else f"REJECTED ({summary['failure']['category']}: {summary['failure']['message']})"
+    print(
+        f"grounding [{summary['backend']}:{summary['model']}]: {verdict}; "
+        f"{summary['generated_tokens']} tokens generated vs {summary['skill_tokens']} skill tokens (GO {summary['go']:.1f}%), "
+        f"LM {summary['lm_seconds']:.2f} s, {summary['retries']} retries"
+    )
+
+
+def _run(args) -> int:
+    grounded, _ = agent_from_args(args).ground(args.skill, args.robot)
+    summary = grounding_summary(grounded)
+    if args.json:
+        print(json.dumps(summary, indent=2))
+    else:
+        print_grounding(summary)
+    return 0 if grounded.valid else 1

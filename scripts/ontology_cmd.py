@@ -1,0 +1,78 @@
+"""``recent ontology``: build the skill ontology, print its scale, diagnose a skill for a robot."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from ontology.builder import SkillSource, build_ontology
+from ontology.diagnosis import diagnose
+from skills.repository import list_skills, load_skill
+
+
+def register(sub) -> None:
+    parser = sub.add_parser("ontology", help="build, measure and query the skill ontology")
+    actions = parser.add_subparsers(dest="action", metavar="ACTION", required=True)
+
+    build = actions.add_parser("build", help="build the ontology and write it as Turtle")
+    build.add_argument("--out", type=Path, default=Path("ontology.ttl"), help="output file (default: ontology.ttl)")
+    build.set_defaults(handler=_build)
+
+    stats = actions.add_parser("stats", help="counts of robots, primitives, relations, triples")
+    stats.add_argument("--json", action="store_true")
+    stats.set_defaults(handler=_stats)
+
+    diag = actions.add_parser("diagnose", help="determined conflicts of a skill on a robot")
+    diag.add_argument("--skill", required=True)
+    diag.add_argument("--robot", required=True)
+    diag.add_argument("--json", action="store_true")
+    diag.set_defaults(handler=_diagnose)
+
+
+def _with_skills():
+    return build_ontology(skills=[SkillSource(s.name, s.code, str(s.path)) for s in map(load_skill, list_skills())])
+
+
+def _build(args) -> int:
+    onto = _with_skills()
+    args.out.write_text(onto.to_turtle())
+    print(f"wrote {args.out} ({len(onto.store)} triples, {onto.build_seconds * 1000:.1f} ms)")
+    return 0
+
+
+def _stats(args) -> int:
+    stats = _with_skills().stats()
+    if args.json:
+        print(json.dumps(stats))
+    else:
+        for key, value in stats.items():
+            print(f"{key:>24}: {value}")
+    return 0
+
+
+def _diagnose(args) -> int:
+    skill = load_skill(args.skill)
+    onto = build_ontology()
+    onto.api(args.robot)  # unknown robots fail here with the known ones listed
+    result = diagnose(onto, skill.name, skill.code, args.robot, source=skill.source_embodiment)
+    rows = [
+        {
+            "line": c.span.line,
+            "span": c.span.text(skill.code),
+            "span_type": c.span_type,
+            "original": c.original,
+            "substitute": c.substitute.signature() if c.substitute else None,
+            "mapping": {m.source: m.target for m in c.mapping},
+            "dropped": list(c.dropped),
+            "reason": c.reason,
+        }
+        for c in result.conflicts
+    ]
+    if args.json:
+        print(json.dumps({"skill": skill.name, "robot": args.robot, "conflicts": rows, "warnings": []}, indent=2))
+        return 0
+    if not rows:
+        print(f"{skill.name} is directly compatible with {args.robot}")
+    for row in rows:
+        print(f"line {row['line']}: {row['span']}\n    {row['span_type']}: {row['reason']}\n    use {row['substitute']}  map {row['mapping']}  drop {row['dropped']}")
+    return 0
