@@ -9,8 +9,8 @@ from __future__ import annotations
 import hashlib
 import logging
 import time
-from itertools import takewhile
 from dataclasses import dataclass, field
+from itertools import takewhile
 
 from ontology.builder import Ontology, build_ontology
 from recent_plugin.executor import PlannedSkill, TaskExecutor
@@ -47,19 +47,20 @@ class EpisodeGrounding:
 
 
 class RecentAgent:
-    def __init__(self, settings: AgentSettings | None = None, *, infiller: Infiller | None = None, ontology: Ontology | None = None):
+    def __init__(
+        self,
+        settings: AgentSettings | None = None,
+        *,
+        infiller: Infiller | None = None,
+        ontology: Ontology | None = None,
+    ):
+        """Load the LM now, before any task arrives, so IGT measures grounding and not model loading."""
         self.settings = settings or AgentSettings()
-        self._infiller = infiller
+        s = self.settings
+        self.infiller = infiller or make_infiller(s.backend, s.model, n_threads=s.n_threads, seed=s.seed)
         self.ontology = ontology or build_ontology()
         self._ontology_hash = hashlib.sha256(self.ontology.to_turtle().encode()).hexdigest()
         self._cache: dict[tuple[str, ...], GroundedSkill] = {}
-
-    @property
-    def infiller(self) -> Infiller:
-        if self._infiller is None:
-            s = self.settings
-            self._infiller = make_infiller(s.backend, s.model, n_threads=s.n_threads, seed=s.seed)
-        return self._infiller
 
     def ground(self, skill_name: str, robot: str) -> tuple[GroundedSkill, bool]:
         """Ground ``skill_name`` for ``robot``, reusing a cached result unless code, ontology or LM changed."""
@@ -71,7 +72,12 @@ class RecentAgent:
         if grounded.valid:
             self._cache[key] = grounded
         else:
-            log.warning("grounding %s for %s failed: %s", skill_name, robot, grounded.verdict.message if grounded.verdict else "")
+            log.warning(
+                "grounding %s for %s failed: %s",
+                skill_name,
+                robot,
+                grounded.verdict.message if grounded.verdict else "",
+            )
         return grounded, False
 
     def start_episode(self, task_id: str, robot: str, first_obs: Observation) -> tuple[TaskExecutor, EpisodeGrounding]:
@@ -88,5 +94,7 @@ class RecentAgent:
         report.cached = all_cached
         report.igt_seconds = time.perf_counter() - started
         runnable = list(takewhile(lambda p: p.grounded.valid, plan))  # run what can run, then hold still
-        executor = TaskExecutor(runnable, api_functions(embodiment.api), first_obs, embodiment.name, max_steps=self.settings.max_skill_steps)
+        executor = TaskExecutor(
+            runnable, api_functions(embodiment.api), first_obs, embodiment.name, max_steps=self.settings.max_skill_steps
+        )
         return executor, report

@@ -56,7 +56,9 @@ def run_episode(
     started = time.perf_counter()
     raw, _ = env.reset(seed=seed)
     names = env.spec_task.object_names()
-    executor, grounding = agent.start_episode(task_id, robot, Observation.decode(raw["agent_pos"], raw["environment_state"], names))
+    executor, grounding = agent.start_episode(
+        task_id, robot, Observation.decode(raw["agent_pos"], raw["environment_state"], names)
+    )
     bar = _bar(env._max_episode_steps, progress, f"{task_id} on {robot}")
     success, steps, settled = False, 0, 0
     while True:

@@ -33,7 +33,9 @@ class RecentEnv(gym.Env):
         super().__init__()
         self.spec_task = get_task(task)
         if len(self.spec_task.objects) > MAX_OBJECTS:
-            raise ValueError(f"task {task!r} has {len(self.spec_task.objects)} objects; at most {MAX_OBJECTS} fit the observation")
+            raise ValueError(
+                f"task {task!r} has {len(self.spec_task.objects)} objects; at most {MAX_OBJECTS} fit the observation"
+            )
         self.embodiment = get_embodiment(robot)
         self.render_mode = render_mode
         self._max_episode_steps = max_episode_steps or self.spec_task.max_steps
@@ -88,7 +90,9 @@ class RecentEnv(gym.Env):
     def step(self, action):
         action = np.asarray(action, dtype=np.float64)
         if action.shape != (ACTION_DIM,):
-            raise ValueError(f"action must have shape ({ACTION_DIM},) [dx dy dz dax day daz gripper], got {action.shape}")
+            raise ValueError(
+                f"action must have shape ({ACTION_DIM},) [dx dy dz dax day daz gripper], got {action.shape}"
+            )
         if not np.all(np.isfinite(action)):
             raise ValueError(f"action contains NaN or inf and was not stepped: {action.tolist()}")
         self._env.step(np.clip(action, -1.0, 1.0))

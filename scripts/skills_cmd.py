@@ -19,7 +19,9 @@ def register(sub) -> None:
 
 
 def _list(args) -> int:
-    rows = [{"name": s.name, "subtask": s.subtask, "code_sha256": s.code_sha256} for s in map(load_skill, list_skills())]
+    rows = [
+        {"name": s.name, "subtask": s.subtask, "code_sha256": s.code_sha256} for s in map(load_skill, list_skills())
+    ]
     if args.json:
         print(json.dumps(rows, indent=2))
     else:

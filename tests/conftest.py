@@ -1,0 +1,52 @@
+"""Shared fixtures. Tests marked ``slow`` run only with ``--runslow`` (the benchmark runs them all)."""
+
+from __future__ import annotations
+
+import pytest
+
+import robosuite_envs  # noqa: F401  (headless GL and quiet robosuite before anything imports it)
+
+
+def pytest_addoption(parser):
+    parser.addoption("--runslow", action="store_true", default=False, help="also run tests marked slow")
+
+
+def pytest_collection_modifyitems(config, items):
+    if config.getoption("--runslow"):
+        return
+    skip = pytest.mark.skip(reason="slow: run with --runslow")
+    for item in items:
+        if "slow" in item.keywords:
+            item.add_marker(skip)
+
+
+@pytest.fixture(scope="session")
+def ontology():
+    from ontology.builder import build_ontology
+
+    return build_ontology()
+
+
+@pytest.fixture(scope="session")
+def put_in_bin():
+    from skills.repository import load_skill
+
+    return load_skill("put_in_bin")
+
+
+@pytest.fixture(scope="session")
+def llama_infiller():
+    """The real Qwen2.5-Coder-1.5B GGUF on llama.cpp (provisioned by the README's setup)."""
+    from recent_plugin.infillers import make_infiller
+    from recent_plugin.models import model_path
+
+    if not model_path("qwen2.5-coder-1.5b").is_file():
+        pytest.fail("the 1.5B GGUF is not in the cache: run `recent model fetch qwen2.5-coder-1.5b` (the README's test command does)")
+    return make_infiller("llamacpp", "qwen2.5-coder-1.5b")
+
+
+@pytest.fixture(scope="session")
+def rule_infiller():
+    from recent_plugin.infillers import make_infiller
+
+    return make_infiller("rule")

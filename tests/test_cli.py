@@ -1,0 +1,40 @@
+"""The `recent` command: help on every subcommand, JSON outputs, clear errors."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from scripts.cli import main
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [[], ["run"], ["ground"], ["model"], ["model", "fetch"], ["model", "list"], ["ontology"], ["ontology", "diagnose"], ["skills"], ["skills", "list"]],
+)
+def test_every_subcommand_has_help(argv, capsys):
+    with pytest.raises(SystemExit) as exit_:
+        main([*argv, "--help"])
+    assert exit_.value.code == 0
+    assert "usage: recent" in capsys.readouterr().out
+
+
+def test_ground_json_has_the_documented_keys(capsys):
+    assert main(["ground", "--skill", "put_in_bin", "--robot", "UR5e", "--backend", "rule", "--json"]) == 0
+    record = json.loads(capsys.readouterr().out)
+    assert {"diff", "go", "generated_tokens", "skill_tokens", "lm_seconds", "retries", "valid"} <= set(record)
+    assert record["valid"] and "+    ur5_grasp_at(env, task, grasp_pos=obj_pos)" in record["diff"]
+
+
+def test_diagnose_json(capsys):
+    assert main(["ontology", "diagnose", "--skill", "put_in_bin", "--robot", "UR5e", "--json"]) == 0
+    record = json.loads(capsys.readouterr().out)
+    assert [c["original"] for c in record["conflicts"]] == ["open_gripper", "pick", "place"]
+
+
+def test_unknown_names_are_clear_errors(capsys):
+    assert main(["ground", "--skill", "juggle", "--robot", "UR5e", "--backend", "rule"]) == 2
+    assert "unknown skill 'juggle'; known skills: put_in_bin" in capsys.readouterr().err
+    assert main(["ontology", "diagnose", "--skill", "put_in_bin", "--robot", "R2D2"]) == 2
+    assert "known robots" in capsys.readouterr().err

@@ -1,0 +1,47 @@
+"""The gym env: LeRobot conventions, seeded resets, bad actions rejected."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from robosuite_envs.gym_env import RecentEnv
+from robosuite_envs.tasks import parse_task_string
+
+
+@pytest.fixture(scope="module")
+def env():
+    env = RecentEnv(task="cube_in_bin", robot="UR5e", render_mode="none")
+    yield env
+    env.close()
+
+
+def test_observation_layout_and_task_string(env):
+    obs, info = env.reset(seed=0)
+    assert obs["agent_pos"].shape == (8,) and obs["environment_state"].shape == (72,)
+    assert env.observation_space.contains(obs) and info == {"is_success": False}
+    assert parse_task_string(env.task_description) == ("cube_in_bin", "UR5e")
+    cube_present = obs["environment_state"][7]
+    assert cube_present == 1.0
+
+
+def test_same_seed_same_scene_other_seed_other_scene(env):
+    a, _ = env.reset(seed=1)
+    b, _ = env.reset(seed=1)
+    c, _ = env.reset(seed=2)
+    np.testing.assert_allclose(a["environment_state"], b["environment_state"])
+    assert not np.allclose(a["environment_state"][:3], c["environment_state"][:3])
+
+
+@pytest.mark.parametrize("bad", [np.zeros(6), np.full(7, np.nan)])
+def test_bad_actions_are_rejected_not_stepped(env, bad):
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match="shape|NaN"):
+        env.step(bad)
+
+
+def test_unknown_names_list_the_valid_ones():
+    with pytest.raises(KeyError, match="known tasks: cube_in_bin"):
+        RecentEnv(task="stack_everything")
+    with pytest.raises(KeyError, match="known embodiments: Panda, UR5e"):
+        RecentEnv(robot="R2D2")

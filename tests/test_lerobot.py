@@ -1,0 +1,67 @@
+"""The LeRobot plugin: discovery by distribution name, the policy factory, and a real lerobot-eval run."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import torch
+
+
+def test_distribution_is_discovered_by_lerobot():
+    from lerobot.configs import PreTrainedConfig
+    from lerobot.envs.configs import EnvConfig
+    from lerobot.utils.import_utils import register_third_party_plugins
+
+    register_third_party_plugins()
+    assert "recent" in PreTrainedConfig.get_known_choices()
+    assert "recent" in EnvConfig.get_known_choices()
+
+
+def test_policy_factory_builds_recent_and_returns_batched_actions():
+    import lerobot_policy_recent  # noqa: F401
+    from lerobot.policies.factory import make_policy, make_pre_post_processors
+
+    from recent_plugin.configuration_recent import RecentConfig
+    from robosuite_envs.gym_env import RecentEnv
+    from robosuite_envs.lerobot_env import RecentEnvConfig
+
+    env_cfg = RecentEnvConfig(task="cube_in_bin", robot="UR5e")
+    policy = make_policy(RecentConfig(backend="rule"), env_cfg=env_cfg)
+    pre, post = make_pre_post_processors(policy.config)
+    env = RecentEnv(task="cube_in_bin", robot="UR5e", render_mode="none")
+    obs, _ = env.reset(seed=0)
+    batch = {
+        "observation.state": torch.from_numpy(obs["agent_pos"])[None].repeat(2, 1),
+        "observation.environment_state": torch.from_numpy(obs["environment_state"])[None].repeat(2, 1),
+        "task": [env.task_description] * 2,
+    }
+    action = post(policy.select_action(pre(batch)))
+    assert action.shape == (2, 7)
+    policy.reset()
+    assert policy._executors == []
+    env.close()
+
+
+def test_lerobot_eval_writes_eval_info_from_real_rollouts(tmp_path):
+    """The README's lerobot-eval line (rule backend here to keep the suite fast; same code path)."""
+    out = tmp_path / "eval"
+    cmd = [
+        str(Path(sys.executable).with_name("lerobot-eval")),
+        "--policy.type=recent",
+        "--policy.backend=rule",
+        "--env.type=recent",
+        "--env.task=cube_in_bin",
+        "--env.robot=UR5e",
+        "--eval.n_episodes=2",
+        "--eval.batch_size=1",
+        f"--output_dir={out}",
+    ]
+    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=900, env={**os.environ, "TQDM_DISABLE": "1"})
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    info = json.loads((out / "eval_info.json").read_text())
+    assert info["overall"]["n_episodes"] == 2
+    assert info["overall"]["pc_success"] == 100.0

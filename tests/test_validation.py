@@ -1,0 +1,70 @@
+"""Generated code is untrusted: the AST policy admits only the target robot's API."""
+
+from __future__ import annotations
+
+import pytest
+
+from recent_plugin.failures import FailureCategory as F
+from recent_plugin.grounding.validation import validate_program
+
+GOOD = """def put_in_bin(env, task, obj="cube", receptacle="bin"):
+    obj_pos = task.get_object_position(obj)
+    bin_pos = task.get_object_position(receptacle)
+    open_ur5_ee(env, task)
+    ur5_grasp_at(env, task, grasp_pos=obj_pos, timeout_s=5.0)
+    drop_pos = [bin_pos[0], bin_pos[1], bin_pos[2] + 0.1]
+    for attempt in range(1):
+        ur5_release_at(env, task, place_pos=drop_pos)
+"""
+
+
+def _body(*lines: str) -> str:
+    return "def put_in_bin(env, task):\n" + "".join(f"    {line}\n" for line in lines)
+
+
+HOSTILE = [
+    (_body("import os"), F.NON_EXECUTABLE),
+    (_body("from subprocess import run"), F.NON_EXECUTABLE),
+    ("import os\n" + _body("pass"), F.NON_EXECUTABLE),
+    (_body("x = env.__class__.__subclasses__()"), F.NON_EXECUTABLE),
+    (_body("x = env._session"), F.NON_EXECUTABLE),
+    (_body("open('/etc/passwd')"), F.NON_EXECUTABLE),
+    (_body("eval('1+1')"), F.NON_EXECUTABLE),
+    (_body("exec('x=1')"), F.NON_EXECUTABLE),
+    (_body("getattr(env, 'obs')"), F.NON_EXECUTABLE),
+    (_body("globals()['x'] = 1"), F.NON_EXECUTABLE),
+    (_body("while True:", "    pass"), F.NON_EXECUTABLE),
+    (_body("for i in range(10**9):", "    pass"), F.NON_EXECUTABLE),
+    (_body("x = 'a' * 100000"), F.NON_EXECUTABLE),
+    (_body("x = [0] * 100000"), F.NON_EXECUTABLE),
+    (_body("x = 2 ** 4096"), F.NON_EXECUTABLE),
+    (_body("x = env.obs.objects"), F.HALLUCINATED_API),
+    (_body("env.step([0]*7)"), F.HALLUCINATED_API),
+    (_body("pick(env, task, target_pos=[0, 0, 1])"), F.HALLUCINATED_API),
+    (_body("ur5_grasp_at(env, task, grasp_pos=[0, 0, 1], approach_distance=0.1)"), F.HALLUCINATED_KWARG),
+    (_body("ur5_grasp_at(env, task)"), F.HALLUCINATED_KWARG),
+    (_body("ur5_grasp_at(env, task, [0, 0, 1])"), F.HALLUCINATED_KWARG),
+    (_body("ur5_grasp_at(env, task, grasp_pos=[0, 1])"), F.HALLUCINATED_KWARG),
+    (_body("open_ur5_ee(env, task, velocity='fast')"), F.HALLUCINATED_KWARG),
+    (_body("ur5_grasp_at(env, task, grasp_pos=ball_position)"), F.HALLUCINATED_NAME),
+    (_body("ur5_open_gripper(env, task)"), F.HALLUCINATED_NAME),
+    (_body("ur5_grasp_at(env, task, grasp_pos=[0, 0, 1]"), F.NON_EXECUTABLE),
+    (_body("f = lambda: 1"), F.NON_EXECUTABLE),
+    (_body("def inner():", "    pass"), F.NON_EXECUTABLE),
+    (_body("g = ur5_grasp_at", "g(env, task, grasp_pos=[0, 0, 1])"), F.NON_EXECUTABLE),
+    (_body("try:", "    pass", "except Exception:", "    pass"), F.NON_EXECUTABLE),
+    ("", F.EMPTY_CONTINUATION),
+    ("def other(env, task):\n    pass\n", F.HALLUCINATED_NAME),
+]
+
+
+def test_grounded_program_is_accepted(ontology):
+    verdict = validate_program(GOOD, ontology.api("UR5e"), "put_in_bin", ontology.apis)
+    assert verdict.ok, verdict.message
+
+
+@pytest.mark.parametrize(("code", "category"), HOSTILE, ids=[f"hostile{i}" for i in range(len(HOSTILE))])
+def test_hostile_or_broken_code_is_rejected_before_execution(ontology, code, category):
+    verdict = validate_program(code, ontology.api("UR5e"), "put_in_bin", ontology.apis)
+    assert not verdict.ok
+    assert verdict.category == category, verdict.message
