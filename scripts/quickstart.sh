@@ -1,0 +1,6 @@
+#!/usr/bin/env bash
+# README command 1: set everything up, then ground the Panda skill onto a UR5e and run it.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+bash scripts/setup.sh
+exec .venv/bin/recent run --task cube_in_bin --robot UR5e "$@"

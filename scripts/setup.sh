@@ -1,0 +1,41 @@
+#!/usr/bin/env bash
+# Set up RECENT on a fresh machine: system GL for headless rendering, uv, the locked environment,
+# and the default offline code LM. Idempotent: a second run reuses every cache.
+#   RECENT_CACHE_DIR   where models and shard wheels go (default ~/.cache/lerobot_policy_recent)
+#   UV_CACHE_DIR       uv's cache, incl. the llama-cpp-python wheel built from source (~11 min once)
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+log() { printf '\033[1m[setup]\033[0m %s\n' "$*"; }
+
+# MuJoCo renders offscreen through OSMesa on machines without a GPU (lerobot-eval records videos).
+if ! ldconfig -p 2>/dev/null | grep -q libOSMesa; then
+  if command -v apt-get >/dev/null && [ "$(id -u)" = 0 ]; then
+    log "installing libosmesa6 for headless rendering"
+    apt-get install -y -q libosmesa6 >/dev/null 2>&1 || { apt-get update -q >/dev/null && apt-get install -y -q libosmesa6 >/dev/null; }
+  else
+    log "warning: libOSMesa not found; install libosmesa6 (or set MUJOCO_GL=egl) to render videos"
+  fi
+fi
+
+PYTHON=${PYTHON:-python3}
+if ! "$PYTHON" -c 'import sys; sys.exit(sys.version_info[:2] != (3, 12))' 2>/dev/null; then
+  for candidate in python3.12 "$HOME/.pyenv/versions/$(cat .python-version)/bin/python"; do
+    if command -v "$candidate" >/dev/null 2>&1; then PYTHON=$candidate; break; fi
+  done
+fi
+"$PYTHON" -c 'import sys; assert sys.version_info[:2] == (3, 12), sys.version' \
+  || { echo "RECENT needs Python 3.12 (see .python-version)"; exit 1; }
+
+if ! "$PYTHON" -m uv --version >/dev/null 2>&1; then
+  log "installing uv"
+  "$PYTHON" -m pip install -q --disable-pip-version-check "uv==0.13.8"
+fi
+
+log "syncing the locked environment (.venv)"
+export CMAKE_BUILD_PARALLEL_LEVEL=${CMAKE_BUILD_PARALLEL_LEVEL:-$(nproc 2>/dev/null || echo 2)}
+"$PYTHON" -m uv sync --locked --python "$PYTHON"
+
+log "provisioning the default code LM (Qwen2.5-Coder-1.5B, GGUF)"
+.venv/bin/recent model fetch qwen2.5-coder-1.5b --quiet >/dev/null
+log "ready: $(.venv/bin/recent model path qwen2.5-coder-1.5b)"
