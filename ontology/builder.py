@@ -228,8 +228,9 @@ def build_ontology(
 
 
 def _same_function(a: PrimitiveSpec, b: PrimitiveSpec) -> bool:
-    """The matching rule: equal, non-empty effects under preconditions the substitute does not add to."""
-    return bool(a.effects) and a.effects == b.effects and b.preconditions <= a.preconditions | a.effects
+    """The matching rule: equal, non-empty effects. Preconditions the substitute adds are not a veto:
+    the diagnosis turns them into run-time checks (undetermined warnings) on the rewritten span."""
+    return bool(a.effects) and a.effects == b.effects
 
 
 def _literal(value: str | int | float | bool) -> ox.Literal:

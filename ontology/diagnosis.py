@@ -21,6 +21,10 @@ class ParameterMapping:
     source: str  # parameter name in the original call
     target: str  # parameter name of the substitute
     role: str
+    values: tuple[tuple[object, object], ...] = ()  # literal translation when the vocabularies differ
+
+    def translate(self, value: object) -> object:
+        return dict(self.values).get(value, value)
 
 
 @dataclass(frozen=True)
@@ -60,6 +64,13 @@ class Diagnosis:
         return not self.conflicts
 
 
+def _value_map(source: tuple | None, target: tuple | None) -> tuple[tuple[object, object], ...]:
+    """Same role, different literal vocabularies of equal size (``'z'`` ↔ ``'down'``): map them in order."""
+    if not source or not target or tuple(source) == tuple(target) or len(source) != len(target):
+        return ()
+    return tuple(zip(source, target, strict=True))
+
+
 def diagnose(onto: Ontology, skill_name: str, code: str, robot: str, source: str = "Panda") -> Diagnosis:
     source_api, target_api = onto.api(source), onto.api(robot)
     conflicts = []
@@ -86,7 +97,9 @@ def diagnose(onto: Ontology, skill_name: str, code: str, robot: str, source: str
             if target is None:
                 dropped.append(param.name)
             else:
-                mapping.append(ParameterMapping(param.name, target.name, param.role))
+                mapping.append(
+                    ParameterMapping(param.name, target.name, param.role, _value_map(param.choices, target.choices))
+                )
         mapped = {m.target for m in mapping}
         unfilled = tuple(p.name for p in substitute.parameters if p.required and p.name not in mapped)
         conflicts.append(

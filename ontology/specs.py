@@ -60,11 +60,6 @@ class PrimitiveSpec:
         params = ", ".join(["env", "task", *(p.render() for p in self.parameters)])
         return f"{self.name}({params})"
 
-    def call_template(self) -> str:
-        """The minimal call: ``ur5_grasp_at(env, task, grasp_pos=<position>)`` (optional parameters keep defaults)."""
-        args = [f"{p.name}=<{p.type}>" for p in self.parameters if p.required]
-        return f"{self.name}({', '.join(['env', 'task', *args])})"
-
 
 @dataclass(frozen=True)
 class ApiSpec:

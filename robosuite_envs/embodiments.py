@@ -7,6 +7,9 @@ Adding an embodiment is data: a row here names the robosuite models, and
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
+
+_ASSETS = Path(__file__).parent / "grippers" / "assets"
 
 
 @dataclass(frozen=True)
@@ -15,7 +18,7 @@ class Embodiment:
     robot: str  # robosuite robot class
     gripper: str  # robosuite gripper class
     api: str  # primitive API: robosuite_envs/primitives/<api>.{py,yaml}
-    robot_mjcf: str  # MJCF paths inside robosuite's package, read by the ontology builder
+    robot_mjcf: str  # MJCF files read by the ontology builder: relative paths are inside robosuite's package
     gripper_mjcf: str
     description: str
 
@@ -40,6 +43,33 @@ EMBODIMENTS: dict[str, Embodiment] = {
             robot_mjcf="models/assets/robots/ur5e/robot.xml",
             gripper_mjcf="models/assets/grippers/robotiq_gripper_85.xml",
             description="Universal Robots UR5e, 6-DoF, Robotiq 2F-85",
+        ),
+        Embodiment(
+            name="Sawyer",
+            robot="Sawyer",
+            gripper="RethinkGripper",
+            api="sawyer",
+            robot_mjcf="models/assets/robots/sawyer/robot.xml",
+            gripper_mjcf="models/assets/grippers/rethink_gripper.xml",
+            description="Rethink Sawyer, 7-DoF, Rethink parallel gripper",
+        ),
+        Embodiment(
+            name="Robotiq85",
+            robot="Panda",
+            gripper="LinkedRobotiq85Gripper",
+            api="robotiq85",
+            robot_mjcf="models/assets/robots/panda/robot.xml",
+            gripper_mjcf="models/assets/grippers/robotiq_gripper_85.xml",
+            description="Franka Panda with a Robotiq 2F-85 (end-effector variation)",
+        ),
+        Embodiment(
+            name="Suction",
+            robot="Panda",
+            gripper="SuctionGripper",
+            api="suction",
+            robot_mjcf="models/assets/robots/panda/robot.xml",
+            gripper_mjcf=str(_ASSETS / "suction_gripper.xml"),
+            description="Franka Panda with a vacuum gripper (end-effector variation)",
         ),
     )
 }

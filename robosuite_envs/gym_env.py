@@ -1,6 +1,6 @@
 """A gymnasium env around :class:`RecentTabletopEnv`, in LeRobot's observation conventions.
 
-Observations: ``agent_pos`` (8) and ``environment_state`` (72, object slots), see
+Observations: ``agent_pos`` (8) and ``environment_state`` (object slots), see
 :mod:`robosuite_envs.observation`. ``info["is_success"]`` is the task's success predicate; an
 episode terminates on success and truncates at ``max_episode_steps``.
 """

@@ -1,7 +1,8 @@
 """The flat observation vectors shared by the env (encoder) and the policy (decoder).
 
 ``agent_pos``         = eef position (3), grip-site quaternion xyzw (4), gripper opening (1)
-``environment_state`` = per object slot: position (3), quaternion xyzw (4), present (1), grasped (1)
+``environment_state`` = per object slot: position (3), quaternion xyzw (4), present (1), grasped (1),
+                        touched by the end effector (1), height in metres (1)
 
 Slots follow the order of the task's objects; unused slots are zero with present=0.
 """
@@ -14,7 +15,7 @@ import numpy as np
 
 AGENT_POS_DIM = 8
 MAX_OBJECTS = 8
-SLOT_DIM = 9
+SLOT_DIM = 11
 ENV_STATE_DIM = MAX_OBJECTS * SLOT_DIM
 ACTION_DIM = 7  # OSC_POSE delta (6) + gripper (1): -1 opens, +1 closes
 
@@ -24,6 +25,13 @@ class ObjectState:
     pos: np.ndarray
     quat: np.ndarray
     grasped: bool
+    touching: bool = False
+    height: float = 0.0
+
+    @property
+    def top(self) -> np.ndarray:
+        """Centre of the object's upper face (where a suction cup seals)."""
+        return self.pos + np.array([0.0, 0.0, self.height / 2])
 
 
 @dataclass(frozen=True)
@@ -40,7 +48,8 @@ class Observation:
         env_state = np.zeros(ENV_STATE_DIM, dtype=np.float32)
         for slot, name in enumerate(object_names):
             state = self.objects[name]
-            env_state[slot * SLOT_DIM : (slot + 1) * SLOT_DIM] = [*state.pos, *state.quat, 1.0, float(state.grasped)]
+            row = [*state.pos, *state.quat, 1.0, float(state.grasped), float(state.touching), state.height]
+            env_state[slot * SLOT_DIM : (slot + 1) * SLOT_DIM] = row
         return agent, env_state
 
     @classmethod
@@ -51,7 +60,13 @@ class Observation:
         for slot, name in enumerate(object_names):
             row = env_state[slot * SLOT_DIM : (slot + 1) * SLOT_DIM]
             if row[7] > 0.5:
-                objects[name] = ObjectState(pos=row[0:3].copy(), quat=row[3:7].copy(), grasped=bool(row[8] > 0.5))
+                objects[name] = ObjectState(
+                    pos=row[0:3].copy(),
+                    quat=row[3:7].copy(),
+                    grasped=bool(row[8] > 0.5),
+                    touching=bool(row[9] > 0.5),
+                    height=float(row[10]),
+                )
         return cls(
             eef_pos=agent_pos[0:3].copy(),
             eef_quat=agent_pos[3:7].copy(),

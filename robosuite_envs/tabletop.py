@@ -14,7 +14,7 @@ from robosuite.models.objects.composite import Bin
 from robosuite.models.tasks import ManipulationTask
 from robosuite.utils.transform_utils import convert_quat, mat2quat
 
-import robosuite_envs.grippers  # noqa: F401  (registers our gripper models with robosuite)
+from robosuite_envs.grippers import SuctionGripper  # also registers our gripper models with robosuite
 from robosuite_envs.observation import ObjectState, Observation
 from robosuite_envs.tasks import ObjectSpec, TaskSpec
 
@@ -94,15 +94,30 @@ class RecentTabletopEnv(ManipulationEnv):
         eef_pos = np.array(self.sim.data.site_xpos[site])
         eef_quat = mat2quat(np.array(self.sim.data.site_xmat[site]).reshape(3, 3))
         gripper = robot.gripper[arm]
-        qpos = self.sim.data.qpos[robot._ref_gripper_joint_pos_indexes[arm]] if gripper.dof > 0 else np.zeros(1)
-        opening = float(np.mean(np.abs(qpos))) if len(qpos) else 0.0
+        suction = isinstance(gripper, SuctionGripper)
+        if suction:  # the "opening" of a vacuum gripper is its suction command, 0 (off) .. 1 (on)
+            opening = float(self.sim.data.ctrl[robot._ref_joint_gripper_actuator_indexes[arm]][0])
+        else:
+            qpos = self.sim.data.qpos[robot._ref_gripper_joint_pos_indexes[arm]]
+            opening = float(np.mean(np.abs(qpos))) if len(qpos) else 0.0
         objects = {}
         for spec in self.task_spec.objects:
             body = self._body_ids[spec.name]
-            pos = np.array(self.sim.data.body_xpos[body])
-            quat = convert_quat(np.array(self.sim.data.body_xquat[body]), to="xyzw")
-            grasped = spec.kind == "box" and self._check_grasp(gripper=gripper, object_geoms=self._objects[spec.name])
-            objects[spec.name] = ObjectState(pos=pos, quat=quat, grasped=bool(grasped))
+            obj = self._objects[spec.name]
+            touching = bool(self.check_contact(gripper, obj))
+            if spec.kind != "box":
+                grasped = False
+            elif suction:
+                grasped = touching and opening > 0.5 and self.check_contact(gripper.important_geoms["cup"], obj)
+            else:
+                grasped = self._check_grasp(gripper=gripper, object_geoms=obj)
+            objects[spec.name] = ObjectState(
+                pos=np.array(self.sim.data.body_xpos[body]),
+                quat=convert_quat(np.array(self.sim.data.body_xquat[body]), to="xyzw"),
+                grasped=bool(grasped),
+                touching=touching,
+                height=float(spec.size[2]),
+            )
         return Observation(eef_pos=eef_pos, eef_quat=eef_quat, gripper_opening=opening, objects=objects)
 
     # --------------------------------------------------------------- success

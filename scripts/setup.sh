@@ -34,7 +34,11 @@ fi
 
 log "syncing the locked environment (.venv)"
 export CMAKE_BUILD_PARALLEL_LEVEL=${CMAKE_BUILD_PARALLEL_LEVEL:-$(nproc 2>/dev/null || echo 2)}
-"$PYTHON" -m uv sync --locked --python "$PYTHON"
+# Offline first: an online sync may re-validate the llama-cpp-python sdist, which gives it a new
+# cache revision and throws away the wheel uv built from it (~11 min to rebuild on 2 cores).
+if ! "$PYTHON" -m uv sync --locked --offline --python "$PYTHON" >/dev/null 2>&1; then
+  "$PYTHON" -m uv sync --locked --python "$PYTHON"
+fi
 
 log "provisioning the default code LM (Qwen2.5-Coder-1.5B, GGUF)"
 .venv/bin/recent model fetch qwen2.5-coder-1.5b --quiet >/dev/null

@@ -41,7 +41,9 @@ def llama_infiller():
     from recent_plugin.models import model_path
 
     if not model_path("qwen2.5-coder-1.5b").is_file():
-        pytest.fail("the 1.5B GGUF is not in the cache: run `recent model fetch qwen2.5-coder-1.5b` (the README's test command does)")
+        pytest.fail(
+            "the 1.5B GGUF is not in the cache: run `recent model fetch qwen2.5-coder-1.5b` (the README's test command does)"
+        )
     return make_infiller("llamacpp", "qwen2.5-coder-1.5b")
 
 

@@ -11,7 +11,18 @@ from scripts.cli import main
 
 @pytest.mark.parametrize(
     "argv",
-    [[], ["run"], ["ground"], ["model"], ["model", "fetch"], ["model", "list"], ["ontology"], ["ontology", "diagnose"], ["skills"], ["skills", "list"]],
+    [
+        [],
+        ["run"],
+        ["ground"],
+        ["model"],
+        ["model", "fetch"],
+        ["model", "list"],
+        ["ontology"],
+        ["ontology", "diagnose"],
+        ["skills"],
+        ["skills", "list"],
+    ],
 )
 def test_every_subcommand_has_help(argv, capsys):
     with pytest.raises(SystemExit) as exit_:

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from robosuite_envs.gym_env import RecentEnv
+from robosuite_envs.observation import ENV_STATE_DIM
 from robosuite_envs.tasks import parse_task_string
 
 
@@ -18,7 +19,7 @@ def env():
 
 def test_observation_layout_and_task_string(env):
     obs, info = env.reset(seed=0)
-    assert obs["agent_pos"].shape == (8,) and obs["environment_state"].shape == (72,)
+    assert obs["agent_pos"].shape == (8,) and obs["environment_state"].shape == (ENV_STATE_DIM,)
     assert env.observation_space.contains(obs) and info == {"is_success": False}
     assert parse_task_string(env.task_description) == ("cube_in_bin", "UR5e")
     cube_present = obs["environment_state"][7]
@@ -43,5 +44,5 @@ def test_bad_actions_are_rejected_not_stepped(env, bad):
 def test_unknown_names_list_the_valid_ones():
     with pytest.raises(KeyError, match="known tasks: cube_in_bin"):
         RecentEnv(task="stack_everything")
-    with pytest.raises(KeyError, match="known embodiments: Panda, UR5e"):
+    with pytest.raises(KeyError, match="known embodiments: Panda, UR5e, Sawyer, Robotiq85, Suction"):
         RecentEnv(robot="R2D2")

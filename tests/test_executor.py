@@ -17,7 +17,10 @@ def _obs(eef=(0.0, 0.0, 1.0), cube=(0.0, -0.1, 0.82)) -> Observation:
         eef_pos=np.array(eef),
         eef_quat=np.array([1.0, 0.0, 0.0, 0.0]),
         gripper_opening=0.0,
-        objects={"cube": ObjectState(np.array(cube), np.array([0, 0, 0, 1.0]), False), "bin": ObjectState(np.array([0.0, 0.2, 0.84]), np.array([0, 0, 0, 1.0]), False)},
+        objects={
+            "cube": ObjectState(np.array(cube), np.array([0, 0, 0, 1.0]), False),
+            "bin": ObjectState(np.array([0.0, 0.2, 0.84]), np.array([0, 0, 0, 1.0]), False),
+        },
     )
 
 
@@ -62,7 +65,9 @@ def test_unvalidated_code_is_never_executed(grounded):
     from recent_plugin.grounding.validation import Verdict
 
     with pytest.raises(ValueError, match="refusing to execute"):
-        SkillExecutor(replace(grounded, verdict=Verdict(False)), {}, api_functions("ur5e"), RobotSession("UR5e", _obs()))
+        SkillExecutor(
+            replace(grounded, verdict=Verdict(False)), {}, api_functions("ur5e"), RobotSession("UR5e", _obs())
+        )
 
 
 def test_primitive_failure_is_categorised(grounded):

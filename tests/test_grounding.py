@@ -38,15 +38,18 @@ def test_prompt_renders_hints_as_comments_before_the_span(ontology, put_in_bin):
     comments = prompt.prefix.splitlines()[-6:-1]
     assert all(line.startswith("    # ") for line in comments)
     assert "map target_pos -> grasp_pos; drop approach_axis" in prompt.prefix
-    assert "ur5_grasp_at(env, task, grasp_pos=<position>)" in prompt.prefix
-    assert prompt.prefix.endswith("\n    ") and prompt.stop == ("\n",)
+    assert prompt.prefix.splitlines()[-2] == "    # Call exactly: ur5_grasp_at(env, task, grasp_pos=obj_pos)"
+    assert prompt.prefix.endswith("\n    ") and prompt.stop[0] == "\n"
+    assert prompt.grammar.startswith("root ::= [a-zA-Z_]")  # a statement, never a comment
     assert "pick(env, task" not in prompt.suffix  # the span itself is not in the prompt's code
 
 
 def test_rule_backend_grounds_with_zero_tokens(ontology, put_in_bin, rule_infiller):
     grounded = ground_skill(put_in_bin, "UR5e", ontology, rule_infiller)
     assert grounded.valid
-    changed = {line for line in grounded.diff().splitlines() if line[:1] in "+-" and not line.startswith(("+++", "---"))}
+    changed = {
+        line for line in grounded.diff().splitlines() if line[:1] in "+-" and not line.startswith(("+++", "---"))
+    }
     assert changed == RULE_DIFF_LINES
     assert grounded.generated_tokens == 0 and grounded.go == 0.0
 
@@ -73,14 +76,41 @@ def test_rejected_span_is_retried_with_feedback_then_accepted(ontology, put_in_b
             "ur5_grasp_at(env, task, grasp_pos=obj_pos, approach_distance=0.1)",  # hallucinated kwarg
             "ur5_grasp_at(env, task, grasp_pos=obj_pos)",
             "ur5_open_gripper(env, task)",  # hallucinated API name
+            "ur5_release_at(env, task, place_pos=drop_pos)",  # a valid call, but not the substitute
             "",  # empty continuation
             "open_ur5_ee(env, task)",
         ]
     )
-    grounded = ground_skill(put_in_bin, "UR5e", ontology, infiller, max_retries=2)
+    grounded = ground_skill(put_in_bin, "UR5e", ontology, infiller, max_retries=3)
     assert grounded.valid
-    assert [c.category for c in grounded.calls] == [None, "hallucinated_kwarg", None, "hallucinated_name", "empty_continuation", None]
-    assert grounded.retries == 3 and grounded.generated_tokens == 42 and grounded.go == 42.0
+    assert [c.category for c in grounded.calls] == [
+        None,
+        "hallucinated_kwarg",
+        None,
+        "hallucinated_name",
+        "hallucinated_api",
+        "empty_continuation",
+        None,
+    ]
+    assert "substitutes open_ur5_ee()" in grounded.calls[4].message
+    assert grounded.retries == 4 and grounded.generated_tokens == 49 and grounded.go == 49.0
+
+
+def test_interface_rewiring_leaves_the_undecided_argument_to_the_lm(ontology, put_in_bin, rule_infiller):
+    """Sawyer's pick needs an object *name* the Panda call never had: the rule backend cannot decide it."""
+    conflict = diagnose(ontology, put_in_bin.name, put_in_bin.code, "Sawyer").conflicts[1]
+    unit = unit_from_conflict(put_in_bin.code, conflict, "Sawyer")
+    assert unit.span_type == "interface_rewiring" and unit.hints.unfilled == ("target_object",)
+    assert unit.hints.substitute_call == "sawyer_pick(env, task, target_object=<object_name>, target_pos=obj_pos)"
+    grounded = ground_skill(put_in_bin, "Sawyer", ontology, rule_infiller)
+    assert not grounded.valid and grounded.calls[-1].category == "empty_continuation"
+
+
+def test_same_role_literals_are_translated(ontology, put_in_bin, rule_infiller):
+    """approach_axis='z' (Panda) and pointing_to='down' (Robotiq85) share a role; the value is mapped too."""
+    grounded = ground_skill(put_in_bin, "Robotiq85", ontology, rule_infiller)
+    assert grounded.valid
+    assert "pick_robotiq85(env, task, target_pos=obj_pos, pointing_to='down')" in grounded.code
 
 
 def test_unrecoverable_after_retry_limit(ontology, put_in_bin):
@@ -95,16 +125,17 @@ def test_llamacpp_tokenizes_fim_markers_as_special_tokens(llama_infiller):
     assert ids == [151659, 151661, 151660]
 
 
-def test_real_lm_grounds_put_in_bin_for_ur5e(ontology, put_in_bin, llama_infiller):
+@pytest.mark.parametrize("robot", ["UR5e", "Sawyer", "Robotiq85", "Suction"])
+def test_real_lm_grounds_put_in_bin(ontology, put_in_bin, llama_infiller, robot):
     """The 1.5B GGUF fills each conflicting span; the result passes validation and only those lines change."""
-    grounded = ground_skill(put_in_bin, "UR5e", ontology, llama_infiller)
+    grounded = ground_skill(put_in_bin, robot, ontology, llama_infiller)
     assert grounded.valid, [c.message for c in grounded.calls]
     removed = [line for line in grounded.diff().splitlines() if line.startswith("-") and not line.startswith("---")]
     assert len(removed) == 3
     assert all(c.generated_tokens > 0 and c.seconds > 0 for c in grounded.calls)
     assert 0 < grounded.generated_tokens < grounded.skill_tokens
-    for name in ("open_ur5_ee(", "ur5_grasp_at(", "ur5_release_at("):
-        assert name in grounded.code
+    for conflict in grounded.diagnosis.conflicts:
+        assert f"{conflict.substitute.name}(env, task" in grounded.code
 
 
 @pytest.mark.slow

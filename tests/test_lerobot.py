@@ -22,9 +22,9 @@ def test_distribution_is_discovered_by_lerobot():
 
 
 def test_policy_factory_builds_recent_and_returns_batched_actions():
-    import lerobot_policy_recent  # noqa: F401
     from lerobot.policies.factory import make_policy, make_pre_post_processors
 
+    import lerobot_policy_recent  # noqa: F401
     from recent_plugin.configuration_recent import RecentConfig
     from robosuite_envs.gym_env import RecentEnv
     from robosuite_envs.lerobot_env import RecentEnvConfig

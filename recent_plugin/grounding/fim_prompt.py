@@ -7,7 +7,13 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from ontology.diagnosis import ParameterMapping
 from recent_plugin.grounding.units import Hints, RefactoringUnit
+
+# GBNF grammars for the span: code statements, never comments (a small model otherwise sometimes
+# copies a hint line instead of writing the call). Backends without grammar support ignore them.
+STATEMENT_LINE = r'root ::= [a-zA-Z_] [^\n]* "\n"'
+STATEMENT_LINES = r"root ::= line+" + "\n" + r'line ::= [ ]* [a-zA-Z_] [^\n]* "\n"'
 
 
 @dataclass(frozen=True)
@@ -16,26 +22,39 @@ class FimPrompt:
     suffix: str
     stop: tuple[str, ...]  # text stops that end the span (on top of the model's special tokens)
     max_tokens: int
+    grammar: str  # GBNF the generated span must match
 
 
 def hint_lines(span_type: str, hints: Hints) -> list[str]:
-    """Comment lines for one edit; the substitute's signature comes last, nearest the span."""
+    """Comment lines for one edit; the substitute's call comes last, nearest the span.
+
+    A retry narrows the cues to the original call, the rejection and the call to write: a small
+    model that copied a hint line instead of writing code gets less to copy the second time.
+    """
+    if hints.attempt > 0:
+        call = [f"Call exactly: {hints.substitute_call}"] if hints.substitute_call else []
+        return [f"Was: {hints.original_call}", f"Rejected before: {hints.feedback}", *call]
     lines = [f"{hints.robot} ({span_type.replace('_', ' ')}): {hints.reason}", f"Was: {hints.original_call}"]
     edits = []
     if hints.mapping:
-        edits.append("map " + ", ".join(f"{src} -> {dst}" for src, dst in hints.mapping))
+        edits.append("map " + ", ".join(_render_mapping(m) for m in hints.mapping))
     if hints.dropped:
         edits.append("drop " + ", ".join(hints.dropped))
     if hints.unfilled:
         edits.append("also pass " + ", ".join(hints.unfilled))
     if edits:
         lines.append("Arguments: " + "; ".join(edits))
-    if hints.feedback:
-        lines.append(f"Rejected before: {hints.feedback}")
     if span_type in {"api_substitution", "interface_rewiring"} and hints.substitute_signature:
         lines.append(f"{hints.robot} API: {hints.substitute_signature}")
-        lines.append(f"Call exactly: {hints.substitute_template}")
+        if hints.unfilled:
+            lines.append("Replace each <...> with a variable or literal from the code above")
+        lines.append(f"Call exactly: {hints.substitute_call}")
     return lines
+
+
+def _render_mapping(mapping: ParameterMapping) -> str:
+    values = ", ".join(f"{a!r} -> {b!r}" for a, b in mapping.values)
+    return f"{mapping.source} -> {mapping.target}" + (f" ({values})" if values else "")
 
 
 def build_prompt(unit: RefactoringUnit, span_tokens: int) -> FimPrompt:
@@ -44,6 +63,7 @@ def build_prompt(unit: RefactoringUnit, span_tokens: int) -> FimPrompt:
     return FimPrompt(
         prefix=unit.prefix + comments + unit.indent,
         suffix=unit.suffix,
-        stop=("\n",) if single_line else ("\n\n",),
+        stop=("\n", "  #") if single_line else ("\n\n",),
         max_tokens=max(24, 2 * span_tokens + 16),
+        grammar=STATEMENT_LINE if single_line else STATEMENT_LINES,
     )

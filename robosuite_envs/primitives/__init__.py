@@ -29,11 +29,13 @@ def api_spec_path(api: str) -> Path:
 
 
 def api_functions(api: str) -> dict[str, object]:
-    """Public generator functions of ``robosuite_envs.primitives.<api>``, by name."""
+    """The primitives of ``robosuite_envs.primitives.<api>``: its ``__all__`` if it re-exports shared
+    motions, else the public generator functions it defines."""
     api_spec_path(api)
     module = importlib.import_module(f"robosuite_envs.primitives.{api}")
-    return {
-        name: fn
+    names = getattr(module, "__all__", None) or [
+        name
         for name, fn in vars(module).items()
-        if inspect.isgeneratorfunction(fn) and not name.startswith("_") and fn.__module__ == module.__name__
-    }
+        if inspect.isgeneratorfunction(fn) and fn.__module__ == module.__name__
+    ]
+    return {name: getattr(module, name) for name in names if not name.startswith("_")}

@@ -9,7 +9,7 @@ from __future__ import annotations
 from collections.abc import Generator, Sequence
 
 import numpy as np
-from robosuite.utils.transform_utils import mat2quat, quat2axisangle, quat2mat
+from robosuite.utils.transform_utils import mat2quat, quat2axisangle, quat2mat, quat_multiply
 
 from robosuite_envs.observation import ACTION_DIM
 from robosuite_envs.primitives.session import CONTROL_FREQ, PrimitiveFailure, RobotSession
@@ -29,8 +29,7 @@ def servo_action(session: RobotSession, target_pos: np.ndarray) -> Action:
     """One P-step towards ``target_pos`` holding the session's orientation, with its gripper command."""
     obs = session.obs
     delta = np.clip(target_pos - obs.eef_pos, -MAX_STEP, MAX_STEP)
-    r_err = quat2mat(session.hold_quat) @ quat2mat(obs.eef_quat).T
-    rot = quat2axisangle(mat2quat(r_err))
+    rot = rotation_error(session)
     action = np.zeros(ACTION_DIM)
     action[:3] = np.clip(delta / POS_SCALE, -1.0, 1.0)
     action[3:6] = np.clip(rot / ROT_SCALE, -1.0, 1.0)
@@ -82,6 +81,11 @@ def actuate_gripper(
             return
 
 
+def stroke_time(velocity: float) -> float:
+    """Longest time to sweep the gripper stroke at ``velocity`` (stroke fractions per 0.1 s), clamped."""
+    return float(min(4.0, max(0.5, 0.6 / max(velocity, 1e-3))))
+
+
 def grasp_at(
     session: RobotSession, position: Sequence[float], *, timeout_s: float = 10.0, object_name: str | None = None
 ) -> Steps:
@@ -96,6 +100,77 @@ def grasp_at(
     held = [name for name, state in session.obs.objects.items() if state.grasped]
     if not held or (object_name is not None and object_name not in held):
         raise PrimitiveFailure("grasp_lost", f"nothing is held after grasping at {np.round(target, 3).tolist()}")
+
+
+def suction_grasp_at(session: RobotSession, position: Sequence[float], *, timeout_s: float = 10.0) -> Steps:
+    """Approach a top face from above, descend until the cup touches, switch suction on, lift."""
+    target = as_position(position, "suction position")
+    above = target + np.array([0.0, 0.0, APPROACH_HEIGHT])
+    yield from actuate_gripper(session, -1.0, duration_s=0.1, max_duration_s=0.2)
+    yield from move_to(session, above, timeout_s=timeout_s)
+    yield from descend_until_contact(session, target, timeout_s=timeout_s / 2)
+    yield from actuate_gripper(session, 1.0, duration_s=0.3, max_duration_s=0.5)
+    yield from move_to(session, above, timeout_s=timeout_s / 2)
+    if not any(state.grasped for state in session.obs.objects.values()):
+        raise PrimitiveFailure(
+            "grasp_lost",
+            f"suction did not hold anything at {np.round(target, 3).tolist()} (no seal: surface not flat, porous, or missed)",
+        )
+
+
+def descend_until_contact(
+    session: RobotSession, target: np.ndarray, *, timeout_s: float = 5.0, overshoot: float = 0.01
+) -> Steps:
+    """Lower towards ``target`` (and ``overshoot`` below it) until the end effector touches an object."""
+    goal = np.array(target) - np.array([0.0, 0.0, overshoot])
+    for _ in range(max(1, int(timeout_s * CONTROL_FREQ))):
+        if any(state.touching for state in session.obs.objects.values()):
+            return
+        yield servo_action(session, goal)
+    raise PrimitiveFailure("unreachable", f"no contact while descending to {np.round(target, 3).tolist()}")
+
+
+def push_to(session: RobotSession, start: Sequence[float], goal: Sequence[float], *, timeout_s: float = 10.0) -> Steps:
+    """Put the closed gripper at ``start`` (from above) and slide it along the table to ``goal``."""
+    begin, end = as_position(start, "push start"), as_position(goal, "push goal")
+    yield from actuate_gripper(session, 1.0, duration_s=0.2, max_duration_s=1.0)
+    yield from move_to(session, begin + np.array([0.0, 0.0, APPROACH_HEIGHT]), timeout_s=timeout_s)
+    yield from move_to(session, begin, timeout_s=timeout_s / 2)
+    yield from move_to(session, end, timeout_s=timeout_s, tol=0.015)
+    yield from move_to(session, end + np.array([0.0, 0.0, APPROACH_HEIGHT]), timeout_s=timeout_s / 2, tol=0.02)
+
+
+def align_to(
+    session: RobotSession, quat_xyzw: Sequence[float], *, timeout_s: float = 4.0, tol_rad: float = 0.05
+) -> Steps:
+    """Rotate the grip site to ``quat_xyzw`` (world frame) in place; fail with ``misaligned`` if it cannot."""
+    quat = np.asarray(quat_xyzw, dtype=np.float64).reshape(-1)
+    if quat.shape != (4,) or not np.all(np.isfinite(quat)) or np.linalg.norm(quat) < 1e-6:
+        raise PrimitiveFailure("misaligned", f"orientation must be a quaternion [x, y, z, w], got {quat_xyzw!r}")
+    session.hold_quat = quat / np.linalg.norm(quat)
+    hold = np.array(session.obs.eef_pos)
+    for _ in range(max(1, int(timeout_s * CONTROL_FREQ))):
+        if orientation_error(session) < tol_rad:
+            return
+        yield servo_action(session, hold)
+    raise PrimitiveFailure(
+        "misaligned", f"gripper still {np.degrees(orientation_error(session)):.1f} deg from the requested orientation"
+    )
+
+
+def rotate_about_z(session: RobotSession, angle_rad: float, *, timeout_s: float = 4.0) -> Steps:
+    """Turn the gripper by ``angle_rad`` about the world z axis."""
+    turn = np.array([0.0, 0.0, np.sin(angle_rad / 2), np.cos(angle_rad / 2)])
+    yield from align_to(session, quat_multiply(turn, session.hold_quat), timeout_s=timeout_s)
+
+
+def rotation_error(session: RobotSession) -> np.ndarray:
+    """Axis-angle (world frame) that turns the current grip-site orientation into the held one."""
+    return quat2axisangle(mat2quat(quat2mat(session.hold_quat) @ quat2mat(session.obs.eef_quat).T))
+
+
+def orientation_error(session: RobotSession) -> float:
+    return float(np.linalg.norm(rotation_error(session)))
 
 
 def release_at(session: RobotSession, position: Sequence[float], *, timeout_s: float = 10.0) -> Steps:

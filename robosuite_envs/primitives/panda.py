@@ -29,6 +29,30 @@ def move(env: RobotSession, task: TaskContext, target_pos: Sequence[float], time
     yield from control.move_to(env, target_pos, timeout_s=timeout)
 
 
+def push(
+    env: RobotSession,
+    task: TaskContext,
+    start_pos: Sequence[float],
+    target_pos: Sequence[float],
+    approach_axis: str = "z",
+) -> control.Steps:
+    """Lower the closed hand at ``start_pos`` and slide it to ``target_pos``, pushing what is in the way."""
+    _check_axis(approach_axis)
+    yield from control.push_to(env, start_pos, target_pos)
+
+
+def align_to_quaternion(
+    env: RobotSession, task: TaskContext, quaternion: Sequence[float], timeout: float = 4.0
+) -> control.Steps:
+    """Turn the hand to the world-frame orientation ``quaternion`` [x, y, z, w]."""
+    yield from control.align_to(env, quaternion, timeout_s=timeout)
+
+
+def align_two_axes(env: RobotSession, task: TaskContext, yaw: float = 0.0) -> control.Steps:
+    """Keep the hand pointing down and turn it by ``yaw`` radians about the vertical."""
+    yield from control.rotate_about_z(env, float(yaw))
+
+
 def open_gripper(env: RobotSession, task: TaskContext) -> control.Steps:
     """Open the Franka hand fully."""
     yield from control.actuate_gripper(env, -1.0)

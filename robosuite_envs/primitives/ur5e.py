@@ -29,20 +29,35 @@ def ur5_move_to(
     yield from control.move_to(env, target_pos, timeout_s=timeout_s)
 
 
+def ur5_push_to(
+    env: RobotSession,
+    task: TaskContext,
+    contact_pos: Sequence[float],
+    goal_pos: Sequence[float],
+    timeout_s: float = 6.0,
+) -> control.Steps:
+    """Touch down at ``contact_pos`` with the closed gripper and slide to ``goal_pos``."""
+    yield from control.push_to(env, contact_pos, goal_pos, timeout_s=timeout_s)
+
+
+def ur5_align_gripper(
+    env: RobotSession, task: TaskContext, reference_quat: Sequence[float], timeout_s: float = 3.0
+) -> control.Steps:
+    """Align the tool frame with ``reference_quat`` [x, y, z, w] (world frame)."""
+    yield from control.align_to(env, reference_quat, timeout_s=timeout_s)
+
+
 def open_ur5_ee(
     env: RobotSession, task: TaskContext, gripper_open: float = 1.0, velocity: float = 0.2
 ) -> control.Steps:
     """Open the end effector to fraction ``gripper_open`` (1.0 = fully open)."""
-    yield from control.actuate_gripper(env, -float(gripper_open), max_duration_s=_duration(velocity))
+    yield from control.actuate_gripper(env, -float(gripper_open), max_duration_s=control.stroke_time(velocity))
 
 
 def close_ur5_ee(
     env: RobotSession, task: TaskContext, gripper_close: float = 0.0, velocity: float = 0.2
 ) -> control.Steps:
     """Close the end effector to fraction ``gripper_close`` of its opening (0.0 = fully closed)."""
-    yield from control.actuate_gripper(env, 1.0 - 2.0 * float(gripper_close), max_duration_s=_duration(velocity))
-
-
-def _duration(velocity: float) -> float:
-    """Longest time to sweep the stroke at ``velocity`` (stroke fractions per 0.1 s), clamped to sane bounds."""
-    return float(min(4.0, max(0.5, 0.6 / max(velocity, 1e-3))))
+    yield from control.actuate_gripper(
+        env, 1.0 - 2.0 * float(gripper_close), max_duration_s=control.stroke_time(velocity)
+    )
