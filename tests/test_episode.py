@@ -28,6 +28,22 @@ def test_grounded_episode_on_ur5e_with_the_real_lm(ontology, llama_infiller):
     assert again.success, again.failures
 
 
+def test_suction_gripper_really_holds_and_releases(ontology, rule_infiller):
+    """The vacuum cup lifts the cube by contact + adhesion and drops it into the bin when switched off."""
+    agent = RecentAgent(AgentSettings(backend="rule"), infiller=rule_infiller, ontology=ontology)
+    result = run_episode(agent, "cube_in_bin", "Suction", seed=0)
+    assert result.success, result.failures
+    assert "attach_vacuum_handle(env, task, handle_pos=obj_pos)" in result.grounding.skills[0].code
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("robot", ["Robotiq85", "Suction"])
+def test_grounded_episode_on_end_effector_targets_with_the_real_lm(ontology, llama_infiller, robot):
+    agent = RecentAgent(AgentSettings(), infiller=llama_infiller, ontology=ontology)
+    result = run_episode(agent, "cube_in_bin", robot, seed=0)
+    assert result.success, (result.failures, result.grounding.skills[0].diff())
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("seed", [0, 1, 42, 123, 2024])
 def test_rule_grounding_succeeds_on_every_paper_seed(ontology, rule_infiller, seed):

@@ -19,6 +19,7 @@ Steps = Generator[Action, None, None]
 
 POS_SCALE = 0.05  # metres per unit action (robosuite OSC_POSE output_max)
 ROT_SCALE = 0.5  # radians per unit action
+ROT_DEADBAND = 0.06  # radians of orientation error left uncorrected while moving
 MAX_STEP = 0.02  # metres of goal displacement per control step (~0.4 m/s)
 POS_TOL = 0.008
 APPROACH_HEIGHT = 0.10
@@ -30,6 +31,8 @@ def servo_action(session: RobotSession, target_pos: np.ndarray) -> Action:
     obs = session.obs
     delta = np.clip(target_pos - obs.eef_pos, -MAX_STEP, MAX_STEP)
     rot = rotation_error(session)
+    if np.linalg.norm(rot) < ROT_DEADBAND:
+        rot = np.zeros(3)  # small tilts are harmless; fighting them stalls arms near singular postures
     action = np.zeros(ACTION_DIM)
     action[:3] = np.clip(delta / POS_SCALE, -1.0, 1.0)
     action[3:6] = np.clip(rot / ROT_SCALE, -1.0, 1.0)
@@ -148,6 +151,7 @@ def align_to(
     if quat.shape != (4,) or not np.all(np.isfinite(quat)) or np.linalg.norm(quat) < 1e-6:
         raise PrimitiveFailure("misaligned", f"orientation must be a quaternion [x, y, z, w], got {quat_xyzw!r}")
     session.hold_quat = quat / np.linalg.norm(quat)
+    session.hold_yaw = True
     hold = np.array(session.obs.eef_pos)
     for _ in range(max(1, int(timeout_s * CONTROL_FREQ))):
         if orientation_error(session) < tol_rad:
@@ -165,8 +169,21 @@ def rotate_about_z(session: RobotSession, angle_rad: float, *, timeout_s: float 
 
 
 def rotation_error(session: RobotSession) -> np.ndarray:
-    """Axis-angle (world frame) that turns the current grip-site orientation into the held one."""
-    return quat2axisangle(mat2quat(quat2mat(session.hold_quat) @ quat2mat(session.obs.eef_quat).T))
+    """Axis-angle (world frame) from the current grip-site orientation to the held one.
+
+    Unless a primitive aligned the gripper explicitly (``session.hold_yaw``), only the tool axis is
+    held: yaw stays free, which keeps top-down motions feasible across the workspace (a Sawyer
+    holding its start yaw cannot reach the table's -y side).
+    """
+    current, held = quat2mat(session.obs.eef_quat), quat2mat(session.hold_quat)
+    if session.hold_yaw:
+        return quat2axisangle(mat2quat(held @ current.T))
+    z_now, z_goal = current[:, 2], held[:, 2]
+    axis = np.cross(z_now, z_goal)
+    sin, cos = np.linalg.norm(axis), float(np.clip(np.dot(z_now, z_goal), -1.0, 1.0))
+    if sin < 1e-9:
+        return np.zeros(3)
+    return axis / sin * np.arctan2(sin, cos)
 
 
 def orientation_error(session: RobotSession) -> float:

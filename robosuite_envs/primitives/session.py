@@ -43,6 +43,7 @@ class RobotSession:
     obs: Observation
     gripper_command: float = -1.0  # robosuite convention: -1 open, +1 closed
     hold_quat: np.ndarray = field(default=None)  # type: ignore[assignment]
+    hold_yaw: bool = False  # set once a primitive aligns the gripper; until then only the tool axis is held
     steps: int = 0
 
     def __post_init__(self) -> None:
