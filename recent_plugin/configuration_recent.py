@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 
 from lerobot.configs import NormalizationMode, PreTrainedConfig
 from lerobot.optim import AdamConfig
@@ -20,12 +20,13 @@ class RecentConfig(PreTrainedConfig):
     ``model``: a known model name (``recent model list``) or a path to a ``.gguf`` file.
     """
 
-    backend: str = "llamacpp"
-    model: str = "qwen2.5-coder-1.5b"
-    n_threads: int | None = None
-    max_retries: int = 2
-    seed: int = 0
-    max_skill_steps: int = 3000
+    # Flat fields (``--policy.backend=rule``) with the agent's defaults, kept in one place.
+    backend: str = AgentSettings.backend
+    model: str = AgentSettings.model
+    n_threads: int | None = AgentSettings.n_threads
+    max_retries: int = AgentSettings.max_retries
+    seed: int = AgentSettings.seed
+    max_skill_steps: int = AgentSettings.max_skill_steps
     device: str | None = "cpu"
     normalization_mapping: dict[str, NormalizationMode] = field(
         default_factory=lambda: {
@@ -44,14 +45,7 @@ class RecentConfig(PreTrainedConfig):
             raise ValueError("policy.max_retries must be >= 0")
 
     def agent_settings(self) -> AgentSettings:
-        return AgentSettings(
-            backend=self.backend,
-            model=self.model,
-            n_threads=self.n_threads,
-            max_retries=self.max_retries,
-            seed=self.seed,
-            max_skill_steps=self.max_skill_steps,
-        )
+        return AgentSettings(**{f.name: getattr(self, f.name) for f in fields(AgentSettings)})
 
     @property
     def observation_delta_indices(self) -> None:
