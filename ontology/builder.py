@@ -15,7 +15,15 @@ import pyoxigraph as ox
 
 from ontology.mjcf import ArmFacts, GripperFacts, read_arm, read_gripper
 from ontology.skill_code import call_sites
-from ontology.specs import ApiSpec, PrimitiveSpec, SpecError, load_api_spec
+from ontology.specs import (
+    ApiSpec,
+    ConditionSpec,
+    PrimitiveSpec,
+    SpecError,
+    check_against_vocabulary,
+    load_api_spec,
+    load_conditions,
+)
 
 RC = "https://w3id.org/recent/ontology#"
 INST = "https://w3id.org/recent/instance/"
@@ -30,6 +38,22 @@ MECHANISM_CAPABILITIES = {
     "none": (),
 }
 ARM_CAPABILITIES = ("move_end_effector", "orient_end_effector")
+# Every primitive takes the robot session and the task context first; they are parameters too.
+CONTEXT_PARAMETERS = (("env", "robot_session", "robot_handle"), ("task", "task_context", "task_handle"))
+
+
+def hardware_capabilities(arm: ArmFacts, grip: GripperFacts) -> set[str]:
+    """Capabilities implied by the MJCF alone, before any primitive is considered."""
+    caps = set(MECHANISM_CAPABILITIES[grip.mechanism])
+    if arm.dof >= 6:
+        caps |= {*ARM_CAPABILITIES, "six_dof_positioning"}
+    if arm.dof >= 7:
+        caps.add("redundant_kinematics")
+    if grip.force_sensor:
+        caps.add("force_torque_sensing")
+    if grip.joints:
+        caps.add("finger_state_sensing")
+    return caps
 
 
 def rc(term: str) -> ox.NamedNode:
@@ -63,6 +87,7 @@ class Ontology:
     apis: dict[str, ApiSpec]
     arms: dict[str, ArmFacts]
     grippers: dict[str, GripperFacts]
+    conditions: dict[str, ConditionSpec]
     build_seconds: float = 0.0
     counts: dict[str, int] = field(default_factory=dict)
 
@@ -126,11 +151,15 @@ def build_ontology(
     grippers: dict[str, GripperFacts] = {}
     capabilities: set[str] = set()
     conditions: set[str] = set()
+    vocabulary = load_conditions()
     n_params = 0
     for src in sources:
         api = load_api_spec(src.api_spec)
         if api.embodiment != src.name:
             raise SpecError(src.api_spec, "embodiment", f"says {api.embodiment!r} but is registered for {src.name!r}")
+        if src.name in apis:
+            raise SpecError(src.api_spec, "embodiment", f"{src.name!r} is registered twice")
+        check_against_vocabulary(api, vocabulary)
         apis[src.name] = api
         arms[src.name] = arm = read_arm(src.robot_mjcf)
         grippers[src.name] = grip = read_gripper(src.gripper_mjcf)
@@ -140,6 +169,7 @@ def build_ontology(
         add(robot, rc("hasArm"), arm_node)
         add(arm_node, RDF_TYPE, rc("Arm"))
         add(arm_node, rc("dof"), arm.dof)
+        add(arm_node, rc("reach"), arm.reach)
         for joint in arm.joints:
             node = inst(src.name, "joint", joint.name)
             add(arm_node, rc("hasJoint"), node)
@@ -149,12 +179,22 @@ def build_ontology(
         add(robot, rc("hasEndEffector"), ee)
         add(ee, RDF_TYPE, rc("EndEffector"))
         add(ee, rc("graspMechanism"), grip.mechanism)
-        inferred = set(MECHANISM_CAPABILITIES[grip.mechanism]) | (set(ARM_CAPABILITIES) if arm.dof >= 6 else set())
+        if grip.stroke is not None:
+            add(ee, rc("stroke"), grip.stroke)
+        inferred = hardware_capabilities(arm, grip)
         for prim in api.primitives:
             node = inst(src.name, prim.name)
             add(robot, rc("hasPrimitive"), node)
             add(node, RDF_TYPE, rc("Primitive"))
             add(node, rc("name"), prim.name)
+            for pname, ptype, role in CONTEXT_PARAMETERS:
+                pnode = inst(src.name, prim.name, pname)
+                n_params += 1
+                add(node, rc("hasParameter"), pnode)
+                add(pnode, RDF_TYPE, rc("Parameter"))
+                add(pnode, rc("paramType"), ptype)
+                add(pnode, rc("paramRole"), role)
+                add(pnode, rc("required"), True)
             for param in prim.parameters:
                 pnode = inst(src.name, prim.name, param.name)
                 n_params += 1
@@ -168,6 +208,9 @@ def build_ontology(
                     add(pnode, rc("unit"), param.unit)
                 if not param.required:
                     add(pnode, rc("defaultValue"), repr(param.default))
+                if param.range:
+                    add(pnode, rc("minValue"), float(param.range[0]))
+                    add(pnode, rc("maxValue"), float(param.range[1]))
             for cond in prim.preconditions:
                 add(node, rc("hasPrecondition"), inst("condition", cond))
             for cond in prim.effects:
@@ -183,7 +226,13 @@ def build_ontology(
     for cap in sorted(capabilities):
         add(inst("capability", cap), RDF_TYPE, rc("Capability"))
     for cond in sorted(conditions):
-        add(inst("condition", cond), RDF_TYPE, rc("Condition"))
+        node, spec = inst("condition", cond), vocabulary[cond]
+        add(node, RDF_TYPE, rc("Condition"))
+        add(node, rc("conditionKind"), spec.kind)
+        if spec.check:
+            add(node, rc("runtimeCheck"), spec.check)
+        for other in sorted(spec.excludes):
+            add(node, rc("excludes"), inst("condition", other))
 
     relations = 0
     prims = [(emb, p) for emb, api in apis.items() for p in api.primitives]
@@ -224,7 +273,7 @@ def build_ontology(
         "effects": sum(len(p.effects) for _, p in prims),
         "substitution_relations": relations,
     }
-    return Ontology(store, apis, arms, grippers, time.perf_counter() - started, counts)
+    return Ontology(store, apis, arms, grippers, vocabulary, time.perf_counter() - started, counts)
 
 
 def _same_function(a: PrimitiveSpec, b: PrimitiveSpec) -> bool:

@@ -7,10 +7,11 @@ conflict carries everything the refactoring step needs — no LM is involved her
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, field
 
 from ontology.builder import Ontology
-from ontology.skill_code import CodeSpan, call_sites
+from ontology.skill_code import CallSite, CodeSpan, call_sites, position_bindings
 from ontology.specs import PrimitiveSpec
 
 SPAN_TYPES = ("api_substitution", "parameter_binding", "interface_rewiring", "preparatory_step")
@@ -43,13 +44,15 @@ class Conflict:
 
 @dataclass(frozen=True)
 class Warning:
-    """An undetermined factor: checked on live observations before ``span`` runs."""
+    """An undetermined factor: checked on live observations before (or after) ``span`` runs."""
 
-    kind: str
-    span: CodeSpan
-    check: str
-    observation: str
+    kind: str  # the runtime condition, e.g. "surface_flat"
+    span: CodeSpan  # the upcoming statement it guards
+    primitive: str  # the target primitive that statement calls
+    check: str  # name of the run-time check
+    observation: str  # what the check reads
     message: str
+    phase: str = "before"  # "before" for preconditions, "after" for effects
 
 
 @dataclass(frozen=True)
@@ -72,46 +75,86 @@ def _value_map(source: tuple | None, target: tuple | None) -> tuple[tuple[object
 
 
 def diagnose(onto: Ontology, skill_name: str, code: str, robot: str, source: str = "Panda") -> Diagnosis:
+    """D(skill, robot) = ⟨determined conflicts, undetermined warnings⟩ — no LM involved."""
     source_api, target_api = onto.api(source), onto.api(robot)
-    conflicts = []
-    for site in call_sites(code, skill_name):
+    sites = [s for s in call_sites(code, skill_name) if source_api.get(s.name) is not None]
+    bindings = position_bindings(code)
+    conflicts, warnings = [], []
+    for site in sites:
         original = source_api.get(site.name)
-        if original is None or target_api.get(site.name) is not None:
-            continue  # a helper, or a primitive the target shares
-        candidates = onto.substitutes(source, site.name, robot)
-        if not candidates:
-            conflicts.append(
-                Conflict(
-                    span=site.span,
-                    span_type="api_substitution",
-                    original=site.name,
-                    substitute=None,
-                    reason=f"{robot} has no primitive with the effects of {site.name} ({', '.join(sorted(original.effects))})",
-                )
-            )
-            continue
-        substitute = candidates[0]
-        mapping, dropped = [], []
-        for param in original.parameters:
-            target = substitute.by_role(param.role)
-            if target is None:
-                dropped.append(param.name)
-            else:
-                mapping.append(
-                    ParameterMapping(param.name, target.name, param.role, _value_map(param.choices, target.choices))
-                )
-        mapped = {m.target for m in mapping}
-        unfilled = tuple(p.name for p in substitute.parameters if p.required and p.name not in mapped)
-        conflicts.append(
-            Conflict(
-                span=site.span,
-                span_type="interface_rewiring" if unfilled else "api_substitution",
-                original=site.name,
-                substitute=substitute,
-                mapping=tuple(mapping),
-                dropped=tuple(dropped),
-                unfilled=unfilled,
-                reason=f"no {site.name}; use {substitute.name} (same effects)",
-            )
+        target = target_api.get(site.name)
+        if target is None:
+            conflict = _conflict(onto, site, original, source, robot)
+            conflicts.append(conflict)
+            target = conflict.substitute
+        if target is not None:
+            warnings += _warnings(onto, site, original, target, source, robot, sites, bindings)
+    return Diagnosis(skill=skill_name, robot=robot, conflicts=tuple(conflicts), warnings=tuple(warnings))
+
+
+def _conflict(onto: Ontology, site: CallSite, original: PrimitiveSpec, source: str, robot: str) -> Conflict:
+    candidates = onto.substitutes(source, site.name, robot)
+    if not candidates:
+        return Conflict(
+            span=site.span,
+            span_type="api_substitution",
+            original=site.name,
+            substitute=None,
+            reason=f"{robot} has no primitive with the effects of {site.name} ({', '.join(sorted(original.effects))})",
         )
-    return Diagnosis(skill=skill_name, robot=robot, conflicts=tuple(conflicts))
+    substitute = min(candidates, key=lambda c: (len(c.preconditions - original.preconditions), c.name))
+    mapping, dropped = [], []
+    for param in original.parameters:
+        target = substitute.by_role(param.role)
+        if target is None:
+            dropped.append(param.name)
+        else:
+            mapping.append(
+                ParameterMapping(param.name, target.name, param.role, _value_map(param.choices, target.choices))
+            )
+    mapped = {m.target for m in mapping}
+    unfilled = tuple(p.name for p in substitute.parameters if p.required and p.name not in mapped)
+    return Conflict(
+        span=site.span,
+        span_type="interface_rewiring" if unfilled else "api_substitution",
+        original=site.name,
+        substitute=substitute,
+        mapping=tuple(mapping),
+        dropped=tuple(dropped),
+        unfilled=unfilled,
+        reason=f"no {site.name}; use {substitute.name} (same effects)",
+    )
+
+
+def _warnings(onto, site, original, target, source, robot, sites, bindings) -> list[Warning]:
+    """Runtime conditions of the primitive this call will run as, where this robot or this code makes them uncertain."""
+    vocab, out = onto.conditions, []
+
+    def warn(cond: str, phase: str = "before") -> None:
+        spec = vocab[cond]
+        out.append(Warning(cond, site.span, target.name, spec.check, spec.observation, spec.message, phase))
+
+    for cond in sorted(target.preconditions):
+        if vocab[cond].kind != "runtime":
+            continue
+        if cond not in original.preconditions:
+            warn(cond)  # new on this robot: e.g. a suction cup needs a flat, sealable top face
+        elif cond in {"target_reachable", "handle_reachable"} and onto.arms[robot].reach < onto.arms[source].reach:
+            warn(cond)  # a smaller workspace than the one the skill was validated in
+        elif cond == "object_at_target" and _read_before_earlier_motion(site, sites, bindings):
+            warn(cond)  # the position was read, then the robot moved: the object may have too
+    if "object_grasped" in target.effects and onto.grippers[robot] != onto.grippers[source]:
+        warn("object_grasped", phase="after")  # another end effector: will the grasp hold?
+    return out
+
+
+def _read_before_earlier_motion(site: CallSite, sites: list[CallSite], bindings) -> bool:
+    used = [b for name, b in bindings.items() if any(_mentions(text, name) for _, text in site.arguments)]
+    return any(s.span.start > b.offset and s.span.start < site.span.start for b in used for s in sites)
+
+
+def _mentions(text: str, name: str) -> bool:
+    return any(token == name for token in _IDENT.findall(text))
+
+
+_IDENT = re.compile(r"[A-Za-z_][A-Za-z_0-9]*")

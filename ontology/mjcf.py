@@ -21,6 +21,7 @@ class JointFact:
 class ArmFacts:
     dof: int
     joints: tuple[JointFact, ...]
+    reach: float  # metres: summed link offsets along the kinematic chain (an upper bound)
 
 
 @dataclass(frozen=True)
@@ -28,6 +29,8 @@ class GripperFacts:
     mechanism: str  # "parallel_jaw", "suction", "multi_finger" or "none"
     actuators: int
     joints: int
+    force_sensor: bool = False
+    stroke: float | None = None  # summed travel of the driven finger joints (m or rad), if any
 
 
 def resolve_mjcf(path: str) -> Path:
@@ -62,7 +65,25 @@ def read_arm(path: str) -> ArmFacts:
         joints.append(JointFact(joint.get("name", f"joint{len(joints)}"), lo, hi))
     if not joints:
         raise SpecError(resolve_mjcf(path), "mjcf.joint", "robot model declares no hinge or slide joints")
-    return ArmFacts(dof=len(joints), joints=tuple(joints))
+    return ArmFacts(dof=len(joints), joints=tuple(joints), reach=_chain_length(root))
+
+
+def _chain_length(root: ET.Element) -> float:
+    """Stretched length of the arm: link offsets after the first joint, following the child whose
+    subtree holds the most joints (the arm, not a camera or a pedestal)."""
+    world = root.find("worldbody")
+    body = world.find("body") if world is not None else None
+    total, past_first_joint = 0.0, False
+    while body is not None:
+        children = [b for b in body.findall("body") if any(True for _ in b.iter("joint"))]
+        if not children:
+            break
+        body = max(children, key=lambda b: sum(1 for _ in b.iter("joint")))
+        if past_first_joint:
+            offset = [float(v) for v in body.get("pos", "0 0 0").split()]
+            total += sum(v * v for v in offset) ** 0.5
+        past_first_joint = past_first_joint or body.find("joint") is not None
+    return round(total, 3)
 
 
 def read_gripper(path: str) -> GripperFacts:
@@ -78,4 +99,16 @@ def read_gripper(path: str) -> GripperFacts:
         mechanism = "parallel_jaw"
     else:
         mechanism = "multi_finger"
-    return GripperFacts(mechanism=mechanism, actuators=len(actuators), joints=len(joints))
+    driven = {a.get("joint") for a in actuators if a.get("joint")}
+    ranges = [
+        float(j.get("range", "0 0").split()[1]) - float(j.get("range", "0 0").split()[0])
+        for j in joints
+        if j.get("name") in driven
+    ]
+    return GripperFacts(
+        mechanism=mechanism,
+        actuators=len(actuators),
+        joints=len(joints),
+        force_sensor=any(True for _ in root.iter("force")),
+        stroke=round(sum(ranges), 4) if ranges else None,
+    )

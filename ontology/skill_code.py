@@ -26,6 +26,16 @@ class CallSite:
     span: CodeSpan  # the whole statement that holds the call
     keywords: tuple[str, ...]
     positional: int
+    arguments: tuple[tuple[str, str], ...] = ()  # keyword -> source text of the argument
+
+
+@dataclass(frozen=True)
+class PositionBinding:
+    """``var = task.get_object_position(...)``: where the skill read an object's position."""
+
+    variable: str
+    line: int
+    offset: int
 
 
 class SkillCodeError(ValueError):
@@ -82,6 +92,27 @@ def call_sites(code: str, filename: str = "<skill>") -> list[CallSite]:
                     span=span_of(stmt, code, starts),
                     keywords=tuple(k.arg for k in call.keywords if k.arg),
                     positional=len(call.args),
+                    arguments=tuple((k.arg, ast.unparse(k.value)) for k in call.keywords if k.arg),
                 )
             )
     return sorted(sites, key=lambda s: s.span.start)
+
+
+def position_bindings(code: str) -> dict[str, PositionBinding]:
+    """Variables that hold an object position read from the task, with where they were read."""
+    tree = parse_skill(code)
+    starts = _offsets(code)
+    found = {}
+    for node in ast.walk(tree):
+        if (
+            isinstance(node, ast.Assign)
+            and len(node.targets) == 1
+            and isinstance(node.targets[0], ast.Name)
+            and isinstance(node.value, ast.Call)
+            and isinstance(node.value.func, ast.Attribute)
+            and node.value.func.attr == "get_object_position"
+        ):
+            found[node.targets[0].id] = PositionBinding(
+                node.targets[0].id, node.lineno, span_of(node, code, starts).start
+            )
+    return found

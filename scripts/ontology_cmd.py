@@ -7,6 +7,8 @@ from pathlib import Path
 
 from ontology.builder import SkillSource, build_ontology
 from ontology.diagnosis import diagnose
+from ontology.instance_graph import draw_instance_graph
+from ontology.query import query
 from skills.repository import list_skills, load_skill
 
 
@@ -27,6 +29,17 @@ def register(sub) -> None:
     diag.add_argument("--robot", required=True)
     diag.add_argument("--json", action="store_true")
     diag.set_defaults(handler=_diagnose)
+
+    q = actions.add_parser("query", help="Q(skill, robot): required capabilities, conditions, robot interface")
+    q.add_argument("--skill", required=True)
+    q.add_argument("--robot", required=True)
+    q.set_defaults(handler=_query)
+
+    graph = actions.add_parser("graph", help="draw a skill's partial instance graph for a robot (PNG)")
+    graph.add_argument("--skill", required=True)
+    graph.add_argument("--robot", required=True)
+    graph.add_argument("--out", type=Path, default=None, help="output PNG (default: <skill>_<robot>.png)")
+    graph.set_defaults(handler=_graph)
 
 
 def _with_skills():
@@ -50,10 +63,30 @@ def _stats(args) -> int:
     return 0
 
 
-def _diagnose(args) -> int:
+def _skill_and_ontology(args):
     skill = load_skill(args.skill)
     onto = build_ontology()
     onto.api(args.robot)  # unknown robots fail here with the known ones listed
+    return skill, onto
+
+
+def _query(args) -> int:
+    skill, onto = _skill_and_ontology(args)
+    print(
+        json.dumps(query(onto, skill.name, skill.code, args.robot, source=skill.source_embodiment).to_json(), indent=2)
+    )
+    return 0
+
+
+def _graph(args) -> int:
+    skill, onto = _skill_and_ontology(args)
+    out = args.out or Path(f"{skill.name}_{args.robot}.png")
+    print(draw_instance_graph(onto, skill.name, skill.code, args.robot, out, source=skill.source_embodiment))
+    return 0
+
+
+def _diagnose(args) -> int:
+    skill, onto = _skill_and_ontology(args)
     result = diagnose(onto, skill.name, skill.code, args.robot, source=skill.source_embodiment)
     rows = [
         {
@@ -68,9 +101,31 @@ def _diagnose(args) -> int:
         }
         for c in result.conflicts
     ]
+    warnings = [
+        {
+            "line": w.span.line,
+            "span": w.span.text(skill.code),
+            "kind": w.kind,
+            "primitive": w.primitive,
+            "phase": w.phase,
+            "check": w.check,
+            "observation": w.observation,
+            "message": w.message,
+        }
+        for w in result.warnings
+    ]
     if args.json:
-        print(json.dumps({"skill": skill.name, "robot": args.robot, "conflicts": rows, "warnings": []}, indent=2))
+        print(json.dumps({"skill": skill.name, "robot": args.robot, "conflicts": rows, "warnings": warnings}, indent=2))
         return 0
+    print(f"{skill.name} on {args.robot}: {len(rows)} determined conflict(s), {len(warnings)} undetermined warning(s)")
+    for row in rows:
+        print(f"  line {row['line']}: {row['span']}")
+        print(f"      {row['span_type']}: {row['reason']}")
+        print(f"      use {row['substitute']}  map {row['mapping']}  drop {row['dropped']}")
+    for w in warnings:
+        print(f"  line {w['line']} ({w['phase']} {w['primitive']}): {w['kind']}: {w['message']}")
+        print(f"      check {w['check']} on {w['observation']}")
+    return 0
     if not rows:
         print(f"{skill.name} is directly compatible with {args.robot}")
     for row in rows:
