@@ -66,12 +66,14 @@ def inst(*parts: str) -> ox.NamedNode:
 
 @dataclass(frozen=True)
 class EmbodimentSource:
-    """The only per-robot inputs: a name, its primitive metadata file, robot and gripper MJCF."""
+    """The only per-robot inputs: a name, its primitive metadata file, robot and gripper MJCF, and
+    whether skills are written for it (a *source* robot; substitutions run between source and others)."""
 
     name: str
     api_spec: Path
     robot_mjcf: str
     gripper_mjcf: str
+    source: bool = False
 
 
 @dataclass(frozen=True)
@@ -129,10 +131,13 @@ class Ontology:
 
 
 def default_embodiment_sources() -> list[EmbodimentSource]:
-    from robosuite_envs.embodiments import EMBODIMENTS
+    from robosuite_envs.embodiments import EMBODIMENTS, SOURCE_EMBODIMENT
     from robosuite_envs.primitives import api_spec_path
 
-    return [EmbodimentSource(e.name, api_spec_path(e.api), e.robot_mjcf, e.gripper_mjcf) for e in EMBODIMENTS.values()]
+    return [
+        EmbodimentSource(e.name, api_spec_path(e.api), e.robot_mjcf, e.gripper_mjcf, source=e.name == SOURCE_EMBODIMENT)
+        for e in EMBODIMENTS.values()
+    ]
 
 
 def build_ontology(
@@ -140,7 +145,7 @@ def build_ontology(
     skills: Iterable[SkillSource] = (),
 ) -> Ontology:
     started = time.perf_counter()
-    sources = list(embodiments) if embodiments is not None else default_embodiment_sources()
+    embodiments = list(embodiments) if embodiments is not None else default_embodiment_sources()
     quads: list[ox.Quad] = []
 
     def add(s: ox.NamedNode, p: ox.NamedNode, o) -> None:
@@ -153,7 +158,7 @@ def build_ontology(
     conditions: set[str] = set()
     vocabulary = load_conditions()
     n_params = 0
-    for src in sources:
+    for src in embodiments:
         api = load_api_spec(src.api_spec)
         if api.embodiment != src.name:
             raise SpecError(src.api_spec, "embodiment", f"says {api.embodiment!r} but is registered for {src.name!r}")
@@ -234,15 +239,22 @@ def build_ontology(
         for other in sorted(spec.excludes):
             add(node, rc("excludes"), inst("condition", other))
 
-    relations = 0
     prims = [(emb, p) for emb, api in apis.items() for p in api.primitives]
-    for emb_a, a in prims:
-        for emb_b, b in prims:
-            if a is b or not _same_function(a, b):
-                continue
-            relation = "functionalEquivalent" if emb_a == emb_b else "substitutableBy"
-            add(inst(emb_a, a.name), rc(relation), inst(emb_b, b.name))
-            relations += 1
+    sources = {src.name for src in embodiments if src.source}
+    relations = 0
+    for group in _by_function(prims).values():
+        for emb_a, a in group:
+            for emb_b, b in group:
+                if a is b:
+                    continue
+                if emb_a == emb_b:
+                    relation = "functionalEquivalent"
+                elif emb_a in sources or emb_b in sources:
+                    relation = "substitutableBy"
+                else:
+                    continue  # target↔target pairs are not needed to ground source skills (keeps the build linear)
+                add(inst(emb_a, a.name), rc(relation), inst(emb_b, b.name))
+                relations += 1
 
     for skill in skills:
         node = inst("skill", skill.name)
@@ -276,10 +288,14 @@ def build_ontology(
     return Ontology(store, apis, arms, grippers, vocabulary, time.perf_counter() - started, counts)
 
 
-def _same_function(a: PrimitiveSpec, b: PrimitiveSpec) -> bool:
-    """The matching rule: equal, non-empty effects. Preconditions the substitute adds are not a veto:
-    the diagnosis turns them into run-time checks (undetermined warnings) on the rewritten span."""
-    return bool(a.effects) and a.effects == b.effects
+def _by_function(prims: list[tuple[str, PrimitiveSpec]]) -> dict[frozenset[str], list[tuple[str, PrimitiveSpec]]]:
+    """The matching rule: primitives with equal, non-empty effects do the same thing. Preconditions a
+    substitute adds are not a veto: the diagnosis turns them into run-time checks (warnings)."""
+    groups: dict[frozenset[str], list[tuple[str, PrimitiveSpec]]] = {}
+    for emb, prim in prims:
+        if prim.effects:
+            groups.setdefault(prim.effects, []).append((emb, prim))
+    return groups
 
 
 def _literal(value: str | int | float | bool) -> ox.Literal:

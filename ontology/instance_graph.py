@@ -16,7 +16,9 @@ COLORS = {"skill": "#4c72b0", "source": "#8c8c8c", "target": "#55a868", "robot":
 COLUMNS = {"skill": 0.0, "source": 3.0, "target": 7.0, "robot": 10.6, "gap": 10.0}
 
 
-def draw_instance_graph(onto: Ontology, skill_name: str, code: str, robot: str, out: Path, source: str = "Panda") -> Path:
+def draw_instance_graph(
+    onto: Ontology, skill_name: str, code: str, robot: str, out: Path, source: str = "Panda"
+) -> Path:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -29,11 +31,22 @@ def draw_instance_graph(onto: Ontology, skill_name: str, code: str, robot: str, 
 
     def box(kind: str, y: float, text: str) -> tuple[float, float]:
         x = COLUMNS[kind]
-        ax.text(x, y, text, ha="center", va="center", color="white", fontsize=9, bbox={"boxstyle": "round,pad=0.5", "fc": COLORS[kind], "ec": "none"})
+        ax.text(
+            x,
+            y,
+            text,
+            ha="center",
+            va="center",
+            color="white",
+            fontsize=9,
+            bbox={"boxstyle": "round,pad=0.5", "fc": COLORS[kind], "ec": "none"},
+        )
         return x, y
 
     def arrow(a: tuple[float, float], b: tuple[float, float], label: str) -> None:
-        ax.annotate("", xy=b, xytext=a, arrowprops={"arrowstyle": "-|>", "shrinkA": 70, "shrinkB": 80, "color": "#333333"})
+        ax.annotate(
+            "", xy=b, xytext=a, arrowprops={"arrowstyle": "-|>", "shrinkA": 70, "shrinkB": 80, "color": "#333333"}
+        )
         ax.text((a[0] + b[0]) / 2, (a[1] + b[1]) / 2 + 0.12, label, ha="center", fontsize=8, color="#333333")
 
     middle = (rows - 1) / 2
@@ -51,7 +64,9 @@ def draw_instance_graph(onto: Ontology, skill_name: str, code: str, robot: str, 
         box("gap", -1.0, "lacks: " + ", ".join(gaps))
     ax.set_xlim(-1.6, 12.4)
     ax.set_ylim(-1.6 if gaps else -0.8, rows - 0.2)
-    ax.set_title(f"{skill_name}: {source} → {robot}  ({len(diag.conflicts)} determined conflicts, {len(diag.warnings)} undetermined warnings)")
+    ax.set_title(
+        f"{skill_name}: {source} → {robot}  ({len(diag.conflicts)} determined conflicts, {len(diag.warnings)} undetermined warnings)"
+    )
     ax.axis("off")
     out.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(out, dpi=120, bbox_inches="tight")

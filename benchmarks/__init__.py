@@ -1,0 +1,1 @@
+"""Benchmarks: speed and scale targets, printed as tables (results go to BENCHMARKS.md)."""
