@@ -143,6 +143,7 @@ def default_embodiment_sources() -> list[EmbodimentSource]:
 def build_ontology(
     embodiments: Iterable[EmbodimentSource] | None = None,
     skills: Iterable[SkillSource] = (),
+    schema: Path = SCHEMA_PATH,
 ) -> Ontology:
     started = time.perf_counter()
     embodiments = list(embodiments) if embodiments is not None else default_embodiment_sources()
@@ -260,21 +261,31 @@ def build_ontology(
         node = inst("skill", skill.name)
         add(node, RDF_TYPE, rc("Skill"))
         add(node, rc("name"), skill.name)
+        previous = None
         for i, site in enumerate(call_sites(skill.code, skill.path)):
-            for emb, api in apis.items():
-                prim = api.get(site.name)
-                if prim is None:
-                    continue
-                site_node = inst("skill", skill.name, f"call{i}")
-                add(node, rc("hasCallSite"), site_node)
-                add(site_node, RDF_TYPE, rc("CallSite"))
+            providers = [(emb, prim) for emb, api in apis.items() if (prim := api.get(site.name)) is not None]
+            if not providers:
+                continue  # a helper or task query, not a primitive
+            site_node = inst("skill", skill.name, f"call{i}")
+            add(node, rc("hasCallSite"), site_node)
+            add(site_node, RDF_TYPE, rc("CallSite"))
+            add(site_node, rc("line"), site.span.line)
+            add(site_node, rc("controlContext"), site.context)
+            for keyword, expression in site.arguments:
+                add(site_node, rc("bindsArgument"), f"{keyword}={expression}")
+            if previous is not None:
+                add(previous, rc("nextCallSite"), site_node)
+            previous = site_node
+            for emb, prim in providers:
                 add(site_node, rc("calls"), inst(emb, prim.name))
-                add(site_node, rc("line"), site.span.line)
                 for cap in prim.capabilities:
                     add(node, rc("requires"), inst("capability", cap))
 
     store = ox.Store()
-    store.load(SCHEMA_PATH.read_bytes(), format=ox.RdfFormat.TURTLE)
+    try:
+        store.load(Path(schema).read_bytes(), format=ox.RdfFormat.TURTLE)
+    except (SyntaxError, ValueError, OSError) as exc:
+        raise SpecError(schema, "turtle", f"cannot be loaded: {exc}") from None
     store.extend(quads)
     counts = {
         "robots": len(apis),

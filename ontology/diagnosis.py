@@ -39,6 +39,7 @@ class Conflict:
     mapping: tuple[ParameterMapping, ...] = ()
     dropped: tuple[str, ...] = ()  # source parameters the substitute has no role for
     unfilled: tuple[str, ...] = ()  # required substitute parameters nothing maps to
+    preparatory: tuple[str, ...] = ()  # target primitives to call first (they establish a missing state)
     reason: str = ""
 
 
@@ -114,16 +115,42 @@ def _conflict(onto: Ontology, site: CallSite, original: PrimitiveSpec, source: s
             )
     mapped = {m.target for m in mapping}
     unfilled = tuple(p.name for p in substitute.parameters if p.required and p.name not in mapped)
+    preparatory = _preparatory_steps(onto, original, substitute, robot)
+    translated = any(m.values and m.source in dict(site.arguments) for m in mapping)
+    if unfilled:
+        span_type = "interface_rewiring"  # the new interface needs an argument the old call never had
+    elif preparatory:
+        span_type = "preparatory_step"  # the substitute needs a state another primitive establishes first
+    elif translated:
+        span_type = "parameter_binding"  # same role, other literal vocabulary ('z' -> 'down')
+    else:
+        span_type = "api_substitution"
     return Conflict(
         span=site.span,
-        span_type="interface_rewiring" if unfilled else "api_substitution",
+        span_type=span_type,
         original=site.name,
         substitute=substitute,
         mapping=tuple(mapping),
         dropped=tuple(dropped),
         unfilled=unfilled,
-        reason=f"no {site.name}; use {substitute.name} (same effects)",
+        preparatory=preparatory,
+        reason=f"no {site.name}; use {substitute.name} (same effects)"
+        + (f", after {', '.join(preparatory)}" if preparatory else ""),
     )
+
+
+def _preparatory_steps(
+    onto: Ontology, original: PrimitiveSpec, substitute: PrimitiveSpec, robot: str
+) -> tuple[str, ...]:
+    """Robot-state preconditions the substitute adds, each with a target primitive whose effects establish it."""
+    steps = []
+    for cond in sorted(substitute.preconditions - original.preconditions):
+        if onto.conditions[cond].kind != "robot":
+            continue  # runtime conditions become warnings instead
+        provider = next((p for p in onto.api(robot).primitives if cond in p.effects and p is not substitute), None)
+        if provider is not None:
+            steps.append(provider.name)
+    return tuple(steps)
 
 
 def _warnings(onto, site, original, target, source, robot, sites, bindings) -> list[Warning]:

@@ -27,6 +27,7 @@ class CallSite:
     keywords: tuple[str, ...]
     positional: int
     arguments: tuple[tuple[str, str], ...] = ()  # keyword -> source text of the argument
+    context: str = "body"  # the innermost control structure around the call: body, if, else or for
 
 
 @dataclass(frozen=True)
@@ -81,7 +82,7 @@ def call_sites(code: str, filename: str = "<skill>") -> list[CallSite]:
     starts = _offsets(code)
     sites = []
     for func in (n for n in tree.body if isinstance(n, ast.FunctionDef)):
-        for stmt in ast.walk(func):
+        for stmt, context in _statements(func.body, "body"):
             call = getattr(stmt, "value", None) if isinstance(stmt, ast.Expr | ast.Assign) else None
             if not (isinstance(call, ast.Call) and isinstance(call.func, ast.Name)):
                 continue
@@ -93,9 +94,21 @@ def call_sites(code: str, filename: str = "<skill>") -> list[CallSite]:
                     keywords=tuple(k.arg for k in call.keywords if k.arg),
                     positional=len(call.args),
                     arguments=tuple((k.arg, ast.unparse(k.value)) for k in call.keywords if k.arg),
+                    context=context,
                 )
             )
     return sorted(sites, key=lambda s: s.span.start)
+
+
+def _statements(body: list[ast.stmt], context: str):
+    """Statements in source order with the control structure they sit in."""
+    for stmt in body:
+        yield stmt, context
+        if isinstance(stmt, ast.If):
+            yield from _statements(stmt.body, "if")
+            yield from _statements(stmt.orelse, "else")
+        elif isinstance(stmt, ast.For):
+            yield from _statements(stmt.body, "for")
 
 
 def position_bindings(code: str) -> dict[str, PositionBinding]:

@@ -32,7 +32,7 @@ def hint_lines(span_type: str, hints: Hints) -> list[str]:
     model that copied a hint line instead of writing code gets less to copy the second time.
     """
     if hints.attempt > 0:
-        call = [f"Call exactly: {hints.substitute_call}"] if hints.substitute_call else []
+        call = [f"Call exactly: {_one_line(hints.substitute_call)}"] if hints.substitute_call else []
         return [f"Was: {hints.original_call}", f"Rejected before: {hints.feedback}", *call]
     lines = [f"{hints.robot} ({span_type.replace('_', ' ')}): {hints.reason}", f"Was: {hints.original_call}"]
     edits = []
@@ -44,12 +44,16 @@ def hint_lines(span_type: str, hints: Hints) -> list[str]:
         edits.append("also pass " + ", ".join(hints.unfilled))
     if edits:
         lines.append("Arguments: " + "; ".join(edits))
-    if span_type in {"api_substitution", "interface_rewiring"} and hints.substitute_signature:
+    if hints.substitute_signature:
         lines.append(f"{hints.robot} API: {hints.substitute_signature}")
         if hints.unfilled:
             lines.append("Replace each <...> with a variable or literal from the code above")
-        lines.append(f"Call exactly: {hints.substitute_call}")
+        lines.append(f"Call exactly: {_one_line(hints.substitute_call)}")
     return lines
+
+
+def _one_line(call: str | None) -> str:
+    return "; then ".join((call or "").splitlines())
 
 
 def _render_mapping(mapping: ParameterMapping) -> str:
@@ -59,7 +63,7 @@ def _render_mapping(mapping: ParameterMapping) -> str:
 
 def build_prompt(unit: RefactoringUnit, span_tokens: int) -> FimPrompt:
     comments = "".join(f"{unit.indent}# {line}\n" for line in hint_lines(unit.span_type, unit.hints))
-    single_line = "\n" not in unit.span
+    single_line = "\n" not in unit.span and "\n" not in (unit.hints.substitute_call or "")
     return FimPrompt(
         prefix=unit.prefix + comments + unit.indent,
         suffix=unit.suffix,

@@ -31,7 +31,13 @@ def render_substitute_call(span: str, conflict: Conflict) -> str | None:
         elif param.required:
             arguments.append(f"{param.name}=<{param.type}>")
     targets = "".join(f"{ast.unparse(t)} = " for t in getattr(statement, "targets", []))
-    return f"{targets}{substitute.name}({', '.join(arguments)})"
+    # Preparatory primitives first (one per line), then the substitute itself.
+    return "\n".join(
+        [
+            *(f"{name}(env, task)" for name in conflict.preparatory),
+            f"{targets}{substitute.name}({', '.join(arguments)})",
+        ]
+    )
 
 
 def has_placeholders(text: str) -> bool:
