@@ -259,25 +259,21 @@ def test_unknown_robot_lists_known_ones(ontology):
         ontology.api("Baxter")
 
 
-def test_a_new_robot_is_data_only(tmp_path, put_in_bin):
-    """A robot added from files in a temporary directory is diagnosed with no code change."""
-    spec = tmp_path / "kuka.yaml"
-    spec.write_text(
-        """
+KUKA_SPEC = """
 embodiment: Kuka
 module: not.needed.for.diagnosis
 primitives:
   - name: kuka_take
     description: take an object
     parameters:
-      - {name: where, type: position, unit: m, role: grasp_target, required: true}
+      - {{name: where, type: position, unit: m, role: grasp_target, required: true}}
     capabilities: [grasp_object]
-    preconditions: [end_effector_free, object_at_target, target_reachable]
+    preconditions: [end_effector_free, object_at_target, target_reachable{take_needs}]
     effects: [object_grasped, object_lifted, end_effector_engaged]
   - name: kuka_put
     description: put it down
     parameters:
-      - {name: where, type: position, unit: m, role: release_target, required: true}
+      - {{name: where, type: position, unit: m, role: release_target, required: true}}
     capabilities: [place_object]
     preconditions: [object_grasped, target_reachable]
     effects: [object_at_target, end_effector_free, object_released]
@@ -287,15 +283,28 @@ primitives:
     capabilities: [open_fingers]
     preconditions: []
     effects: [end_effector_free, object_released]
+  - name: kuka_align
+    description: point the gripper down
+    parameters: []
+    capabilities: [orient_end_effector]
+    preconditions: []
+    effects: [end_effector_oriented]
 """
+
+
+def _with_kuka(tmp_path, take_needs: str = ""):
+    """The shipped robots plus a Kuka iiwa described only by files in ``tmp_path``."""
+    spec = tmp_path / "kuka.yaml"
+    spec.write_text(KUKA_SPEC.format(take_needs=take_needs))
+    kuka = EmbodimentSource(
+        "Kuka", spec, "models/assets/robots/iiwa/robot.xml", "models/assets/grippers/rethink_gripper.xml"
     )
-    sources = [
-        *default_embodiment_sources(),
-        EmbodimentSource(
-            "Kuka", spec, "models/assets/robots/iiwa/robot.xml", "models/assets/grippers/rethink_gripper.xml"
-        ),
-    ]
-    onto = build_ontology(sources)
+    return build_ontology([*default_embodiment_sources(), kuka])
+
+
+def test_a_new_robot_is_data_only(tmp_path, put_in_bin):
+    """A robot added from files in a temporary directory is diagnosed with no code change."""
+    onto = _with_kuka(tmp_path)
     result = diagnose(onto, put_in_bin.name, put_in_bin.code, "Kuka")
     assert [c.substitute.name for c in result.conflicts] == ["kuka_open", "kuka_take", "kuka_put"]
     assert {m.source: m.target for m in result.conflicts[1].mapping} == {"target_pos": "where"}
@@ -304,47 +313,7 @@ primitives:
 
 def test_a_substitute_needing_a_robot_state_gets_a_preparatory_step(tmp_path, put_in_bin):
     """kuka_take needs the gripper oriented first; kuka_align establishes that: D says so, no LM involved."""
-    spec = tmp_path / "kuka.yaml"
-    spec.write_text(
-        """
-embodiment: Kuka
-module: m
-primitives:
-  - name: kuka_take
-    description: take
-    parameters:
-      - {name: where, type: position, unit: m, role: grasp_target, required: true}
-    capabilities: [grasp_object]
-    preconditions: [end_effector_free, object_at_target, target_reachable, end_effector_oriented]
-    effects: [object_grasped, object_lifted, end_effector_engaged]
-  - name: kuka_align
-    description: point the gripper down
-    parameters: []
-    capabilities: [orient_end_effector]
-    preconditions: []
-    effects: [end_effector_oriented]
-  - name: kuka_put
-    description: put
-    parameters:
-      - {name: where, type: position, unit: m, role: release_target, required: true}
-    capabilities: [place_object]
-    preconditions: [object_grasped, target_reachable]
-    effects: [object_at_target, end_effector_free, object_released]
-  - name: kuka_open
-    description: open
-    parameters: []
-    capabilities: [open_fingers]
-    preconditions: []
-    effects: [end_effector_free, object_released]
-"""
-    )
-    sources = [
-        *default_embodiment_sources(),
-        EmbodimentSource(
-            "Kuka", spec, "models/assets/robots/iiwa/robot.xml", "models/assets/grippers/rethink_gripper.xml"
-        ),
-    ]
-    onto = build_ontology(sources)
+    onto = _with_kuka(tmp_path, take_needs=", end_effector_oriented")
     pick = next(c for c in diagnose(onto, put_in_bin.name, put_in_bin.code, "Kuka").conflicts if c.original == "pick")
     assert pick.span_type == "preparatory_step" and pick.preparatory == ("kuka_align",)
 
