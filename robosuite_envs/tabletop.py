@@ -27,6 +27,7 @@ class RecentTabletopEnv(ManipulationEnv):
 
     def __init__(self, task: TaskSpec, robots: str, gripper_types: str, **kwargs):
         self.task_spec = task
+        self._specs = {spec.name: spec for spec in task.objects}
         self.table_top_z = float(TABLE_OFFSET[2])
         self._objects: dict[str, BoxObject | Bin] = {}
         self._body_ids: dict[str, int] = {}
@@ -93,42 +94,45 @@ class RecentTabletopEnv(ManipulationEnv):
         site = robot.eef_site_id[arm]
         eef_pos = np.array(self.sim.data.site_xpos[site])
         eef_quat = mat2quat(np.array(self.sim.data.site_xmat[site]).reshape(3, 3))
-        gripper = robot.gripper[arm]
-        suction = isinstance(gripper, SuctionGripper)
-        if suction:  # the "opening" of a vacuum gripper is its suction command, 0 (off) .. 1 (on)
-            opening = float(self.sim.data.ctrl[robot._ref_joint_gripper_actuator_indexes[arm]][0])
-        else:
-            qpos = self.sim.data.qpos[robot._ref_gripper_joint_pos_indexes[arm]]
-            opening = float(np.mean(np.abs(qpos))) if len(qpos) else 0.0
         objects = {}
         for spec in self.task_spec.objects:
             body = self._body_ids[spec.name]
-            obj = self._objects[spec.name]
-            touching = bool(self.check_contact(gripper, obj))
-            if spec.kind != "box":
-                grasped = False
-            elif suction:
-                grasped = touching and opening > 0.5 and self.check_contact(gripper.important_geoms["cup"], obj)
-            else:
-                grasped = self._check_grasp(gripper=gripper, object_geoms=obj)
             objects[spec.name] = ObjectState(
                 pos=np.array(self.sim.data.body_xpos[body]),
                 quat=convert_quat(np.array(self.sim.data.body_xquat[body]), to="xyzw"),
-                grasped=bool(grasped),
-                touching=touching,
+                grasped=self.holds(spec.name),
+                touching=bool(self.check_contact(robot.gripper[arm], self._objects[spec.name])),
                 height=float(spec.size[2]),
             )
-        return Observation(eef_pos=eef_pos, eef_quat=eef_quat, gripper_opening=opening, objects=objects)
+        return Observation(eef_pos=eef_pos, eef_quat=eef_quat, gripper_opening=self.gripper_opening(), objects=objects)
+
+    def gripper_opening(self) -> float:
+        """Mean finger joint travel; for a vacuum gripper its suction command, 0 (off) .. 1 (on)."""
+        robot = self.robots[0]
+        arm = robot.arms[0]
+        if isinstance(robot.gripper[arm], SuctionGripper):
+            return float(self.sim.data.ctrl[robot._ref_joint_gripper_actuator_indexes[arm]][0])
+        qpos = self.sim.data.qpos[robot._ref_gripper_joint_pos_indexes[arm]]
+        return float(np.mean(np.abs(qpos))) if len(qpos) else 0.0
+
+    def holds(self, name: str) -> bool:
+        """Fingers on both sides (robosuite's grasp check), or the sucking cup in contact."""
+        if self._specs[name].kind != "box":
+            return False
+        gripper, obj = self.robots[0].gripper[self.robots[0].arms[0]], self._objects[name]
+        if isinstance(gripper, SuctionGripper):
+            return self.gripper_opening() > 0.5 and bool(self.check_contact(gripper.important_geoms["cup"], obj))
+        return bool(self._check_grasp(gripper=gripper, object_geoms=obj))
 
     # --------------------------------------------------------------- success
     def object_in_receptacle(self, obj: str, receptacle: str) -> bool:
-        spec = {o.name: o for o in self.task_spec.objects}[receptacle]
+        spec = self._specs[receptacle]
         centre = self.sim.data.body_xpos[self._body_ids[receptacle]]
         pos = self.sim.data.body_xpos[self._body_ids[obj]]
         inner = np.array(spec.size[:2]) / 2 - 0.01
         inside_xy = bool(np.all(np.abs(pos[:2] - centre[:2]) < inner))
         below_rim = bool(pos[2] < centre[2] + spec.size[2])
-        return inside_xy and below_rim and not self.observe().objects[obj].grasped
+        return inside_xy and below_rim and not self.holds(obj)
 
     def subtask_success(self, subtask: str, args: dict[str, str]) -> bool:
         if subtask == "put_in_bin":

@@ -46,3 +46,13 @@ def test_unknown_names_list_the_valid_ones():
         RecentEnv(task="stack_everything")
     with pytest.raises(KeyError, match="known embodiments: Panda, UR5e, Sawyer, Robotiq85, Suction"):
         RecentEnv(robot="R2D2")
+
+
+def test_passes_gymnasium_env_checker():
+    from gymnasium.utils.env_checker import check_env
+
+    env = RecentEnv(task="cube_in_bin", robot="Suction", render_mode="rgb_array", visualization_width=64, visualization_height=64)
+    check_env(env)  # raises on any violation of the gymnasium API (spaces, seeding, step/reset contracts)
+    frame = env.render()
+    assert frame.shape == (64, 64, 3) and frame.dtype == np.uint8
+    env.close()
