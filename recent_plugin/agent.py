@@ -33,6 +33,7 @@ class AgentSettings:
     max_retries: int = 2
     seed: int = 0
     max_skill_steps: int = 3000
+    base_url: str | None = None  # the completions server of the openai backend
 
 
 @dataclass
@@ -57,7 +58,9 @@ class RecentAgent:
         """Load the LM now, before any task arrives, so IGT measures grounding and not model loading."""
         self.settings = settings or AgentSettings()
         s = self.settings
-        self.infiller = infiller or make_infiller(s.backend, s.model, n_threads=s.n_threads, seed=s.seed)
+        self.infiller = infiller or make_infiller(
+            s.backend, s.model, n_threads=s.n_threads, seed=s.seed, base_url=s.base_url
+        )
         self.ontology = ontology or build_ontology()
         self._ontology_hash = hashlib.sha256(self.ontology.to_turtle().encode()).hexdigest()
         self._cache: dict[tuple[str, ...], GroundedSkill] = {}

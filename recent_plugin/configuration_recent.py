@@ -16,7 +16,8 @@ from recent_plugin.infillers import BACKENDS
 class RecentConfig(PreTrainedConfig):
     """Grounds Panda reference skills onto the env's robot and executes them; nothing is trained.
 
-    ``backend``: ``llamacpp`` (GGUF on CPU) or ``rule`` (ontology substitution, no LM).
+    ``backend``: ``llamacpp`` (GGUF on CPU), ``openai`` (an OpenAI-compatible completions server
+    at ``base_url``) or ``rule`` (ontology substitution, no LM).
     ``model``: a known model name (``recent model list``) or a path to a ``.gguf`` file.
     """
 
@@ -27,6 +28,7 @@ class RecentConfig(PreTrainedConfig):
     max_retries: int = AgentSettings.max_retries
     seed: int = AgentSettings.seed
     max_skill_steps: int = AgentSettings.max_skill_steps
+    base_url: str | None = AgentSettings.base_url
     device: str | None = "cpu"
     normalization_mapping: dict[str, NormalizationMode] = field(
         default_factory=lambda: {

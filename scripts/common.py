@@ -17,6 +17,9 @@ def add_lm_arguments(parser: argparse.ArgumentParser) -> None:
     )
     lm.add_argument("--threads", type=int, default=None, help="CPU threads for llama.cpp (default: up to 2)")
     lm.add_argument("--max-retries", type=int, default=2, help="retries per rejected span (default: 2)")
+    lm.add_argument(
+        "--base-url", default=None, help="completions server for --backend openai, e.g. http://127.0.0.1:8000"
+    )
 
 
 def agent_from_args(args: argparse.Namespace) -> RecentAgent:

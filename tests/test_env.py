@@ -51,7 +51,9 @@ def test_unknown_names_list_the_valid_ones():
 def test_passes_gymnasium_env_checker():
     from gymnasium.utils.env_checker import check_env
 
-    env = RecentEnv(task="cube_in_bin", robot="Suction", render_mode="rgb_array", visualization_width=64, visualization_height=64)
+    env = RecentEnv(
+        task="cube_in_bin", robot="Suction", render_mode="rgb_array", visualization_width=64, visualization_height=64
+    )
     check_env(env)  # raises on any violation of the gymnasium API (spaces, seeding, step/reset contracts)
     frame = env.render()
     assert frame.shape == (64, 64, 3) and frame.dtype == np.uint8

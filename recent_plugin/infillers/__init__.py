@@ -4,13 +4,22 @@ from __future__ import annotations
 
 from recent_plugin.infillers.base import Completion, Infiller
 
-BACKENDS = ("llamacpp", "rule")
+BACKENDS = ("llamacpp", "openai", "rule")
 
 
 def make_infiller(
-    backend: str, model: str = "qwen2.5-coder-1.5b", *, n_threads: int | None = None, seed: int = 0
+    backend: str,
+    model: str = "qwen2.5-coder-1.5b",
+    *,
+    n_threads: int | None = None,
+    seed: int = 0,
+    base_url: str | None = None,
 ) -> Infiller:
-    """Build the infiller ``backend``; ``model`` is a known model name or a path to a GGUF file."""
+    """Build the infiller ``backend``.
+
+    ``model`` is a known model name or a path to a GGUF file (llamacpp), or the server's model id
+    (openai, which also needs ``base_url``, e.g. ``http://127.0.0.1:8000``).
+    """
     if backend == "rule":
         from recent_plugin.infillers.rule import RuleInfiller
 
@@ -20,6 +29,12 @@ def make_infiller(
         from recent_plugin.models import ensure_model
 
         return LlamaCppInfiller(str(ensure_model(model)), n_threads=n_threads, seed=seed)
+    if backend == "openai":
+        from recent_plugin.infillers.openai_compat import OpenAICompatInfiller
+
+        if not base_url:
+            raise ValueError("the openai backend needs a server: pass --base-url (e.g. http://127.0.0.1:8000)")
+        return OpenAICompatInfiller(base_url, model)
     raise ValueError(f"unknown backend {backend!r}; choose one of: {', '.join(BACKENDS)}")
 
 

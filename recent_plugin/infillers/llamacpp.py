@@ -12,19 +12,9 @@ import time
 from recent_plugin.grounding.fim_prompt import build_prompt
 from recent_plugin.grounding.units import RefactoringUnit
 from recent_plugin.infillers.base import Completion
+from recent_plugin.infillers.fim_formats import FORMATS
 
-FIM_PREFIX, FIM_SUFFIX, FIM_MIDDLE = "<|fim_prefix|>", "<|fim_suffix|>", "<|fim_middle|>"
-# The official Qwen2.5-Coder FIM example stops on all of these.
-SPECIAL_STOPS = (
-    "<|endoftext|>",
-    "<|file_sep|>",
-    "<|fim_prefix|>",
-    "<|fim_suffix|>",
-    "<|fim_middle|>",
-    "<|im_end|>",
-    "<|repo_name|>",
-    "<|fim_pad|>",
-)
+QWEN = FORMATS["qwen2.5-coder"]  # the GGUFs we provision are Qwen2.5-Coder
 
 
 class LlamaCppInfiller:
@@ -55,14 +45,14 @@ class LlamaCppInfiller:
 
     def infill(self, unit: RefactoringUnit) -> Completion:
         prompt = build_prompt(unit, self.count_tokens(unit.span))
-        text = f"{FIM_PREFIX}{prompt.prefix}{FIM_SUFFIX}{prompt.suffix}{FIM_MIDDLE}"
+        text = QWEN.render(prompt.prefix, prompt.suffix)
         started = time.perf_counter()
         out = self.llm.create_completion(
             text,
             max_tokens=prompt.max_tokens,
             temperature=0.0,
             top_k=1,
-            stop=[*prompt.stop, *SPECIAL_STOPS],
+            stop=[*prompt.stop, *QWEN.stops],
             grammar=self._grammar(prompt.grammar),
         )
         seconds = time.perf_counter() - started

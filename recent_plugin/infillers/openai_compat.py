@@ -1,0 +1,84 @@
+"""The ``openai`` backend: any OpenAI-compatible ``/v1/completions`` server (vLLM, llama.cpp's server, …).
+
+vLLM rejects ``suffix`` for most models, so the FIM string is sent pre-formatted as the prompt.
+Generated tokens come from the server's ``usage`` (the model's own tokenizer); skill tokens from
+llama.cpp's ``/tokenize`` when the server has it, else a tokenizer-free approximation.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import time
+import urllib.error
+import urllib.request
+
+from recent_plugin.grounding.fim_prompt import build_prompt
+from recent_plugin.grounding.units import RefactoringUnit
+from recent_plugin.infillers.base import Completion, approximate_tokens
+from recent_plugin.infillers.fim_formats import fim_format
+
+log = logging.getLogger(__name__)
+
+
+class OpenAICompatInfiller:
+    name = "openai"
+
+    def __init__(self, base_url: str, model: str, *, api_key: str | None = None, timeout_s: float = 60.0):
+        self.base_url = base_url.rstrip("/")
+        self.model = model
+        self.format = fim_format(model)
+        self.api_key = api_key
+        self.timeout_s = timeout_s
+        self._tokenize_available: bool | None = None
+
+    def _post(self, path: str, body: dict) -> dict:
+        headers = {"Content-Type": "application/json"}
+        if self.api_key:
+            headers["Authorization"] = f"Bearer {self.api_key}"
+        request = urllib.request.Request(
+            self.base_url + path, data=json.dumps(body).encode(), headers=headers, method="POST"
+        )
+        try:
+            with urllib.request.urlopen(request, timeout=self.timeout_s) as response:
+                return json.loads(response.read())
+        except urllib.error.HTTPError as exc:
+            raise RuntimeError(f"{self.base_url}{path} answered {exc.code}: {exc.read()[:300]!r}") from None
+        except urllib.error.URLError as exc:
+            raise RuntimeError(f"cannot reach the completions server at {self.base_url}: {exc.reason}") from None
+
+    def count_tokens(self, text: str) -> int:
+        if self._tokenize_available is not False:
+            try:
+                tokens = self._post("/tokenize", {"content": text}).get("tokens")
+                if isinstance(tokens, list):
+                    self._tokenize_available = True
+                    return len(tokens)
+            except RuntimeError:
+                pass
+            self._tokenize_available = False
+            log.warning("%s has no /tokenize; skill tokens are approximated (GO's denominator)", self.base_url)
+        return approximate_tokens(text)
+
+    def infill(self, unit: RefactoringUnit) -> Completion:
+        prompt = build_prompt(unit, approximate_tokens(unit.span))
+        started = time.perf_counter()
+        out = self._post(
+            "/v1/completions",
+            {
+                "model": self.model,
+                "prompt": self.format.render(prompt.prefix, prompt.suffix),
+                "max_tokens": prompt.max_tokens,
+                "temperature": 0.0,
+                "stop": [*prompt.stop, *self.format.stops],
+            },
+        )
+        seconds = time.perf_counter() - started
+        choices = out.get("choices") or [{}]
+        usage = out.get("usage") or {}
+        return Completion(
+            text=choices[0].get("text", ""),
+            generated_tokens=int(usage.get("completion_tokens", 0)),
+            seconds=seconds,
+            prompt_tokens=int(usage.get("prompt_tokens", 0)),
+        )

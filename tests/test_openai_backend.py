@@ -1,0 +1,99 @@
+"""The openai backend against a completions server we start on loopback (no network)."""
+
+from __future__ import annotations
+
+import json
+import threading
+from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
+
+import pytest
+
+from recent_plugin.grounding.grounder import ground_skill
+from recent_plugin.infillers import make_infiller
+from recent_plugin.infillers.fim_formats import fim_format
+
+ANSWERS = {
+    "no place;": "ur5_release_at(env, task, place_pos=drop_pos)",
+    "no pick;": "ur5_grasp_at(env, task, grasp_pos=obj_pos)",
+    "no open_gripper;": "open_ur5_ee(env, task)",
+}
+
+
+class FakeCompletions(BaseHTTPRequestHandler):
+    """Answers /v1/completions like vLLM or llama.cpp's server would, from fixed completions."""
+
+    requests: list[dict] = []
+
+    def do_POST(self):
+        body = json.loads(self.rfile.read(int(self.headers["Content-Length"])))
+        FakeCompletions.requests.append({"path": self.path, **body})
+        if self.path == "/tokenize":
+            reply = {"tokens": list(range(len(body["content"].split())))}
+        else:
+            hint = next((k for k in ANSWERS if k in body["prompt"]), None)
+            text = ANSWERS[hint] if hint else ""
+            reply = {"choices": [{"text": text}], "usage": {"completion_tokens": len(text) // 4, "prompt_tokens": 100}}
+        data = json.dumps(reply).encode()
+        self.send_response(200)
+        self.send_header("Content-Type", "application/json")
+        self.send_header("Content-Length", str(len(data)))
+        self.end_headers()
+        self.wfile.write(data)
+
+    def log_message(self, *args):
+        pass
+
+
+@pytest.fixture
+def server():
+    httpd = ThreadingHTTPServer(("127.0.0.1", 0), FakeCompletions)
+    thread = threading.Thread(target=httpd.serve_forever, daemon=True)
+    thread.start()
+    FakeCompletions.requests = []
+    yield f"http://127.0.0.1:{httpd.server_address[1]}"
+    httpd.shutdown()
+
+
+def test_grounds_through_a_completions_server(server, ontology, put_in_bin):
+    infiller = make_infiller("openai", "Qwen/Qwen2.5-Coder-7B", base_url=server)
+    grounded = ground_skill(put_in_bin, "UR5e", ontology, infiller)
+    assert grounded.valid, [c.message for c in grounded.calls]
+    completions = [r for r in FakeCompletions.requests if r["path"] == "/v1/completions"]
+    assert len(completions) == 3
+    prompt = completions[0]["prompt"]
+    assert (
+        prompt.startswith("<|fim_prefix|>def put_in_bin(")
+        and "<|fim_suffix|>" in prompt
+        and prompt.endswith("<|fim_middle|>")
+    )
+    assert (
+        completions[0]["temperature"] == 0.0
+        and "\n" in completions[0]["stop"]
+        and "<|endoftext|>" in completions[0]["stop"]
+    )
+    assert grounded.skill_tokens == len(put_in_bin.code.split())  # counted by the server's /tokenize
+    assert grounded.generated_tokens == sum(len(t) // 4 for t in ANSWERS.values())
+
+
+def test_unreachable_server_is_a_clear_error(ontology, put_in_bin):
+    infiller = make_infiller("openai", "Qwen/Qwen2.5-Coder-7B", base_url="http://127.0.0.1:9")
+    with pytest.raises(RuntimeError, match="cannot reach the completions server"):
+        ground_skill(put_in_bin, "UR5e", ontology, infiller)
+
+
+@pytest.mark.parametrize(
+    ("model", "marker"),
+    [
+        ("Qwen/Qwen2.5-Coder-1.5B", "<|fim_middle|>"),
+        ("google/codegemma-2b", "<|fim_middle|>"),
+        ("bigcode/starcoder2-3b", "<fim_middle>"),
+        ("deepseek-ai/deepseek-coder-1.3b-base", "<｜fim▁end｜>"),
+    ],
+)
+def test_fim_formats_per_family(model, marker):
+    assert fim_format(model).render("a", "b").endswith(marker)
+
+
+def test_unknown_family_lists_the_known_ones():
+    with pytest.raises(ValueError, match="known families"):
+        fim_format("gpt2")
