@@ -84,6 +84,13 @@ def actuate_gripper(
             return
 
 
+def set_opening(session: RobotSession, fraction: float, velocity: float) -> Steps:
+    """Drive the gripper to ``fraction`` of its opening (1 = open, 0 = closed) at ``velocity``."""
+    yield from actuate_gripper(
+        session, 1.0 - 2.0 * float(np.clip(fraction, 0.0, 1.0)), max_duration_s=stroke_time(velocity)
+    )
+
+
 def stroke_time(velocity: float) -> float:
     """Longest time to sweep the gripper stroke at ``velocity`` (stroke fractions per 0.1 s), clamped."""
     return float(min(4.0, max(0.5, 0.6 / max(velocity, 1e-3))))

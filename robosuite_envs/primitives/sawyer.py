@@ -43,11 +43,11 @@ def sawyer_open_gripper(
     env: RobotSession, task: TaskContext, amount: float = 1.0, velocity: float = 0.2
 ) -> control.Steps:
     """Open by ``amount`` of the stroke (1.0 = fully open)."""
-    yield from control.actuate_gripper(env, -float(amount), max_duration_s=control.stroke_time(velocity))
+    yield from control.set_opening(env, amount, velocity)
 
 
 def sawyer_close_gripper(
     env: RobotSession, task: TaskContext, amount: float = 0.0, velocity: float = 0.2
 ) -> control.Steps:
     """Close to ``amount`` of the stroke (0.0 = fully closed)."""
-    yield from control.actuate_gripper(env, 1.0 - 2.0 * float(amount), max_duration_s=control.stroke_time(velocity))
+    yield from control.set_opening(env, amount, velocity)

@@ -51,13 +51,11 @@ def open_ur5_ee(
     env: RobotSession, task: TaskContext, gripper_open: float = 1.0, velocity: float = 0.2
 ) -> control.Steps:
     """Open the end effector to fraction ``gripper_open`` (1.0 = fully open)."""
-    yield from control.actuate_gripper(env, -float(gripper_open), max_duration_s=control.stroke_time(velocity))
+    yield from control.set_opening(env, gripper_open, velocity)
 
 
 def close_ur5_ee(
     env: RobotSession, task: TaskContext, gripper_close: float = 0.0, velocity: float = 0.2
 ) -> control.Steps:
     """Close the end effector to fraction ``gripper_close`` of its opening (0.0 = fully closed)."""
-    yield from control.actuate_gripper(
-        env, 1.0 - 2.0 * float(gripper_close), max_duration_s=control.stroke_time(velocity)
-    )
+    yield from control.set_opening(env, gripper_close, velocity)
