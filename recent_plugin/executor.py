@@ -55,9 +55,13 @@ class _YieldFromPrimitives(ast.NodeTransformer):
         return node
 
 
-def split_segments(code: str, entry: str) -> list[Segment]:
-    tree = ast.parse(code)
-    func = next(n for n in tree.body if isinstance(n, ast.FunctionDef) and n.name == entry)
+def entry_function(code: str, entry: str) -> ast.FunctionDef:
+    return next(n for n in ast.parse(code).body if isinstance(n, ast.FunctionDef) and n.name == entry)
+
+
+def split_segments(code: str, entry: str | ast.FunctionDef) -> list[Segment]:
+    """Top-level statements of the entry function (its docstring excluded), in order."""
+    func = entry if isinstance(entry, ast.FunctionDef) else entry_function(code, entry)
     body = (
         func.body[1:]
         if func.body
@@ -90,7 +94,8 @@ class SkillExecutor:
         self.grounded = grounded
         self.session = session
         self.primitives = primitives
-        self.segments = split_segments(grounded.code, grounded.entry)
+        func = entry_function(grounded.code, grounded.entry)
+        self.segments = split_segments(grounded.code, func)
         self.max_steps = max_steps
         self.namespace: dict[str, object] = {
             "__builtins__": _SAFE_BUILTINS,
@@ -98,7 +103,7 @@ class SkillExecutor:
             "env": session,
             "task": TaskContext(session),
         }
-        self.namespace.update(self._defaults(grounded.code, grounded.entry))
+        self.namespace.update(self._defaults(func))
         self.namespace.update(args)
         self.cursor = 0  # index of the segment running (or next to run)
         self._running: Generator | None = None
@@ -106,8 +111,7 @@ class SkillExecutor:
         self.failure: SkillFailure | None = None
 
     @staticmethod
-    def _defaults(code: str, entry: str) -> dict[str, object]:
-        func = next(n for n in ast.parse(code).body if isinstance(n, ast.FunctionDef) and n.name == entry)
+    def _defaults(func: ast.FunctionDef) -> dict[str, object]:
         names = [a.arg for a in func.args.args][-len(func.args.defaults) :] if func.args.defaults else []
         return {name: ast.literal_eval(default) for name, default in zip(names, func.args.defaults, strict=True)}
 

@@ -6,8 +6,6 @@ episodes) and then returns one action per ``select_action`` from a per-batch-ele
 
 from __future__ import annotations
 
-import logging
-
 import numpy as np
 import torch
 from lerobot.policies.pretrained import PreTrainedPolicy
@@ -18,8 +16,6 @@ from recent_plugin.configuration_recent import RecentConfig
 from recent_plugin.executor import TaskExecutor
 from robosuite_envs.observation import Observation
 from robosuite_envs.tasks import get_task, parse_task_string
-
-log = logging.getLogger(__name__)
 
 
 class RecentPolicy(PreTrainedPolicy):

@@ -97,7 +97,7 @@ class RecentEnv(gym.Env):
             raise ValueError(f"action contains NaN or inf and was not stepped: {action.tolist()}")
         self._env.step(np.clip(action, -1.0, 1.0))
         self._steps += 1
-        success = bool(self._env._check_success())
+        success = bool(self._env._check_success())  # reads the same snapshot as the observation below
         obs = self._observation()
         truncated = self._steps >= self._max_episode_steps
         return obs, float(success), success, truncated, {"is_success": success}

@@ -28,6 +28,8 @@ class RecentTabletopEnv(ManipulationEnv):
     def __init__(self, task: TaskSpec, robots: str, gripper_types: str, **kwargs):
         self.task_spec = task
         self._specs = {spec.name: spec for spec in task.objects}
+        self._episode = 0
+        self._snapshot: tuple[tuple[int, float], Observation] | None = None
         self.table_top_z = float(TABLE_OFFSET[2])
         self._objects: dict[str, BoxObject | Bin] = {}
         self._body_ids: dict[str, int] = {}
@@ -85,10 +87,21 @@ class RecentTabletopEnv(ManipulationEnv):
             pos = np.array([xy[0], xy[1], z])
             self.sim.data.set_joint_qpos(obj.joints[0], np.concatenate([pos, [1.0, 0.0, 0.0, 0.0]]))
         self.sim.forward()
+        self._episode += 1  # sim time restarts at 0: a new key for observe()'s snapshot
 
     # ----------------------------------------------------------- observation
     def observe(self) -> Observation:
-        """The state primitives may use: end effector, gripper opening, object poses and grasps."""
+        """The state primitives may use: end effector, gripper opening, object poses and grasps.
+
+        Computed once per simulated instant: robosuite's ``step`` asks for the reward, the gym
+        wrapper for success and for the observation — all read the same snapshot.
+        """
+        key = (self._episode, self.sim.data.time)
+        if self._snapshot is None or self._snapshot[0] != key:
+            self._snapshot = (key, self._observe())
+        return self._snapshot[1]
+
+    def _observe(self) -> Observation:
         robot = self.robots[0]
         arm = robot.arms[0]
         site = robot.eef_site_id[arm]
@@ -125,22 +138,23 @@ class RecentTabletopEnv(ManipulationEnv):
         return bool(self._check_grasp(gripper=gripper, object_geoms=obj))
 
     # --------------------------------------------------------------- success
-    def object_in_receptacle(self, obj: str, receptacle: str) -> bool:
+    def object_in_receptacle(self, obs: Observation, obj: str, receptacle: str) -> bool:
         spec = self._specs[receptacle]
-        centre = self.sim.data.body_xpos[self._body_ids[receptacle]]
-        pos = self.sim.data.body_xpos[self._body_ids[obj]]
+        centre, state = obs.objects[receptacle].pos, obs.objects[obj]
         inner = np.array(spec.size[:2]) / 2 - 0.01
-        inside_xy = bool(np.all(np.abs(pos[:2] - centre[:2]) < inner))
-        below_rim = bool(pos[2] < centre[2] + spec.size[2])
-        return inside_xy and below_rim and not self.holds(obj)
+        inside_xy = bool(np.all(np.abs(state.pos[:2] - centre[:2]) < inner))
+        below_rim = bool(state.pos[2] < centre[2] + spec.size[2])
+        return inside_xy and below_rim and not state.grasped
 
-    def subtask_success(self, subtask: str, args: dict[str, str]) -> bool:
+    def subtask_success(self, subtask: str, args: dict[str, str], obs: Observation | None = None) -> bool:
+        obs = obs or self.observe()
         if subtask == "put_in_bin":
-            return self.object_in_receptacle(args["obj"], args["receptacle"])
+            return self.object_in_receptacle(obs, args["obj"], args["receptacle"])
         raise KeyError(f"no success predicate for subtask {subtask!r}")
 
     def _check_success(self):
-        return all(self.subtask_success(step.subtask, step.args) for step in self.task_spec.plan)
+        obs = self.observe()
+        return all(self.subtask_success(step.subtask, step.args, obs) for step in self.task_spec.plan)
 
     def reward(self, action=None):
         return float(self._check_success())

@@ -1,6 +1,7 @@
 """Render a refactoring unit as a Fill-in-the-Middle prompt: hints become comments before the span.
 
-The span type decides which cues appear, so the LM sees only what this edit needs.
+The comments carry only what this conflict holds (the span type, mapped/dropped/unfilled
+arguments, the substitute), so the LM sees the cues for this one edit and nothing else.
 """
 
 from __future__ import annotations

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 from ontology.specs import ApiSpec, ParameterSpec
 from recent_plugin.failures import FailureCategory
+from robosuite_envs.primitives.session import TaskContext
 
 SAFE_HELPERS = frozenset(
     {
@@ -34,7 +35,7 @@ SAFE_HELPERS = frozenset(
         "sorted",
     }
 )
-TASK_QUERIES = frozenset({"get_object_position", "get_object_names", "is_grasped"})
+TASK_QUERIES = frozenset(TaskContext.QUERIES)
 FORBIDDEN_CALLS = frozenset(
     {
         "exec",
