@@ -116,10 +116,6 @@ class SkillExecutor:
         return {name: ast.literal_eval(default) for name, default in zip(names, func.args.defaults, strict=True)}
 
     @property
-    def done(self) -> bool:
-        return self.failure is None and self.cursor >= len(self.segments)
-
-    @property
     def failed(self) -> bool:
         return self.failure is not None
 

@@ -44,7 +44,6 @@ class RobotSession:
     gripper_command: float = -1.0  # robosuite convention: -1 open, +1 closed
     hold_quat: np.ndarray = field(default=None)  # type: ignore[assignment]
     hold_yaw: bool = False  # set once a primitive aligns the gripper; until then only the tool axis is held
-    steps: int = 0
 
     def __post_init__(self) -> None:
         if self.hold_quat is None:
@@ -52,7 +51,6 @@ class RobotSession:
 
     def update(self, obs: Observation) -> None:
         self.obs = obs
-        self.steps += 1
 
 
 class TaskContext:
