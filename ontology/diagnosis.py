@@ -67,6 +67,24 @@ class Diagnosis:
     def compatible(self) -> bool:
         return not self.conflicts
 
+    def summary(self) -> dict:
+        """The reviewable essence (the format of ``tests/data/expected_diagnoses.yaml``)."""
+        return {
+            "conflicts": [
+                {
+                    "line": c.span.line,
+                    "original": c.original,
+                    "substitute": c.substitute.name if c.substitute else None,
+                    "span_type": c.span_type,
+                    "mapping": {m.source: m.target for m in c.mapping},
+                    "dropped": list(c.dropped),
+                    "unfilled": list(c.unfilled),
+                }
+                for c in self.conflicts
+            ],
+            "warnings": sorted(f"{w.span.line}:{w.primitive}:{w.kind}:{w.phase}" for w in self.warnings),
+        }
+
 
 def _value_map(source: tuple | None, target: tuple | None) -> tuple[tuple[object, object], ...]:
     """Same role, different literal vocabularies of equal size (``'z'`` ↔ ``'down'``): map them in order."""

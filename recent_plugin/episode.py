@@ -19,6 +19,7 @@ class EpisodeResult:
     robot: str
     seed: int
     success: bool
+    gc: float  # goal-conditioned success: the fraction of the plan's subtasks achieved
     steps: int
     wall_seconds: float
     grounding: EpisodeGrounding
@@ -50,9 +51,22 @@ def run_episode(
     max_steps: int | None = None,
     progress: bool = False,
     env: RecentEnv | None = None,
+    variations: str = "off",
 ) -> EpisodeResult:
-    """Ground the task's skills for ``robot`` and execute them until success or the step limit."""
-    env = env or RecentEnv(task=task_id, robot=robot, render_mode="none", max_episode_steps=max_steps)
+    """Ground the task's skills for ``robot`` and execute them until success or the step limit.
+
+    Without an ``env`` one is built (with ``variations``) and closed again afterwards.
+    """
+    if env is not None:
+        return _run(agent, env, task_id, robot, seed, progress)
+    env = RecentEnv(task=task_id, robot=robot, render_mode="none", max_episode_steps=max_steps, variations=variations)
+    try:
+        return _run(agent, env, task_id, robot, seed, progress)
+    finally:
+        env.close()
+
+
+def _run(agent: RecentAgent, env: RecentEnv, task_id: str, robot: str, seed: int, progress: bool) -> EpisodeResult:
     started = time.perf_counter()
     raw, _ = env.reset(seed=seed)
     names = env.spec_task.object_names()
@@ -60,7 +74,7 @@ def run_episode(
         task_id, robot, Observation.decode(raw["agent_pos"], raw["environment_state"], names)
     )
     bar = _bar(env._max_episode_steps, progress, f"{task_id} on {robot}")
-    success, steps, settled = False, 0, 0
+    success, steps, settled, info = False, 0, 0, {}
     while True:
         action = executor.act(Observation.decode(raw["agent_pos"], raw["environment_state"], names))
         raw, _, terminated, truncated, info = env.step(action)
@@ -76,6 +90,7 @@ def run_episode(
         robot=robot,
         seed=seed,
         success=success,
+        gc=float(info.get("gc", 0.0)),
         steps=steps,
         wall_seconds=time.perf_counter() - started,
         grounding=grounding,

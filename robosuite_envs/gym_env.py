@@ -1,8 +1,10 @@
 """A gymnasium env around :class:`RecentTabletopEnv`, in LeRobot's observation conventions.
 
 Observations: ``agent_pos`` (8) and ``environment_state`` (object slots), see
-:mod:`robosuite_envs.observation`. ``info["is_success"]`` is the task's success predicate; an
-episode terminates on success and truncates at ``max_episode_steps``.
+:mod:`robosuite_envs.observation`, as the robot senses them (with the ``sensing_noise``
+variation, noisy). ``info["is_success"]`` is true once every subtask of the plan succeeded (in
+order), ``info["gc"]`` is the fraction that did; the reward is ``gc``. An episode terminates on
+success and truncates at ``max_episode_steps``.
 """
 
 from __future__ import annotations
@@ -15,6 +17,7 @@ from robosuite_envs.embodiments import get_embodiment
 from robosuite_envs.observation import ACTION_DIM, AGENT_POS_DIM, ENV_STATE_DIM, MAX_OBJECTS
 from robosuite_envs.primitives.session import CONTROL_FREQ
 from robosuite_envs.tasks import get_task, task_string
+from robosuite_envs.variations import parse_variations
 
 
 class RecentEnv(gym.Env):
@@ -29,6 +32,7 @@ class RecentEnv(gym.Env):
         visualization_width: int = 128,
         visualization_height: int = 128,
         render_camera: str = "frontview",
+        variations: str | tuple[str, ...] = (),
     ):
         super().__init__()
         self.spec_task = get_task(task)
@@ -37,6 +41,7 @@ class RecentEnv(gym.Env):
                 f"task {task!r} has {len(self.spec_task.objects)} objects; at most {MAX_OBJECTS} fit the observation"
             )
         self.embodiment = get_embodiment(robot)
+        self.variations = parse_variations(variations) if isinstance(variations, str) else tuple(variations)
         self.render_mode = render_mode
         self._max_episode_steps = max_episode_steps or self.spec_task.max_steps
         self._render_size = (visualization_height, visualization_width)
@@ -60,6 +65,7 @@ class RecentEnv(gym.Env):
 
         return RecentTabletopEnv(
             self.spec_task,
+            variations=self.variations,
             robots=self.embodiment.robot,
             gripper_types=self.embodiment.gripper,
             controller_configs=load_composite_controller_config(controller="BASIC", robot=self.embodiment.robot),
@@ -74,7 +80,7 @@ class RecentEnv(gym.Env):
         )
 
     def _observation(self) -> dict[str, np.ndarray]:
-        agent, env_state = self._env.observe().encode(self.spec_task.object_names())
+        agent, env_state = self._env.sensed().encode(self.spec_task.object_names())
         return {"agent_pos": agent, "environment_state": env_state}
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
@@ -85,7 +91,7 @@ class RecentEnv(gym.Env):
             self._env.rng = np.random.default_rng(seed)
         self._env.reset()
         self._steps = 0
-        return self._observation(), {"is_success": False}
+        return self._observation(), self._info()
 
     def step(self, action):
         action = np.asarray(action, dtype=np.float64)
@@ -97,10 +103,17 @@ class RecentEnv(gym.Env):
             raise ValueError(f"action contains NaN or inf and was not stepped: {action.tolist()}")
         self._env.step(np.clip(action, -1.0, 1.0))
         self._steps += 1
-        success = bool(self._env._check_success())  # reads the same snapshot as the observation below
-        obs = self._observation()
+        info = self._info()
         truncated = self._steps >= self._max_episode_steps
-        return obs, float(success), success, truncated, {"is_success": success}
+        return self._observation(), info["gc"], info["is_success"], truncated, info
+
+    def _info(self) -> dict:
+        """``is_success``: every plan step achieved; ``gc``: the fraction achieved (goal-conditioned)."""
+        return {
+            "is_success": bool(self._env._check_success()),
+            "gc": self._env.goal_conditioned_success,
+            "subtasks_done": int(sum(self._env.achieved)),
+        }
 
     def render(self):
         if self._env is None:

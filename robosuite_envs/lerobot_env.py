@@ -11,15 +11,19 @@ from lerobot.utils.constants import ACTION, OBS_ENV_STATE, OBS_STATE
 
 from robosuite_envs.observation import ACTION_DIM, AGENT_POS_DIM, ENV_STATE_DIM
 from robosuite_envs.primitives.session import CONTROL_FREQ
+from robosuite_envs.suites import SUITES
+from robosuite_envs.variations import parse_variations
 
 
 @EnvConfig.register_subclass("recent")
 @dataclass
 class RecentEnvConfig(EnvConfig):
-    """Our robosuite tasks; ``task`` may list several comma-separated task ids."""
+    """Our robosuite tasks; ``task`` may list several comma-separated task ids or a whole suite
+    (``kinematic``, ``end_effector``); ``variations``: off, on, all, or a comma list."""
 
     task: str = "cube_in_bin"
     robot: str = "UR5e"
+    variations: str = "off"
     fps: int = CONTROL_FREQ
     episode_length: int | None = None
     render_mode: str = "rgb_array"
@@ -43,15 +47,20 @@ class RecentEnvConfig(EnvConfig):
         for task_id in self.task_ids:
             get_task(task_id)  # unknown names fail here, listing the valid ones
         get_embodiment(self.robot)
+        parse_variations(self.variations)
 
     @property
     def task_ids(self) -> list[str]:
-        return [t.strip() for t in (self.task or "").split(",") if t.strip()]
+        ids = []
+        for name in (t.strip() for t in (self.task or "").split(",") if t.strip()):
+            ids += [t.task_id for t in SUITES[name]] if name in SUITES else [name]
+        return ids
 
     @property
     def gym_kwargs(self) -> dict:
         return {
             "robot": self.robot,
+            "variations": self.variations,
             "max_episode_steps": self.episode_length,
             "render_mode": self.render_mode,
             "visualization_width": self.visualization_width,

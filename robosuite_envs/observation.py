@@ -2,7 +2,9 @@
 
 ``agent_pos``         = eef position (3), grip-site quaternion xyzw (4), gripper opening (1)
 ``environment_state`` = per object slot: position (3), quaternion xyzw (4), present (1), grasped (1),
-                        touched by the end effector (1), height in metres (1)
+                        touched by the end effector (1), height in metres (1), state (1): the
+                        articulation or progress of the object (drawer opening in metres, lid angle
+                        in radians, button pressed 0/1, fraction of a wipe area wiped)
 
 Slots follow the order of the task's objects; unused slots are zero with present=0.
 """
@@ -15,7 +17,7 @@ import numpy as np
 
 AGENT_POS_DIM = 8
 MAX_OBJECTS = 8
-SLOT_DIM = 11
+SLOT_DIM = 12
 ENV_STATE_DIM = MAX_OBJECTS * SLOT_DIM
 ACTION_DIM = 7  # OSC_POSE delta (6) + gripper (1): -1 opens, +1 closes
 
@@ -27,6 +29,7 @@ class ObjectState:
     grasped: bool
     touching: bool = False
     height: float = 0.0
+    state: float = 0.0
 
     @property
     def top(self) -> np.ndarray:
@@ -47,8 +50,10 @@ class Observation:
         agent = np.concatenate([self.eef_pos, self.eef_quat, [self.gripper_opening]]).astype(np.float32)
         env_state = np.zeros(ENV_STATE_DIM, dtype=np.float32)
         for slot, name in enumerate(object_names):
-            state = self.objects[name]
-            row = [*state.pos, *state.quat, 1.0, float(state.grasped), float(state.touching), state.height]
+            state = self.objects.get(name)
+            if state is None:  # not in view (e.g. an obstacle that has not appeared yet): present = 0
+                continue
+            row = [*state.pos, *state.quat, 1.0, float(state.grasped), float(state.touching), state.height, state.state]
             env_state[slot * SLOT_DIM : (slot + 1) * SLOT_DIM] = row
         return agent, env_state
 
@@ -66,6 +71,7 @@ class Observation:
                     grasped=bool(row[8] > 0.5),
                     touching=bool(row[9] > 0.5),
                     height=float(row[10]),
+                    state=float(row[11]),
                 )
         return cls(
             eef_pos=agent_pos[0:3].copy(),

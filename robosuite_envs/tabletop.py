@@ -1,38 +1,65 @@
 """A robosuite manipulation environment built from a :class:`~robosuite_envs.tasks.TaskSpec`.
 
 Follows robosuite's layering: a ``ManipulationEnv`` whose ``_load_model`` composes a
-``TableArena``, the robot (with the embodiment's gripper) and the task's objects.
+``TableArena``, the robot (with the embodiment's gripper) and the task's objects
+(:mod:`robosuite_envs.objects`). Per-subtask success is latched in plan order every step, so
+goal-conditioned success (GC) survives later subtasks that change the scene again.
 """
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 from robosuite.environments.manipulation.manipulation_env import ManipulationEnv
 from robosuite.models.arenas import TableArena
-from robosuite.models.objects import BoxObject
-from robosuite.models.objects.composite import Bin
 from robosuite.models.tasks import ManipulationTask
+from robosuite.utils.mjcf_utils import array_to_string
 from robosuite.utils.transform_utils import convert_quat, mat2quat
 
 from robosuite_envs.grippers import SuctionGripper  # also registers our gripper models with robosuite
+from robosuite_envs.objects import get_kind
 from robosuite_envs.observation import ObjectState, Observation
+from robosuite_envs.subtasks import TABLE_Z, get_subtask
 from robosuite_envs.tasks import ObjectSpec, TaskSpec
+from robosuite_envs.variations import FAR_TARGET_XY, OBSTACLE, VariationPlan, manipulated_object, plan_variations
 
 TABLE_SIZE = (0.8, 0.8, 0.05)
-TABLE_OFFSET = np.array((0.0, 0.0, 0.8))
+TABLE_OFFSET = np.array((0.0, 0.0, TABLE_Z))
+PARKING = np.array([1.5, 1.5, 0.05])  # off the table, on the floor: where unused objects wait
+BUTTON_PRESSED = 0.005  # metres of cap travel that count as a press
+SEAL_CONTACTS = 3  # contact points between cup and face that make a vacuum seal (a ball gives one)
+WIPE_GRID = 4  # a wipe area is WIPE_GRID x WIPE_GRID cells
+WIPE_HEIGHT = 0.035  # the grip site counts as wiping below this height above the table
 
 
 class RecentTabletopEnv(ManipulationEnv):
-    """One robot at a table with the objects of one task; success is the task's predicate."""
+    """One robot at a table with the objects of one task; success is every plan step achieved."""
 
-    def __init__(self, task: TaskSpec, robots: str, gripper_types: str, **kwargs):
-        self.task_spec = task
-        self._specs = {spec.name: spec for spec in task.objects}
+    def __init__(self, task: TaskSpec, robots: str, gripper_types: str, variations: tuple[str, ...] = (), **kwargs):
+        self.task_spec = _apply_build_variations(task, variations)
+        self.variations = tuple(variations)
+        self._specs = {spec.name: spec for spec in self.task_spec.objects}
+        self._suction_actuator: int | None = None
+        self._cup_geom = -1
+        self._geom_owner: dict[int, str] = {}
+        self._adhesion_gain = 0.0
+        self._seal: str | None = None  # the object a vacuum cup is sealed on
         self._episode = 0
         self._snapshot: tuple[tuple[int, float], Observation] | None = None
         self.table_top_z = float(TABLE_OFFSET[2])
-        self._objects: dict[str, BoxObject | Bin] = {}
+        self._objects: dict = {}
         self._body_ids: dict[str, int] = {}
+        self._root_ids: dict[str, int] = {}
+        self._joint_addr: dict[str, int] = {}
+        self._parked: set[str] = set()
+        self._latched_state: dict[str, float] = {}
+        self._wiped: dict[str, np.ndarray] = {}
+        self.achieved: list[bool] = []
+        self.plan = VariationPlan(enabled=())
+        self.elapsed_steps = 0
+        self._noise_rng = np.random.default_rng(0)
+        self._defaults: dict[str, np.ndarray] = {}
         super().__init__(robots=robots, gripper_types=gripper_types, base_types="default", **kwargs)
 
     # ----------------------------------------------------------------- model
@@ -42,82 +69,228 @@ class RecentTabletopEnv(ManipulationEnv):
         robot.robot_model.set_base_xpos(robot.robot_model.base_xpos_offset["table"](TABLE_SIZE[0]))
         arena = TableArena(table_full_size=TABLE_SIZE, table_offset=TABLE_OFFSET)
         arena.set_origin([0, 0, 0])
-        self._objects = {spec.name: self._make_object(spec) for spec in self.task_spec.objects}
+        self._objects = {}
+        for spec in self.task_spec.objects:
+            obj = get_kind(spec.kind).build(spec.name, spec.size, spec.rgba)
+            if get_kind(spec.kind).fixed:
+                obj.get_obj().set("pos", array_to_string(self._nominal_pos(spec)))
+            self._objects[spec.name] = obj
         self.model = ManipulationTask(
             mujoco_arena=arena,
             mujoco_robots=[robot.robot_model],
             mujoco_objects=list(self._objects.values()),
         )
 
-    @staticmethod
-    def _make_object(spec: ObjectSpec):
-        if spec.kind == "box":
-            return BoxObject(
-                name=spec.name,
-                size=np.array(spec.size) / 2,
-                rgba=list(spec.rgba),
-                density=400.0,
-                friction=(1.5, 0.005, 0.0001),
-            )
-        if spec.kind == "bin":
-            return Bin(
-                name=spec.name,
-                bin_size=spec.size,
-                wall_thickness=0.01,
-                transparent_walls=False,
-                use_texture=False,
-                rgba=spec.rgba,
-                density=20000.0,  # heavy enough that a brushing arm does not shove it
-            )
-        raise ValueError(f"object {spec.name!r}: unknown kind {spec.kind!r} (known: box, bin)")
+    def _nominal_pos(self, spec: ObjectSpec, xy=None) -> np.ndarray:
+        """World position of the object's origin resting at ``xy``: MJCF fixtures have theirs at
+        the bottom, generated shapes at their centre."""
+        xy = spec.xy if xy is None else xy
+        kind = get_kind(spec.kind)
+        lift = 0.0 if kind.fixed and kind.size is not None else spec.size[2] / 2 + 0.001
+        return np.array([xy[0], xy[1], self.table_top_z + lift])
 
     def _setup_references(self):
         super()._setup_references()
-        self._body_ids = {name: self.sim.model.body_name2id(obj.root_body) for name, obj in self._objects.items()}
+        model = self.sim.model
+        for name, obj in self._objects.items():
+            kind = get_kind(self._specs[name].kind)
+            self._root_ids[name] = model.body_name2id(obj.root_body)
+            body = obj.naming_prefix + kind.body if kind.body else obj.root_body
+            self._body_ids[name] = model.body_name2id(body)
+            if kind.joint:
+                self._joint_addr[name] = model.jnt_qposadr[model.joint_name2id(obj.naming_prefix + kind.joint)]
+        robot = self.robots[0]
+        gripper = robot.gripper[robot.arms[0]]
+        if isinstance(gripper, SuctionGripper):
+            self._suction_actuator = int(robot._ref_joint_gripper_actuator_indexes[robot.arms[0]][0])
+            self._cup_geom = model.geom_name2id(gripper.important_geoms["cup"][0])
+            # read once: later resets find the gain this env itself zeroed while no seal held
+            self._adhesion_gain = self._adhesion_gain or float(model.actuator_gainprm[self._suction_actuator, 0])
+            self._geom_owner = {
+                model.geom_name2id(geom): name for name, obj in self._objects.items() for geom in obj.contact_geoms
+            }
+        if not self._defaults:  # the model as built, before any variation scaled it (captured once)
+            self._defaults = {
+                "friction": np.array(model.geom_friction),
+                "mass": np.array(model.body_mass),
+                "inertia": np.array(model.body_inertia),
+            }
 
     # ----------------------------------------------------------------- reset
     def _reset_internal(self):
         super()._reset_internal()
         rng = self.rng
+        self.plan = plan_variations(self.task_spec, self.variations, rng)
+        self._noise_rng = np.random.default_rng(rng.integers(2**32))
+        self._parked = {OBSTACLE} & set(self._specs)
         for spec in self.task_spec.objects:
             jitter = rng.uniform(-spec.xy_jitter, spec.xy_jitter, size=2) if spec.xy_jitter else np.zeros(2)
             xy = np.array(spec.xy) + jitter
-            obj = self._objects[spec.name]
-            z = self.table_top_z + spec.size[2] / 2 + 0.001
-            pos = np.array([xy[0], xy[1], z])
-            self.sim.data.set_joint_qpos(obj.joints[0], np.concatenate([pos, [1.0, 0.0, 0.0, 0.0]]))
+            if spec.name == self.plan.far_target:
+                xy = np.array(FAR_TARGET_XY)
+            pos = PARKING if spec.name in self._parked else self._nominal_pos(spec, xy)
+            self._place(spec.name, pos)
+            if spec.name in self._joint_addr:
+                self.sim.data.qpos[self._joint_addr[spec.name]] = spec.state
+        self._apply_material_variations()
         self.sim.forward()
+        self._latched_state = {name: 0.0 for name in self._specs}
+        self._wiped = {}
+        self.achieved = [False] * len(self.task_spec.plan)
+        self.elapsed_steps = 0
+        self._seal = None
         self._episode += 1  # sim time restarts at 0: a new key for observe()'s snapshot
 
+    def _place(self, name: str, pos: np.ndarray) -> None:
+        obj = self._objects[name]
+        if get_kind(self._specs[name].kind).fixed:
+            self.sim.model.body_pos[self._root_ids[name]] = pos
+        else:
+            self.sim.data.set_joint_qpos(obj.joints[0], np.concatenate([pos, [1.0, 0.0, 0.0, 0.0]]))
+            self.sim.data.set_joint_qvel(obj.joints[0], np.zeros(6))
+
+    def _apply_material_variations(self) -> None:
+        model = self.sim.model
+        model.geom_friction[:] = self._defaults["friction"]
+        model.body_mass[:] = self._defaults["mass"]
+        model.body_inertia[:] = self._defaults["inertia"]
+        for name, spec in self._specs.items():
+            if not get_kind(spec.kind).graspable:
+                continue
+            for geom in self._objects[name].contact_geoms:
+                model.geom_friction[model.geom_name2id(geom), 0] *= self.plan.friction_scale
+            body = self._root_ids[name]
+            model.body_mass[body] *= self.plan.mass_scale
+            model.body_inertia[body] *= self.plan.mass_scale
+
+    # ------------------------------------------------------------- stepping
+    def _pre_action(self, action, policy_step=False):
+        super()._pre_action(action, policy_step)
+        if policy_step and self._suction_actuator is not None:
+            self._update_seal()
+
+    def _update_seal(self) -> None:
+        """A vacuum cup seals only on a flat, non-porous face pressed under its rim (at least
+        SEAL_CONTACTS contact points); the adhesion actuator pulls only while a seal holds."""
+        sim, actuator = self.sim, self._suction_actuator
+        if sim.data.ctrl[actuator] < 0.5:
+            self._seal = None
+        else:
+            contacts = self._cup_contacts()
+            if self._seal is not None and not contacts.get(self._seal):
+                self._seal = None  # pulled off: the seal broke
+            if self._seal is None:
+                flat = [n for n, k in contacts.items() if k >= SEAL_CONTACTS and self._specs[n].surface != "porous"]
+                self._seal = flat[0] if flat else None
+        sim.model.actuator_gainprm[actuator, 0] = self._adhesion_gain if self._seal else 0.0
+
+    def _cup_contacts(self) -> dict[str, int]:
+        data, counts = self.sim.data, {}
+        for contact in data.contact[: data.ncon]:
+            if self._cup_geom not in (contact.geom1, contact.geom2):
+                continue
+            name = self._geom_owner.get(contact.geom2 if contact.geom1 == self._cup_geom else contact.geom1)
+            if name is not None:
+                counts[name] = counts.get(name, 0) + 1
+        return counts
+
+    def _post_action(self, action):
+        reward, done, info = super()._post_action(action)
+        self.elapsed_steps += 1
+        self._run_events()
+        self._track_progress()
+        return reward, done, info
+
+    def _run_events(self) -> None:
+        plan, step = self.plan, self.elapsed_steps
+        if plan.perturb_object and step == plan.perturb_step and not self.holds(plan.perturb_object):
+            pos = np.array(self.sim.data.body_xpos[self._root_ids[plan.perturb_object]])
+            pos[:2] = np.clip(pos[:2] + plan.perturb_offset, -0.35, 0.35)
+            self._place(plan.perturb_object, pos)
+        if plan.obstacle_target and step == plan.obstacle_step:
+            target = np.array(self.sim.data.body_xpos[self._body_ids[plan.obstacle_target]])
+            self._parked.discard(OBSTACLE)
+            self._place(OBSTACLE, np.array([target[0], target[1], self.table_top_z + 0.06]))
+        if step in (plan.perturb_step, plan.obstacle_step):
+            self.sim.forward()
+
+    def _track_progress(self) -> None:
+        """Latch button presses and wiped cells, then latch subtasks in plan order."""
+        grip = self._grip_site_pos()
+        for name, spec in self._specs.items():
+            if spec.kind == "button":
+                pressed = self.sim.data.qpos[self._joint_addr[name]] < -BUTTON_PRESSED
+                self._latched_state[name] = max(self._latched_state[name], float(pressed))
+            elif spec.kind == "stain":
+                self._latched_state[name] = self._wipe_coverage(name, spec, grip)
+        obs = self.observe(fresh=True)
+        for i, step in enumerate(self.task_spec.plan):
+            if self.achieved[i]:
+                continue
+            if i > 0 and not self.achieved[i - 1]:
+                break
+            self.achieved[i] = get_subtask(step.subtask).check(self.task_spec, obs, step.args)
+
+    def _wipe_coverage(self, name: str, spec: ObjectSpec, grip: np.ndarray) -> float:
+        cells = self._wiped.setdefault(name, np.zeros((WIPE_GRID, WIPE_GRID), dtype=bool))
+        centre, half = self.sim.data.body_xpos[self._body_ids[name]], np.array(spec.size[:2]) / 2
+        rel = (grip[:2] - (centre[:2] - half)) / (2 * half)
+        if grip[2] < self.table_top_z + WIPE_HEIGHT and np.all((rel >= 0) & (rel < 1)):
+            i, j = (rel * WIPE_GRID).astype(int)
+            cells[i, j] = True
+        return float(cells.mean())
+
+    def _grip_site_pos(self) -> np.ndarray:
+        robot = self.robots[0]
+        return np.array(self.sim.data.site_xpos[robot.eef_site_id[robot.arms[0]]])
+
     # ----------------------------------------------------------- observation
-    def observe(self) -> Observation:
-        """The state primitives may use: end effector, gripper opening, object poses and grasps.
+    def observe(self, fresh: bool = False) -> Observation:
+        """The true state primitives may use: end effector, gripper opening, object poses, grasps.
 
         Computed once per simulated instant: robosuite's ``step`` asks for the reward, the gym
         wrapper for success and for the observation — all read the same snapshot.
         """
         key = (self._episode, self.sim.data.time)
-        if self._snapshot is None or self._snapshot[0] != key:
+        if fresh or self._snapshot is None or self._snapshot[0] != key:
             self._snapshot = (key, self._observe())
         return self._snapshot[1]
+
+    def sensed(self) -> Observation:
+        """What the robot's sensors report: the true state plus the ``sensing_noise`` variation."""
+        obs = self.observe()
+        if not self.plan.noise_sigma:
+            return obs
+        noisy = {
+            name: replace(state, pos=state.pos + self._noise_rng.normal(0.0, self.plan.noise_sigma, 3))
+            for name, state in obs.objects.items()
+        }
+        return replace(obs, objects=noisy)
 
     def _observe(self) -> Observation:
         robot = self.robots[0]
         arm = robot.arms[0]
         site = robot.eef_site_id[arm]
-        eef_pos = np.array(self.sim.data.site_xpos[site])
         eef_quat = mat2quat(np.array(self.sim.data.site_xmat[site]).reshape(3, 3))
         objects = {}
         for spec in self.task_spec.objects:
+            if spec.name in self._parked:
+                continue
             body = self._body_ids[spec.name]
+            joint = self._joint_addr.get(spec.name)
+            latched = joint is None or spec.kind == "button"  # progress the env tracks, not a joint
+            state = self._latched_state.get(spec.name, 0.0) if latched else float(self.sim.data.qpos[joint])
             objects[spec.name] = ObjectState(
                 pos=np.array(self.sim.data.body_xpos[body]),
                 quat=convert_quat(np.array(self.sim.data.body_xquat[body]), to="xyzw"),
                 grasped=self.holds(spec.name),
                 touching=bool(self.check_contact(robot.gripper[arm], self._objects[spec.name])),
                 height=float(spec.size[2]),
+                state=state,
             )
-        return Observation(eef_pos=eef_pos, eef_quat=eef_quat, gripper_opening=self.gripper_opening(), objects=objects)
+        return Observation(
+            eef_pos=self._grip_site_pos(), eef_quat=eef_quat, gripper_opening=self.gripper_opening(), objects=objects
+        )
 
     def gripper_opening(self) -> float:
         """Mean finger joint travel; for a vacuum gripper its suction command, 0 (off) .. 1 (on)."""
@@ -129,32 +302,39 @@ class RecentTabletopEnv(ManipulationEnv):
         return float(np.mean(np.abs(qpos))) if len(qpos) else 0.0
 
     def holds(self, name: str) -> bool:
-        """Fingers on both sides (robosuite's grasp check), or the sucking cup in contact."""
-        if self._specs[name].kind != "box":
+        """Fingers on both sides (robosuite's grasp check), or the vacuum cup sealed on it."""
+        if not get_kind(self._specs[name].kind).graspable:
             return False
         gripper, obj = self.robots[0].gripper[self.robots[0].arms[0]], self._objects[name]
         if isinstance(gripper, SuctionGripper):
-            return self.gripper_opening() > 0.5 and bool(self.check_contact(gripper.important_geoms["cup"], obj))
+            return self._seal == name
         return bool(self._check_grasp(gripper=gripper, object_geoms=obj))
 
     # --------------------------------------------------------------- success
-    def object_in_receptacle(self, obs: Observation, obj: str, receptacle: str) -> bool:
-        spec = self._specs[receptacle]
-        centre, state = obs.objects[receptacle].pos, obs.objects[obj]
-        inner = np.array(spec.size[:2]) / 2 - 0.01
-        inside_xy = bool(np.all(np.abs(state.pos[:2] - centre[:2]) < inner))
-        below_rim = bool(state.pos[2] < centre[2] + spec.size[2])
-        return inside_xy and below_rim and not state.grasped
+    def subtask_success(self, index: int) -> bool:
+        return self.achieved[index]
 
-    def subtask_success(self, subtask: str, args: dict[str, str], obs: Observation | None = None) -> bool:
-        obs = obs or self.observe()
-        if subtask == "put_in_bin":
-            return self.object_in_receptacle(obs, args["obj"], args["receptacle"])
-        raise KeyError(f"no success predicate for subtask {subtask!r}")
+    @property
+    def goal_conditioned_success(self) -> float:
+        return float(np.mean(self.achieved)) if self.achieved else 0.0
 
     def _check_success(self):
-        obs = self.observe()
-        return all(self.subtask_success(step.subtask, step.args, obs) for step in self.task_spec.plan)
+        return bool(self.achieved) and all(self.achieved)
 
     def reward(self, action=None):
-        return float(self._check_success())
+        return self.goal_conditioned_success
+
+
+def _apply_build_variations(task: TaskSpec, variations: tuple[str, ...]) -> TaskSpec:
+    """Variations that change the models themselves (shape, surface) before the scene is built."""
+    target = manipulated_object(task)
+    if target is None or not ({"non_flat", "porous"} & set(variations)):
+        return task
+    objects = []
+    for spec in task.objects:
+        if spec.name == target and "non_flat" in variations and spec.kind == "box":
+            spec = replace(spec, kind="sphere", size=(spec.size[0],) * 3)
+        if spec.name == target and "porous" in variations:
+            spec = replace(spec, surface="porous")
+        objects.append(spec)
+    return replace(task, objects=tuple(objects))

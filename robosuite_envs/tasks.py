@@ -1,23 +1,37 @@
 """Task specifications: objects in the scene, the instruction, and the plan of skills.
 
 A task is pure data so the policy (in another process than the env) can decode observations
-and pick skills from the task id alone.
+and pick skills from the task id alone. The suites' tasks live in :mod:`robosuite_envs.suites`.
 """
 
 from __future__ import annotations
 
+import functools
 import re
 from dataclasses import dataclass, field
+
+from robosuite_envs.objects import get_kind
 
 
 @dataclass(frozen=True)
 class ObjectSpec:
     name: str
-    kind: str  # "box" (free, graspable) or "bin" (fixed receptacle)
-    size: tuple[float, float, float]  # full extents in metres
+    kind: str  # a key of robosuite_envs.objects.KINDS
     xy: tuple[float, float]  # nominal position on the table, metres from the table centre
+    size: tuple[float, float, float] | None = None  # full extents; None = the kind's own (MJCF) size
     xy_jitter: float = 0.0  # uniform +/- jitter per axis, drawn from the episode seed
     rgba: tuple[float, float, float, float] = (0.8, 0.2, 0.2, 1.0)
+    state: float = 0.0  # initial articulation (drawer opening m, lid angle rad)
+    surface: str = "smooth"  # "porous": a suction cup cannot seal on it
+
+    def __post_init__(self) -> None:
+        kind = get_kind(self.kind)  # unknown kinds fail here, listing the valid ones
+        if self.size is None:
+            if kind.size is None:
+                raise ValueError(f"object {self.name!r} of kind {self.kind!r} needs a size")
+            object.__setattr__(self, "size", kind.size)
+        if self.surface not in ("smooth", "porous"):
+            raise ValueError(f"object {self.name!r}: surface must be 'smooth' or 'porous', got {self.surface!r}")
 
 
 @dataclass(frozen=True)
@@ -34,32 +48,34 @@ class TaskSpec:
     objects: tuple[ObjectSpec, ...]
     plan: tuple[PlanStep, ...]
     max_steps: int = 400
+    suite: str = ""
 
     def object_names(self) -> list[str]:
         return [o.name for o in self.objects]
 
+    def spec(self, name: str) -> ObjectSpec:
+        for obj in self.objects:
+            if obj.name == name:
+                return obj
+        raise KeyError(f"task {self.task_id!r} has no object {name!r}; objects: {', '.join(self.object_names())}")
 
-TASKS: dict[str, TaskSpec] = {
-    t.task_id: t
-    for t in (
-        TaskSpec(
-            task_id="cube_in_bin",
-            instruction="Pick the cube and place it in the bin.",
-            objects=(
-                ObjectSpec("cube", "box", (0.045, 0.045, 0.045), (-0.02, -0.12), 0.03, (0.85, 0.15, 0.1, 1.0)),
-                ObjectSpec("bin", "bin", (0.20, 0.20, 0.08), (0.02, 0.16), 0.0, (0.35, 0.25, 0.15, 1.0)),
-            ),
-            plan=(PlanStep("put_in_bin", "put_in_bin", {"obj": "cube", "receptacle": "bin"}),),
-        ),
-    )
-}
+    def subtasks(self) -> list[str]:
+        return [step.subtask for step in self.plan]
+
+
+@functools.cache
+def tasks() -> dict[str, TaskSpec]:
+    """Every task id → spec: ``cube_in_bin`` and the suites' ``<suite>/<task>`` ids."""
+    from robosuite_envs.suites import all_tasks
+
+    return {task.task_id: task for task in all_tasks()}
 
 
 def get_task(task_id: str) -> TaskSpec:
     try:
-        return TASKS[task_id]
+        return tasks()[task_id]
     except KeyError:
-        raise KeyError(f"unknown task {task_id!r}; known tasks: {', '.join(TASKS)}") from None
+        raise KeyError(f"unknown task {task_id!r}; known tasks: {', '.join(tasks())}") from None
 
 
 # The task id and robot travel to the policy inside LeRobot's `task` string.

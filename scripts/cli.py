@@ -5,6 +5,7 @@ recent ground              ground one skill and print the diff and the numbers
 recent model fetch|list|path
 recent ontology build|stats|diagnose
 recent skills list|show
+recent envs list|show        embodiments, subtasks, task suites, variations
 """
 
 from __future__ import annotations
@@ -13,9 +14,9 @@ import argparse
 import logging
 import sys
 
-from scripts import episode_cmd, ground_cmd, model_cmd, ontology_cmd, skills_cmd
+from scripts import envs_cmd, episode_cmd, ground_cmd, model_cmd, ontology_cmd, skills_cmd
 
-COMMANDS = (episode_cmd, ground_cmd, model_cmd, ontology_cmd, skills_cmd)
+COMMANDS = (episode_cmd, ground_cmd, envs_cmd, model_cmd, ontology_cmd, skills_cmd)
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -118,6 +118,8 @@ def _diagnose(args) -> int:
         print(json.dumps({"skill": skill.name, "robot": args.robot, "conflicts": rows, "warnings": warnings}, indent=2))
         return 0
     print(f"{skill.name} on {args.robot}: {len(rows)} determined conflict(s), {len(warnings)} undetermined warning(s)")
+    if not rows:
+        print(f"  {skill.name} is directly compatible with {args.robot}")
     for row in rows:
         print(f"  line {row['line']}: {row['span']}")
         print(f"      {row['span_type']}: {row['reason']}")
@@ -125,11 +127,4 @@ def _diagnose(args) -> int:
     for w in warnings:
         print(f"  line {w['line']} ({w['phase']} {w['primitive']}): {w['kind']}: {w['message']}")
         print(f"      check {w['check']} on {w['observation']}")
-    return 0
-    if not rows:
-        print(f"{skill.name} is directly compatible with {args.robot}")
-    for row in rows:
-        print(
-            f"line {row['line']}: {row['span']}\n    {row['span_type']}: {row['reason']}\n    use {row['substitute']}  map {row['mapping']}  drop {row['dropped']}"
-        )
     return 0

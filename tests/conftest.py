@@ -52,3 +52,11 @@ def rule_infiller():
     from recent_plugin.infillers import make_infiller
 
     return make_infiller("rule")
+
+
+@pytest.fixture(scope="session")
+def panda_agent(ontology, rule_infiller):
+    """Runs skills without an LM: on Panda they run unmodified, elsewhere the rule backend grounds them."""
+    from recent_plugin.agent import AgentSettings, RecentAgent
+
+    return RecentAgent(AgentSettings(backend="rule"), infiller=rule_infiller, ontology=ontology)

@@ -47,6 +47,23 @@ def test_diagnose_json(capsys):
 
 def test_unknown_names_are_clear_errors(capsys):
     assert main(["ground", "--skill", "juggle", "--robot", "UR5e", "--backend", "rule"]) == 2
-    assert "unknown skill 'juggle'; known skills: put_in_bin" in capsys.readouterr().err
+    assert "unknown skill 'juggle'; known skills: arrange_in_row, " in capsys.readouterr().err
     assert main(["ontology", "diagnose", "--skill", "put_in_bin", "--robot", "R2D2"]) == 2
     assert "known robots" in capsys.readouterr().err
+
+
+def test_envs_list_json_counts_the_world(capsys):
+    assert main(["envs", "list", "--json"]) == 0
+    world = json.loads(capsys.readouterr().out)
+    assert world["embodiments"] == ["Panda", "UR5e", "Sawyer", "Robotiq85", "Suction"]
+    assert world["primitives"] >= 40 and world["subtasks"] >= 16
+    assert world["suites"] == {"kinematic": 20, "end_effector": 12}
+    assert "obstacle" in world["variations"]
+
+
+def test_envs_show_prints_instruction_plan_and_objects(capsys):
+    assert main(["envs", "show", "end_effector/cabinet_routine"]) == 0
+    out = capsys.readouterr().out
+    assert "Put the cube away in the drawer" in out and "5. close_hinged_box" in out and "drawer" in out
+    assert main(["envs", "show", "kinematic/nothing"]) == 2
+    assert "known tasks: cube_in_bin, kinematic/cube_in_bin" in capsys.readouterr().err

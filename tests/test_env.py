@@ -20,7 +20,7 @@ def env():
 def test_observation_layout_and_task_string(env):
     obs, info = env.reset(seed=0)
     assert obs["agent_pos"].shape == (8,) and obs["environment_state"].shape == (ENV_STATE_DIM,)
-    assert env.observation_space.contains(obs) and info == {"is_success": False}
+    assert env.observation_space.contains(obs) and info == {"is_success": False, "gc": 0.0, "subtasks_done": 0}
     assert parse_task_string(env.task_description) == ("cube_in_bin", "UR5e")
     cube_present = obs["environment_state"][7]
     assert cube_present == 1.0

@@ -46,22 +46,25 @@ def test_policy_factory_builds_recent_and_returns_batched_actions():
     env.close()
 
 
-def test_lerobot_eval_writes_eval_info_from_real_rollouts(tmp_path):
-    """The README's lerobot-eval line (rule backend here to keep the suite fast; same code path)."""
+def test_lerobot_eval_runs_two_tasks_with_batch_size_two(tmp_path):
+    """The README's lerobot-eval line on two suite tasks, two envs per batch (rule backend keeps it fast;
+    the policy path is the same as with the LM)."""
     out = tmp_path / "eval"
+    tasks = ["kinematic/press_button", "end_effector/open_drawer"]
     cmd = [
         str(Path(sys.executable).with_name("lerobot-eval")),
         "--policy.type=recent",
         "--policy.backend=rule",
         "--env.type=recent",
-        "--env.task=cube_in_bin",
+        f"--env.task={','.join(tasks)}",
         "--env.robot=UR5e",
         "--eval.n_episodes=2",
-        "--eval.batch_size=1",
+        "--eval.batch_size=2",
         f"--output_dir={out}",
     ]
     proc = subprocess.run(cmd, capture_output=True, text=True, timeout=900, env={**os.environ, "TQDM_DISABLE": "1"})
     assert proc.returncode == 0, proc.stderr[-3000:]
     info = json.loads((out / "eval_info.json").read_text())
-    assert info["overall"]["n_episodes"] == 2
-    assert info["overall"]["pc_success"] == 100.0
+    assert info["overall"]["n_episodes"] == 4
+    assert {row["task_group"] for row in info["per_task"]} == set(tasks)
+    assert info["overall"]["pc_success"] == 100.0, info["per_task"]

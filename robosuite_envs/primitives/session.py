@@ -56,7 +56,7 @@ class RobotSession:
 class TaskContext:
     """Read-only queries about the scene that skill code may call (``task.get_object_position``)."""
 
-    QUERIES = ("get_object_position", "get_object_names", "is_grasped")
+    QUERIES = ("get_object_position", "get_object_state", "get_object_names", "is_grasped")
 
     def __init__(self, session: RobotSession):
         self._session = session
@@ -65,12 +65,19 @@ class TaskContext:
         return sorted(self._session.obs.objects)
 
     def get_object_position(self, name: str) -> list[float]:
+        return [float(v) for v in self._state(name).pos]
+
+    def get_object_state(self, name: str) -> float:
+        """Articulation or progress: drawer opening (m), lid angle (rad), button pressed (0/1)."""
+        return float(self._state(name).state)
+
+    def _state(self, name: str):
         state = self._session.obs.objects.get(name)
         if state is None:
             raise PrimitiveFailure(
                 "object_not_found", f"object {name!r} not found in scene; objects: {self.get_object_names()}"
             )
-        return [float(v) for v in state.pos]
+        return state
 
     def is_grasped(self, name: str) -> bool:
         state = self._session.obs.objects.get(name)

@@ -1,0 +1,154 @@
+"""Object models of the task scenes, one kind per row of :data:`KINDS`.
+
+Simple shapes reuse robosuite's generated objects (``BoxObject``, ``BallObject``, ``Bin``);
+fixtures and articulated objects are MJCF files in ``objects/assets`` loaded as
+``MujocoXMLObject``. A kind says whether the object is free or fixed to the table, which body is
+observed (a drawer is observed at its knob) and which joint, if any, is its articulation state.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from robosuite.models.objects import BallObject, BoxObject, MujocoObject, MujocoXMLObject
+from robosuite.models.objects.composite import Bin
+
+ASSETS = Path(__file__).parent / "assets"
+
+
+@dataclass(frozen=True)
+class ObjectKind:
+    name: str
+    build: Callable[[str, tuple[float, float, float], tuple[float, float, float, float]], MujocoObject]
+    fixed: bool  # welded to the table (placed through the model) rather than on a free joint
+    graspable: bool  # can be held: grasp flags are computed for it
+    size: tuple[float, float, float] | None = None  # full extents, for kinds whose MJCF fixes them
+    body: str | None = None  # observed sub-body (after the object's name prefix); None = root body
+    joint: str | None = None  # articulation joint whose position is reported as the object's state
+    description: str = ""
+
+
+def _box(name, size, rgba):
+    return BoxObject(name=name, size=np.array(size) / 2, rgba=list(rgba), density=400.0, friction=(1.5, 0.005, 0.0001))
+
+
+def _slab(name, size, rgba):
+    return BoxObject(name=name, size=np.array(size) / 2, rgba=list(rgba), density=600.0, friction=(0.6, 0.005, 0.0001))
+
+
+def _sphere(name, size, rgba):
+    return BallObject(name=name, size=[size[0] / 2], rgba=list(rgba), density=400.0, friction=(1.0, 0.005, 0.0001))
+
+
+def _plate(name, size, rgba):
+    return BoxObject(name=name, size=np.array(size) / 2, rgba=list(rgba), joints=None, friction=(1.0, 0.005, 0.0001))
+
+
+def _region(name, size, rgba):
+    return BoxObject(name=name, size=np.array(size) / 2, rgba=list(rgba), joints=None, obj_type="visual")
+
+
+def _bin(name, size, rgba):
+    return Bin(
+        name=name,
+        bin_size=size,
+        wall_thickness=0.01,
+        transparent_walls=False,
+        use_texture=False,
+        rgba=rgba,
+        density=20000.0,  # heavy enough that a brushing arm does not shove it
+    )
+
+
+def _xml(asset: str, *, free: bool = False):
+    def build(name, size, rgba):
+        return MujocoXMLObject(str(ASSETS / asset), name=name, joints="default" if free else None, obj_type="all")
+
+    return build
+
+
+KINDS: dict[str, ObjectKind] = {
+    k.name: k
+    for k in (
+        ObjectKind("box", _box, fixed=False, graspable=True, description="a free cuboid block"),
+        ObjectKind("sphere", _sphere, fixed=False, graspable=True, description="a ball (no flat face for suction)"),
+        ObjectKind(
+            "rake",
+            _xml("rake.xml", free=True),
+            fixed=False,
+            graspable=True,
+            size=(0.27, 0.16, 0.07),
+            description="a tool held by its raised handle (0.025 m above its centre); the crossbar is 0.13 m ahead",
+        ),
+        ObjectKind("slab", _slab, fixed=False, graspable=False, description="a flat block wider than any gripper"),
+        ObjectKind("bin", _bin, fixed=False, graspable=False, description="an open receptacle"),
+        ObjectKind("plate", _plate, fixed=True, graspable=False, description="a flat plate to place things on"),
+        ObjectKind("region", _region, fixed=True, graspable=False, description="a marked area (no collision)"),
+        ObjectKind(
+            "stain", _region, fixed=True, graspable=False, description="an area to wipe; state = fraction wiped"
+        ),
+        ObjectKind(
+            "lid",
+            _xml("lid.xml", free=True),
+            fixed=False,
+            graspable=True,
+            size=(0.11, 0.11, 0.012),
+            description="a loose lid with a knob",
+        ),
+        ObjectKind(
+            "button",
+            _xml("button.xml"),
+            fixed=True,
+            graspable=False,
+            size=(0.07, 0.07, 0.036),
+            body="cap",
+            joint="press",
+            description="a spring-loaded push button; state = 1 once pressed",
+        ),
+        ObjectKind(
+            "drawer",
+            _xml("drawer.xml"),
+            fixed=True,
+            graspable=False,
+            size=(0.18, 0.18, 0.11),
+            body="tray",
+            joint="slide",
+            description="a cabinet drawer observed at its knob; state = opening in metres",
+        ),
+        ObjectKind(
+            "hinged_box",
+            _xml("hinged_box.xml"),
+            fixed=True,
+            graspable=False,
+            size=(0.14, 0.14, 0.08),
+            joint="hinge",
+            description="a box with a hinged lid; state = lid angle in radians",
+        ),
+        ObjectKind(
+            "peg_hole",
+            _xml("peg_hole.xml"),
+            fixed=True,
+            graspable=False,
+            size=(0.14, 0.14, 0.05),
+            description="a fixture with a 5 cm square hole, observed at the hole",
+        ),
+        ObjectKind(
+            "pen",
+            _xml("pen.xml"),
+            fixed=True,
+            graspable=False,
+            size=(0.18, 0.18, 0.03),
+            description="three walls open towards the robot, to sweep objects into",
+        ),
+    )
+}
+
+
+def get_kind(name: str) -> ObjectKind:
+    try:
+        return KINDS[name]
+    except KeyError:
+        raise KeyError(f"unknown object kind {name!r}; known kinds: {', '.join(KINDS)}") from None

@@ -1,0 +1,83 @@
+"""``recent envs``: the simulated world — embodiments, primitives, subtasks, suites, variations."""
+
+from __future__ import annotations
+
+import json
+
+from robosuite_envs.embodiments import EMBODIMENTS
+from robosuite_envs.primitives import api_functions
+from robosuite_envs.subtasks import SUBTASKS, get_subtask
+from robosuite_envs.suites import SUITES
+from robosuite_envs.tasks import get_task
+from robosuite_envs.variations import ON, VARIATIONS
+
+
+def register(sub) -> None:
+    parser = sub.add_parser("envs", help="embodiments, subtasks, task suites and variations of the robosuite world")
+    actions = parser.add_subparsers(dest="action", metavar="ACTION", required=True)
+    listing = actions.add_parser("list", help="what the world offers")
+    listing.add_argument("--json", action="store_true", help="one JSON object (counts and names)")
+    listing.set_defaults(handler=_list)
+    show = actions.add_parser("show", help="instruction, plan and objects of one task, e.g. kinematic/tidy_bench")
+    show.add_argument("task")
+    show.add_argument("--json", action="store_true")
+    show.set_defaults(handler=_show)
+
+
+def _list(args) -> int:
+    apis = {e.api for e in EMBODIMENTS.values()}
+    summary = {
+        "embodiments": list(EMBODIMENTS),
+        "primitives": sum(len(api_functions(api)) for api in apis),
+        "subtasks": len(SUBTASKS),
+        "suites": {name: len(tasks) for name, tasks in SUITES.items()},
+        "variations": list(VARIATIONS),
+    }
+    if args.json:
+        print(json.dumps(summary, indent=2))
+        return 0
+    print("Embodiments:")
+    for e in EMBODIMENTS.values():
+        print(f"  {e.name:<10} {len(api_functions(e.api)):>2} primitives  {e.description}")
+    print(f"\nSubtasks ({len(SUBTASKS)}):")
+    for s in SUBTASKS.values():
+        print(f"  {s.name:<18} {s.family:<12} {s.category:<27} {s.description}")
+    for name, tasks in SUITES.items():
+        print(f"\nSuite {name} ({len(tasks)} tasks):")
+        for t in tasks:
+            print(f"  {t.task_id:<32} {len(t.plan)} subtask(s)  {t.instruction}")
+    print("\nVariations (--variations on = " + ", ".join(ON) + "):")
+    for name, text in VARIATIONS.items():
+        print(f"  {name:<18} {text}")
+    return 0
+
+
+def _show(args) -> int:
+    task = get_task(args.task)
+    record = {
+        "task": task.task_id,
+        "suite": task.suite,
+        "instruction": task.instruction,
+        "max_steps": task.max_steps,
+        "plan": [
+            {"subtask": s.subtask, "family": get_subtask(s.subtask).family, "skill": s.skill, "args": s.args}
+            for s in task.plan
+        ],
+        "objects": [
+            {"name": o.name, "kind": o.kind, "xy": list(o.xy), "jitter": o.xy_jitter, "size": list(o.size)}
+            for o in task.objects
+        ],
+    }
+    if args.json:
+        print(json.dumps(record, indent=2))
+        return 0
+    print(f"{task.task_id}: {task.instruction}\n\nPlan:")
+    for i, s in enumerate(record["plan"], 1):
+        print(f"  {i}. {s['subtask']:<18} skill {s['skill']}({', '.join(f'{k}={v}' for k, v in s['args'].items())})")
+    print("\nObjects:")
+    for o in record["objects"]:
+        size = " x ".join(f"{v:.3f}" for v in o["size"])
+        print(
+            f"  {o['name']:<10} {o['kind']:<11} at ({o['xy'][0]:+.2f}, {o['xy'][1]:+.2f}) ±{o['jitter']:.3f} m  {size} m"
+        )
+    return 0

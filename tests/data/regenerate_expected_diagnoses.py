@@ -1,0 +1,40 @@
+"""Recompute D(skill, robot) in ``expected_diagnoses.yaml`` for new skills and for the skills named.
+
+    .venv/bin/python tests/data/regenerate_expected_diagnoses.py [SKILL ...]
+
+Entries of other skills are kept as they are. Review the diff before committing: the table is
+the reference the ontology test holds D to.
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import yaml
+
+from ontology.builder import build_ontology
+from ontology.diagnosis import diagnose
+from skills.repository import list_skills, load_skill
+
+TABLE = Path(__file__).with_name("expected_diagnoses.yaml")
+
+
+def main(refresh: list[str]) -> None:
+    text = TABLE.read_text()
+    header = "".join(line for line in text.splitlines(keepends=True) if line.startswith("#"))
+    table = yaml.safe_load(text) or {}
+    onto = build_ontology()
+    changed = [name for name in list_skills() if name not in table or name in refresh]
+    for name in changed:
+        skill = load_skill(name)
+        table[name] = {
+            robot: diagnose(onto, skill.name, skill.code, robot, source=skill.source_embodiment).summary()
+            for robot in sorted(set(onto.robot_names()) - {skill.source_embodiment})
+        }
+    TABLE.write_text(header + yaml.safe_dump(table, sort_keys=True))
+    print(f"recomputed {len(changed)} skill(s): {', '.join(changed) or '-'}")
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])

@@ -1,0 +1,173 @@
+"""The simulated world: subtask library, suites, variations, and the suction gripper's limits."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from robosuite_envs.gym_env import RecentEnv
+from robosuite_envs.observation import MAX_OBJECTS, SLOT_DIM
+from robosuite_envs.subtasks import SUBTASKS
+from robosuite_envs.suites import SUITES, get_suite
+from robosuite_envs.variations import FAR_TARGET_XY, VARIATIONS, parse_variations
+from skills.repository import list_skills
+
+PANDA_REACH = 0.855  # metres, Franka's published reach (UR5e: 0.85)
+SINGLE_SUBTASK_TASK = {  # the one-subtask task of each subtask, run with its Panda reference skill
+    s: next(t.task_id for suite in SUITES.values() for t in suite if [p.subtask for p in t.plan] == [s])
+    for s in SUBTASKS
+    if any([p.subtask for p in t.plan] == [s] for suite in SUITES.values() for t in suite)
+}
+FAST = {"press_button", "open_drawer", "insert_peg", "sweep_into_pen"}  # a representative subset for CI
+
+
+def test_the_suites_have_the_papers_shape():
+    assert {name: len(tasks) for name, tasks in SUITES.items()} == {"kinematic": 20, "end_effector": 12}
+    assert len(SUBTASKS) >= 16
+    assert {s.family for s in SUBTASKS.values()} == {"kinematic", "end_effector"}
+    for suite, tasks in SUITES.items():
+        for task in tasks:
+            assert 1 <= len(task.plan) <= 5 and task.instruction and task.suite == suite
+            assert len(task.objects) <= MAX_OBJECTS
+            for step in task.plan:
+                subtask = SUBTASKS[step.subtask]
+                assert subtask.family == suite, (task.task_id, step.subtask)
+                assert set(step.args) == set(subtask.roles), (task.task_id, step.subtask)
+                assert set(step.args.values()) <= set(task.object_names())
+    assert max(len(t.plan) for t in get_suite("kinematic")) >= 4
+    assert max(len(t.plan) for t in get_suite("end_effector")) == 5
+
+
+def test_every_subtask_has_a_reference_skill_and_a_single_subtask_task():
+    assert set(SUBTASKS) <= set(list_skills())
+    assert set(SINGLE_SUBTASK_TASK) == set(SUBTASKS)
+
+
+@pytest.mark.parametrize(
+    "subtask", [pytest.param(s, marks=() if s in FAST else pytest.mark.slow) for s in sorted(SUBTASKS)]
+)
+def test_panda_reference_skill_achieves_the_subtask(subtask, panda_agent):
+    from recent_plugin.episode import run_episode
+
+    result = run_episode(panda_agent, SINGLE_SUBTASK_TASK[subtask], "Panda", seed=0)
+    assert result.success, result.failures
+
+
+def test_success_is_latched_per_subtask_in_plan_order():
+    env = RecentEnv(task="kinematic/plate_then_button", robot="Panda", render_mode="none")
+    obs, info = env.reset(seed=0)
+    assert info == {"is_success": False, "gc": 0.0, "subtasks_done": 0}
+    inner = env._env
+    button = inner.task_spec.spec("button")
+    inner._latched_state["button"] = 1.0  # the button pressed first does not count: the plate comes first
+    inner._track_progress()
+    assert inner.achieved == [False, False]
+    assert button.kind == "button"
+    env.close()
+
+
+def test_same_seed_same_scene_for_every_suite_task():
+    for task_id in ("kinematic/tidy_bench", "end_effector/cabinet_routine"):
+        env = RecentEnv(task=task_id, robot="Panda", render_mode="none")
+        a, _ = env.reset(seed=42)
+        b, _ = env.reset(seed=42)
+        c, _ = env.reset(seed=2024)
+        np.testing.assert_allclose(a["environment_state"], b["environment_state"])
+        assert not np.allclose(a["environment_state"], c["environment_state"])
+        env.close()
+
+
+# ------------------------------------------------------------------------------------ variations
+def _run_idle(env, steps):
+    hold = np.zeros(7)
+    for _ in range(steps):
+        obs, *_ = env.step(hold)
+    return obs
+
+
+def _slot(env, name):
+    i = env.spec_task.object_names().index(name)
+    return slice(i * SLOT_DIM, (i + 1) * SLOT_DIM)
+
+
+def test_variation_names_parse_and_unknown_ones_list_the_valid_ones():
+    assert parse_variations("off") == () and parse_variations("all") == tuple(VARIATIONS)
+    assert parse_variations("on") == ("pose_perturbation", "sensing_noise", "obstacle")
+    with pytest.raises(ValueError, match="known: pose_perturbation"):
+        parse_variations("earthquake")
+
+
+def test_pose_perturbation_moves_the_object_after_planning_before_the_grasp():
+    env = RecentEnv(task="kinematic/cube_on_plate", robot="Panda", render_mode="none", variations="pose_perturbation")
+    env.reset(seed=1)
+    step = env._env.plan.perturb_step
+    before = env._env.observe().objects["cube"].pos.copy()
+    _run_idle(env, step - 1)
+    assert np.allclose(env._env.observe().objects["cube"].pos[:2], before[:2], atol=2e-3)
+    _run_idle(env, 2)
+    shift = np.linalg.norm(env._env.observe().objects["cube"].pos[:2] - before[:2])
+    assert 0.035 < shift < 0.065
+    env.close()
+
+
+def test_sensing_noise_perturbs_what_is_observed_not_the_world():
+    env = RecentEnv(task="kinematic/cube_on_plate", robot="Panda", render_mode="none", variations="sensing_noise")
+    obs, _ = env.reset(seed=0)
+    true = env._env.observe().objects["cube"].pos
+    seen = obs["environment_state"][_slot(env, "cube")][:3]
+    error = np.abs(seen - true)
+    assert error.max() > 1e-4 and error.max() < 0.02
+    env.close()
+
+
+def test_obstacle_lands_on_the_target_mid_task_and_cannot_be_grasped():
+    env = RecentEnv(task="kinematic/cube_on_plate", robot="Panda", render_mode="none", variations="obstacle")
+    obs, _ = env.reset(seed=0)
+    assert obs["environment_state"][_slot(env, "obstacle")][7] == 0.0  # not present yet
+    obs = _run_idle(env, env._env.plan.obstacle_step + 5)
+    row = obs["environment_state"][_slot(env, "obstacle")]
+    plate = env._env.observe().objects["plate"].pos
+    assert row[7] == 1.0 and np.linalg.norm(row[:2] - plate[:2]) < 0.03
+    assert min(env.spec_task.spec("obstacle").size[:2]) > 0.085  # wider than any gripper opens
+    env.close()
+
+
+@pytest.mark.parametrize("variation, quantity, factor", [("slippery", "friction", 0.08), ("heavy", "mass", 8.0)])
+def test_slippery_and_heavy_objects(variation, quantity, factor):
+    plain = RecentEnv(task="kinematic/lift_cube", robot="Panda", render_mode="none")
+    varied = RecentEnv(task="kinematic/lift_cube", robot="Panda", render_mode="none", variations=variation)
+    values = []
+    for env in (plain, varied):
+        env.reset(seed=0)
+        model, cube = env._env.sim.model, env._env._objects["cube"]
+        if quantity == "friction":
+            values.append(model.geom_friction[model.geom_name2id(cube.contact_geoms[0]), 0])
+        else:
+            values.append(model.body_mass[model.body_name2id(cube.root_body)])
+        env.close()
+    assert values[1] == pytest.approx(values[0] * factor)
+
+
+def test_far_target_leaves_the_smaller_robots_workspace():
+    env = RecentEnv(task="kinematic/cube_on_plate", robot="Panda", render_mode="none", variations="far_target")
+    env.reset(seed=0)
+    plate = env._env.observe().objects["plate"].pos
+    assert np.allclose(plate[:2], FAR_TARGET_XY)
+    shoulder = np.array([-0.56, 0.0, 0.912 + 0.333])  # Panda base on the table's edge + shoulder height
+    assert np.linalg.norm(plate - shoulder) > PANDA_REACH
+    env.close()
+
+
+# ------------------------------------------------------------------------------------ suction
+@pytest.mark.parametrize("variation", ["", "non_flat", "porous"])
+def test_suction_holds_a_flat_box_but_not_a_ball_or_a_porous_box(variation, panda_agent):
+    from recent_plugin.episode import run_episode
+
+    env = RecentEnv(task="kinematic/lift_cube", robot="Suction", render_mode="none", variations=variation)
+    result = run_episode(panda_agent, "kinematic/lift_cube", "Suction", seed=0, env=env)
+    if variation:
+        assert not result.success
+        assert result.failures and result.failures[0].category.value == "grasp_lost"
+    else:
+        assert result.success, result.failures
+    env.close()
