@@ -43,6 +43,9 @@ class RecentTabletopEnv(ManipulationEnv):
         self._suction_actuator: int | None = None
         self._cup_geom = -1
         self._geom_owner: dict[int, str] = {}
+        self._gripper_geoms: frozenset[int] = frozenset()
+        self._finger_pads: tuple[frozenset[int], ...] = ()
+        self._contact_cache: tuple[tuple[int, float] | None, set[tuple[int, int]]] = (None, set())
         self._adhesion_gain = 0.0
         self._seal: str | None = None  # the object a vacuum cup is sealed on
         self._episode = 0
@@ -101,14 +104,19 @@ class RecentTabletopEnv(ManipulationEnv):
                 self._joint_addr[name] = model.jnt_qposadr[model.joint_name2id(obj.naming_prefix + kind.joint)]
         robot = self.robots[0]
         gripper = robot.gripper[robot.arms[0]]
+        self._geom_owner = {
+            model.geom_name2id(geom): name for name, obj in self._objects.items() for geom in obj.contact_geoms
+        }
+        self._gripper_geoms = frozenset(model.geom_name2id(g) for g in gripper.contact_geoms)
+        self._finger_pads = tuple(
+            frozenset(model.geom_name2id(g) for g in gripper.important_geoms[side])
+            for side in ("left_fingerpad", "right_fingerpad")
+        )
         if isinstance(gripper, SuctionGripper):
             self._suction_actuator = int(robot._ref_joint_gripper_actuator_indexes[robot.arms[0]][0])
             self._cup_geom = model.geom_name2id(gripper.important_geoms["cup"][0])
             # read once: later resets find the gain this env itself zeroed while no seal held
             self._adhesion_gain = self._adhesion_gain or float(model.actuator_gainprm[self._suction_actuator, 0])
-            self._geom_owner = {
-                model.geom_name2id(geom): name for name, obj in self._objects.items() for geom in obj.contact_geoms
-            }
         if not self._defaults:  # the model as built, before any variation scaled it (captured once)
             self._defaults = {
                 "friction": np.array(model.geom_friction),
@@ -186,7 +194,7 @@ class RecentTabletopEnv(ManipulationEnv):
 
     def _cup_contacts(self) -> dict[str, int]:
         data, counts = self.sim.data, {}
-        for contact in data.contact[: data.ncon]:
+        for contact in data.contact[: data.ncon]:  # contact points, not pairs: a seal needs several
             if self._cup_geom not in (contact.geom1, contact.geom2):
                 continue
             name = self._geom_owner.get(contact.geom2 if contact.geom1 == self._cup_geom else contact.geom1)
@@ -223,7 +231,7 @@ class RecentTabletopEnv(ManipulationEnv):
                 self._latched_state[name] = max(self._latched_state[name], float(pressed))
             elif spec.kind == "stain":
                 self._latched_state[name] = self._wipe_coverage(name, spec, grip)
-        obs = self.observe(fresh=True)
+        obs = self.observe()
         for i, step in enumerate(self.task_spec.plan):
             if self.achieved[i]:
                 continue
@@ -245,14 +253,14 @@ class RecentTabletopEnv(ManipulationEnv):
         return np.array(self.sim.data.site_xpos[robot.eef_site_id[robot.arms[0]]])
 
     # ----------------------------------------------------------- observation
-    def observe(self, fresh: bool = False) -> Observation:
+    def observe(self) -> Observation:
         """The true state primitives may use: end effector, gripper opening, object poses, grasps.
 
         Computed once per simulated instant: robosuite's ``step`` asks for the reward, the gym
         wrapper for success and for the observation — all read the same snapshot.
         """
         key = (self._episode, self.sim.data.time)
-        if fresh or self._snapshot is None or self._snapshot[0] != key:
+        if self._snapshot is None or self._snapshot[0] != key:
             self._snapshot = (key, self._observe())
         return self._snapshot[1]
 
@@ -272,7 +280,7 @@ class RecentTabletopEnv(ManipulationEnv):
         arm = robot.arms[0]
         site = robot.eef_site_id[arm]
         eef_quat = mat2quat(np.array(self.sim.data.site_xmat[site]).reshape(3, 3))
-        objects = {}
+        objects, touching = {}, self._touching()
         for spec in self.task_spec.objects:
             if spec.name in self._parked:
                 continue
@@ -284,7 +292,7 @@ class RecentTabletopEnv(ManipulationEnv):
                 pos=np.array(self.sim.data.body_xpos[body]),
                 quat=convert_quat(np.array(self.sim.data.body_xquat[body]), to="xyzw"),
                 grasped=self.holds(spec.name),
-                touching=bool(self.check_contact(robot.gripper[arm], self._objects[spec.name])),
+                touching=spec.name in touching,
                 height=float(spec.size[2]),
                 state=state,
             )
@@ -302,13 +310,30 @@ class RecentTabletopEnv(ManipulationEnv):
         return float(np.mean(np.abs(qpos))) if len(qpos) else 0.0
 
     def holds(self, name: str) -> bool:
-        """Fingers on both sides (robosuite's grasp check), or the vacuum cup sealed on it."""
+        """Both finger pads on the object (robosuite's grasp check), or the vacuum cup sealed on it."""
         if not get_kind(self._specs[name].kind).graspable:
             return False
-        gripper, obj = self.robots[0].gripper[self.robots[0].arms[0]], self._objects[name]
-        if isinstance(gripper, SuctionGripper):
+        if self._suction_actuator is not None:
             return self._seal == name
-        return bool(self._check_grasp(gripper=gripper, object_geoms=obj))
+        return all(self._pad_touches(pads, name) for pads in self._finger_pads)
+
+    def _contacts(self) -> set[tuple[int, int]]:
+        """Geom pairs in contact now (both orders), read once per simulated instant."""
+        key = (self._episode, self.sim.data.time)
+        if self._contact_cache[0] != key:
+            pairs = set()
+            for contact in self.sim.data.contact[: self.sim.data.ncon]:
+                pairs.add((contact.geom1, contact.geom2))
+                pairs.add((contact.geom2, contact.geom1))
+            self._contact_cache = (key, pairs)
+        return self._contact_cache[1]
+
+    def _touching(self) -> set[str]:
+        """Objects any gripper geom touches."""
+        return {self._geom_owner[b] for a, b in self._contacts() if a in self._gripper_geoms and b in self._geom_owner}
+
+    def _pad_touches(self, pads: frozenset[int], name: str) -> bool:
+        return any(a in pads and self._geom_owner.get(b) == name for a, b in self._contacts())
 
     # --------------------------------------------------------------- success
     def subtask_success(self, index: int) -> bool:

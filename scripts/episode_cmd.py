@@ -11,10 +11,15 @@ from scripts.ground_cmd import grounding_summary, print_grounding
 
 def register(sub) -> None:
     parser = sub.add_parser("run", help="ground a task's skills for a robot and run one simulated episode")
-    parser.add_argument("--task", default="cube_in_bin", help="task id (default: cube_in_bin)")
+    parser.add_argument(
+        "--task", default="cube_in_bin", help="task id, e.g. kinematic/tidy_bench (`recent envs list`; default: cube_in_bin)"
+    )
     parser.add_argument("--robot", default="UR5e", help="target embodiment (default: UR5e)")
     parser.add_argument("--seed", type=int, default=0, help="episode seed (default: 0)")
     parser.add_argument("--max-steps", type=int, default=None, help="step limit (default: the task's)")
+    parser.add_argument(
+        "--variations", default="off", help="off, on (pose perturbation, sensing noise, obstacle), all, or a comma list"
+    )
     parser.add_argument("--json", action="store_true", help="print one JSON object instead of text")
     add_lm_arguments(parser)
     parser.set_defaults(handler=_run)
@@ -22,13 +27,22 @@ def register(sub) -> None:
 
 def _run(args) -> int:
     agent = agent_from_args(args)
-    result = run_episode(agent, args.task, args.robot, seed=args.seed, max_steps=args.max_steps, progress=not args.json)
+    result = run_episode(
+        agent,
+        args.task,
+        args.robot,
+        seed=args.seed,
+        max_steps=args.max_steps,
+        progress=not args.json,
+        variations=args.variations,
+    )
     summaries = [grounding_summary(g) for g in result.grounding.skills]
     record = {
         "task": result.task_id,
         "robot": result.robot,
         "seed": result.seed,
         "success": result.success,
+        "gc": round(result.gc, 3),
         "steps": result.steps,
         "wall_seconds": round(result.wall_seconds, 2),
         "igt_seconds": round(result.grounding.igt_seconds, 3),
@@ -51,7 +65,8 @@ def _run(args) -> int:
         print(f"  failure in {f.skill} line {f.line}: [{f.category}] {f.message}")
     outcome = "SUCCESS" if result.success else "FAILURE"
     print(
-        f"{outcome}: {result.task_id} on {result.robot} (seed {result.seed}) in {result.steps} steps, {result.wall_seconds:.1f} s; "
+        f"{outcome}: {result.task_id} on {result.robot} (seed {result.seed}), {result.gc:.0%} of subtasks, "
+        f"{result.steps} steps, {result.wall_seconds:.1f} s; "
         f"grounding: {result.generated_tokens} tokens generated vs {result.skill_tokens} skill tokens "
         f"(GO {result.go:.1f}%), LM {result.lm_seconds:.2f} s, first executable code after {result.grounding.igt_seconds:.2f} s"
     )
