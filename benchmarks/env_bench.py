@@ -116,8 +116,12 @@ def main() -> None:
     print(f"| bare robosuite Lift, same robot and controller | {results['lift_steps_per_s']:.0f} | — |")
     print(f"| ratio ours / Lift | {ratio:.2f} | >= 0.80 |")
     print(f"| {args.scene} (a full suite scene: more bodies to simulate) | {scene_rate:.0f} | — |")
-    print(f"| reset, median of {args.resets} (max) | {results['reset_median_s'] * 1000:.0f} ms ({results['reset_max_s'] * 1000:.0f} ms) | <= 500 ms |")
-    print(f"| primitive controller per step, median (p95) | {results['controller_median_ms']:.3f} ms ({results['controller_p95_ms']:.3f} ms) | <= 0.2 ms |")
+    print(
+        f"| reset, median of {args.resets} (max) | {results['reset_median_s'] * 1000:.0f} ms ({results['reset_max_s'] * 1000:.0f} ms) | <= 500 ms |"
+    )
+    print(
+        f"| primitive controller per step, median (p95) | {results['controller_median_ms']:.3f} ms ({results['controller_p95_ms']:.3f} ms) | <= 0.2 ms |"
+    )
     if args.json:
         with open(args.json, "w") as fh:
             json.dump(results, fh, indent=2)

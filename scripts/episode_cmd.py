@@ -12,7 +12,9 @@ from scripts.ground_cmd import grounding_summary, print_grounding
 def register(sub) -> None:
     parser = sub.add_parser("run", help="ground a task's skills for a robot and run one simulated episode")
     parser.add_argument(
-        "--task", default="cube_in_bin", help="task id, e.g. kinematic/tidy_bench (`recent envs list`; default: cube_in_bin)"
+        "--task",
+        default="cube_in_bin",
+        help="task id, e.g. kinematic/tidy_bench (`recent envs list`; default: cube_in_bin)",
     )
     parser.add_argument("--robot", default="UR5e", help="target embodiment (default: UR5e)")
     parser.add_argument("--seed", type=int, default=0, help="episode seed (default: 0)")

@@ -171,3 +171,12 @@ def test_suction_holds_a_flat_box_but_not_a_ball_or_a_porous_box(variation, pand
     else:
         assert result.success, result.failures
     env.close()
+
+
+@pytest.mark.parametrize("robot", ["Panda", "UR5e", "Sawyer", "Robotiq85", "Suction"])
+def test_every_embodiment_builds_a_suite_scene_and_steps(robot):
+    env = RecentEnv(task="end_effector/cabinet_routine", robot=robot, render_mode="none")
+    obs, _ = env.reset(seed=0)
+    obs, *_ = env.step(np.zeros(7))
+    assert np.all(np.isfinite(obs["agent_pos"])) and obs["environment_state"][_slot(env, "drawer")][7] == 1.0
+    env.close()
