@@ -20,7 +20,7 @@ from robosuite_envs.embodiments import get_embodiment
 from robosuite_envs.observation import Observation
 from robosuite_envs.primitives import api_functions
 from robosuite_envs.tasks import get_task
-from skills.repository import load_skill
+from skills.repository import serve_skill
 
 log = logging.getLogger(__name__)
 
@@ -34,6 +34,7 @@ class AgentSettings:
     seed: int = 0
     max_skill_steps: int = 3000
     base_url: str | None = None  # the completions server of the openai backend
+    offline_validation: bool = True  # serve only validated skills (False: the paper's ablation)
 
 
 @dataclass
@@ -67,7 +68,7 @@ class RecentAgent:
 
     def ground(self, skill_name: str, robot: str) -> tuple[GroundedSkill, bool]:
         """Ground ``skill_name`` for ``robot``, reusing a cached result unless code, ontology or LM changed."""
-        skill = load_skill(skill_name)
+        skill = serve_skill(skill_name, require_validated=self.settings.offline_validation)
         key = (skill.name, skill.code_sha256, robot, self._ontology_hash, self.infiller.name, self.infiller.model)
         if key in self._cache:
             return self._cache[key], True

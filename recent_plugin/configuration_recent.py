@@ -29,6 +29,7 @@ class RecentConfig(PreTrainedConfig):
     seed: int = AgentSettings.seed
     max_skill_steps: int = AgentSettings.max_skill_steps
     base_url: str | None = AgentSettings.base_url
+    offline_validation: bool = AgentSettings.offline_validation  # False: serve unvalidated skills (ablation)
     device: str | None = "cpu"
     normalization_mapping: dict[str, NormalizationMode] = field(
         default_factory=lambda: {

@@ -52,21 +52,26 @@ def run_episode(
     progress: bool = False,
     env: RecentEnv | None = None,
     variations: str = "off",
+    to_completion: bool = False,
 ) -> EpisodeResult:
     """Ground the task's skills for ``robot`` and execute them until success or the step limit.
 
-    Without an ``env`` one is built (with ``variations``) and closed again afterwards.
+    Without an ``env`` one is built (with ``variations``) and closed again afterwards. With
+    ``to_completion`` the skills run to their end even after the task succeeded (validation
+    checks the effects a skill leaves behind).
     """
     if env is not None:
-        return _run(agent, env, task_id, robot, seed, progress)
+        return _run(agent, env, task_id, robot, seed, progress, to_completion)
     env = RecentEnv(task=task_id, robot=robot, render_mode="none", max_episode_steps=max_steps, variations=variations)
     try:
-        return _run(agent, env, task_id, robot, seed, progress)
+        return _run(agent, env, task_id, robot, seed, progress, to_completion)
     finally:
         env.close()
 
 
-def _run(agent: RecentAgent, env: RecentEnv, task_id: str, robot: str, seed: int, progress: bool) -> EpisodeResult:
+def _run(
+    agent: RecentAgent, env: RecentEnv, task_id: str, robot: str, seed: int, progress: bool, to_completion: bool
+) -> EpisodeResult:
     started = time.perf_counter()
     raw, _ = env.reset(seed=seed)
     names = env.spec_task.object_names()
@@ -82,7 +87,7 @@ def _run(agent: RecentAgent, env: RecentEnv, task_id: str, robot: str, seed: int
         bar.update(1)
         success = bool(info["is_success"])
         settled = settled + 1 if executor.finished else 0
-        if terminated or truncated or settled > SETTLE_STEPS:
+        if (terminated and not to_completion) or truncated or settled > SETTLE_STEPS:
             break
     bar.close()
     return EpisodeResult(

@@ -63,7 +63,7 @@ def cabinet(drawer_open: float = 0.0, lid_angle: float = 0.0) -> tuple[ObjectSpe
     return (
         ObjectSpec("drawer", "drawer", (0.08, -0.16), None, 0.0, state=drawer_open),
         ObjectSpec("box", "hinged_box", (0.05, 0.16), None, 0.0, state=lid_angle),
-        ObjectSpec("cube", "box", (-0.15, 0.0), (0.04, 0.04, 0.04), 0.02, RED),
+        ObjectSpec("cube", "box", (-0.16, 0.04), (0.04, 0.04, 0.04), 0.015, RED),  # the hand clears the drawer
     )
 
 
@@ -171,3 +171,12 @@ def get_suite(name: str) -> tuple[TaskSpec, ...]:
         return SUITES[name]
     except KeyError:
         raise KeyError(f"unknown suite {name!r}; known suites: {', '.join(SUITES)}") from None
+
+
+def validation_task(subtask: str) -> TaskSpec:
+    """The suite task that exercises ``subtask`` alone: where its reference skill is validated."""
+    for tasks in SUITES.values():
+        for spec in tasks:
+            if [step.subtask for step in spec.plan] == [subtask]:
+                return spec
+    raise KeyError(f"no single-subtask task for {subtask!r} in the suites")

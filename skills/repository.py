@@ -21,6 +21,10 @@ class SkillNotFoundError(KeyError):
     pass
 
 
+class SkillNotValidatedError(RuntimeError):
+    """The skill has no passing validation record for its current code."""
+
+
 @dataclass(frozen=True)
 class Skill:
     name: str
@@ -30,6 +34,8 @@ class Skill:
     intent: str
     code: str
     path: Path
+    preconditions: tuple[str, ...] = ()
+    effects: tuple[str, ...] = ()
 
     @property
     def code_sha256(self) -> str:
@@ -60,4 +66,30 @@ def load_skill(name: str, library: Path = LIBRARY) -> Skill:
         intent=meta["intent"],
         code=code,
         path=code_path,
+        preconditions=tuple(meta.get("preconditions") or ()),
+        effects=tuple(meta.get("effects") or ()),
     )
+
+
+def serve_skill(name: str, library: Path = LIBRARY, *, require_validated: bool = True) -> Skill:
+    """The skill for grounding: only with a passing validation record for exactly this code.
+
+    ``require_validated=False`` is the paper's "w/o offline validation" ablation.
+    """
+    from skills.validation import load_record
+
+    skill = load_skill(name, library)
+    if require_validated:
+        record = load_record(name, library.parent / "validation")
+        if record is None or not record.matches(skill):
+            why = (
+                "it was never validated"
+                if record is None
+                else "its code changed since it was validated"
+                if record.code_sha256 != skill.code_sha256
+                else f"it failed validation on seeds {sorted(set(record.seeds) - set(record.passed))}"
+            )
+            raise SkillNotValidatedError(
+                f"skill {name!r} is not served: {why}; run `recent skills validate --skill {name}`"
+            )
+    return skill

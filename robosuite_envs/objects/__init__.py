@@ -103,7 +103,7 @@ KINDS: dict[str, ObjectKind] = {
             _xml("button.xml"),
             fixed=True,
             graspable=False,
-            size=(0.07, 0.07, 0.036),
+            size=(0.07, 0.07, 0.051),
             body="cap",
             joint="press",
             description="a spring-loaded push button; state = 1 once pressed",

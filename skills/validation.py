@@ -1,0 +1,126 @@
+"""Validate(skill, Panda): run a reference skill on the source robot across the paper's seeds.
+
+A skill is served to grounding only with a record whose code hash matches the file and whose
+every seed passed: its precondition checks held at the start and its expected effects (the
+subtask's success predicate among them) were observed at the end. Records are JSON files in
+``skills/validation/`` and are committed with the skills.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+from robosuite_envs.observation import Observation
+from robosuite_envs.suites import SEEDS, validation_task
+from skills.repository import LIBRARY, Skill
+
+RECORDS = LIBRARY.parent / "validation"
+
+
+@dataclass
+class ValidationRecord:
+    skill: str
+    code_sha256: str
+    robot: str
+    task: str
+    seeds: list[int]
+    passed: list[int] = field(default_factory=list)
+    seconds: dict[str, float] = field(default_factory=dict)  # seed -> wall time of its episode
+    failures: dict[str, str] = field(default_factory=dict)  # seed -> reason
+    validated_at: str = ""
+
+    @property
+    def validated(self) -> bool:
+        return bool(self.seeds) and sorted(self.passed) == sorted(self.seeds)
+
+    def matches(self, skill: Skill) -> bool:
+        return self.validated and self.code_sha256 == skill.code_sha256
+
+
+def record_path(name: str, records: Path = RECORDS) -> Path:
+    return records / f"{name}.json"
+
+
+def load_record(name: str, records: Path = RECORDS) -> ValidationRecord | None:
+    path = record_path(name, records)
+    if not path.is_file():
+        return None
+    try:
+        return ValidationRecord(**json.loads(path.read_text()))
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{path}: not a validation record ({exc})") from None
+
+
+def save_record(record: ValidationRecord, records: Path = RECORDS) -> Path:
+    path = record_path(record.skill, records)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(asdict(record), indent=2) + "\n")
+    return path
+
+
+# Testable conditions of skill metadata, read off an observation of the plan's objects.
+def _holding(obs: Observation) -> bool:
+    return any(state.grasped for state in obs.objects.values())
+
+
+PRECONDITION_CHECKS = {
+    "end_effector_free": lambda obs, objects: not _holding(obs),
+    "object_visible": lambda obs, objects: all(name in obs.objects for name in objects),
+}
+EFFECT_CHECKS = {
+    "end_effector_free": lambda obs, objects: not _holding(obs),
+    "object_grasped": lambda obs, objects: _holding(obs),
+}
+
+
+def validate(skill: Skill, seeds: tuple[int, ...] = SEEDS, *, agent=None, on_episode=None) -> ValidationRecord:
+    """Run ``skill`` unmodified on its source robot in its subtask's task, once per seed."""
+    from recent_plugin.agent import AgentSettings, RecentAgent
+    from recent_plugin.episode import run_episode
+    from robosuite_envs.gym_env import RecentEnv
+
+    agent = agent or RecentAgent(AgentSettings(backend="rule", offline_validation=False))
+    task = validation_task(skill.subtask)
+    objects = list(task.plan[0].args.values())
+    record = ValidationRecord(skill.name, skill.code_sha256, skill.source_embodiment, task.task_id, list(seeds))
+    env = RecentEnv(task=task.task_id, robot=skill.source_embodiment, render_mode="none")
+    try:
+        for seed in seeds:
+            started = time.perf_counter()
+            reason = _validate_once(skill, agent, env, task.task_id, seed, objects, run_episode)
+            record.seconds[str(seed)] = round(time.perf_counter() - started, 2)
+            if reason:
+                record.failures[str(seed)] = reason
+            else:
+                record.passed.append(seed)
+            if on_episode:
+                on_episode(seed, reason)
+    finally:
+        env.close()
+    record.validated_at = time.strftime("%Y-%m-%d")
+    return record
+
+
+def _validate_once(skill, agent, env, task_id, seed, objects, run_episode) -> str:
+    """Empty string when the seed passes, else why it did not."""
+    raw, _ = env.reset(seed=seed)
+    first = Observation.decode(raw["agent_pos"], raw["environment_state"], env.spec_task.object_names())
+    for condition in skill.preconditions:
+        check = PRECONDITION_CHECKS.get(condition)
+        if check and not check(first, objects):
+            return f"precondition {condition} does not hold at the start"
+    result = run_episode(agent, task_id, skill.source_embodiment, seed=seed, env=env, to_completion=True)
+    if result.failures:
+        failure = result.failures[0]
+        return f"[{failure.category}] line {failure.line}: {failure.message}"
+    if not result.success:
+        return f"the {skill.subtask} success predicate never held"
+    last = env._env.observe()  # the true state, not the sensed one
+    for condition in skill.effects:
+        check = EFFECT_CHECKS.get(condition)
+        if check and not check(last, objects):
+            return f"expected effect {condition} not observed at the end"
+    return ""

@@ -1,0 +1,67 @@
+"""The offline skill repository: committed validation records, refusal of unvalidated code, the CLI."""
+
+from __future__ import annotations
+
+import json
+import shutil
+
+import pytest
+
+from robosuite_envs.suites import SEEDS
+from skills.repository import LIBRARY, SkillNotValidatedError, list_skills, load_skill, serve_skill
+from skills.validation import RECORDS, load_record, validate
+
+
+def test_every_stored_skill_passed_validate_on_all_five_seeds_with_its_current_code():
+    for name in list_skills():
+        skill, record = load_skill(name), load_record(name)
+        assert record is not None, f"{name}: no validation record"
+        assert record.code_sha256 == skill.code_sha256, f"{name}: edited since validation"
+        assert record.robot == "Panda" and sorted(record.passed) == sorted(SEEDS) == sorted(record.seeds), name
+        assert serve_skill(name).code == skill.code
+
+
+@pytest.fixture
+def library_copy(tmp_path):
+    shutil.copytree(LIBRARY, tmp_path / "library")
+    shutil.copytree(RECORDS, tmp_path / "validation")
+    return tmp_path / "library"
+
+
+def test_an_edited_skill_is_refused_until_revalidated(library_copy):
+    path = library_copy / "stack.py"
+    path.write_text(path.read_text().replace("+ 0.055", "+ 0.06"))
+    with pytest.raises(SkillNotValidatedError, match="code changed since it was validated.*recent skills validate"):
+        serve_skill("stack", library_copy)
+    assert serve_skill("stack", library_copy, require_validated=False).code == path.read_text()  # the ablation
+
+
+def test_a_skill_without_a_record_is_refused(library_copy):
+    (library_copy.parent / "validation" / "wipe_area.json").unlink()
+    with pytest.raises(SkillNotValidatedError, match="never validated"):
+        serve_skill("wipe_area", library_copy)
+
+
+def test_validate_runs_the_skill_on_panda_over_the_seeds_and_records_why():
+    record = validate(load_skill("press_button"), seeds=(0, 1))
+    assert record.validated and record.passed == [0, 1] and record.task == "kinematic/press_button"
+    assert set(record.seconds) == {"0", "1"} and not record.failures
+
+
+def test_skills_list_json_has_the_documented_fields(capsys):
+    from scripts.cli import main
+
+    assert main(["skills", "list", "--json"]) == 0
+    rows = json.loads(capsys.readouterr().out)
+    assert {r["name"] for r in rows} == set(list_skills())
+    for row in rows:
+        assert set(row) == {"name", "subtask", "validated", "code_sha256", "seeds_passed"}
+        assert row["validated"] and row["seeds_passed"] == sorted(SEEDS)
+
+
+def test_skills_show_prints_code_metadata_and_last_validation(capsys):
+    from scripts.cli import main
+
+    assert main(["skills", "show", "open_drawer"]) == 0
+    out = capsys.readouterr().out
+    assert "def open_drawer(" in out and "# effects:" in out and "seeds passed [0, 1, 42, 123, 2024]" in out
