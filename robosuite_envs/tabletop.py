@@ -336,9 +336,6 @@ class RecentTabletopEnv(ManipulationEnv):
         return any(a in pads and self._geom_owner.get(b) == name for a, b in self._contacts())
 
     # --------------------------------------------------------------- success
-    def subtask_success(self, index: int) -> bool:
-        return self.achieved[index]
-
     @property
     def goal_conditioned_success(self) -> float:
         return float(np.mean(self.achieved)) if self.achieved else 0.0
