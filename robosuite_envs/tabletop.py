@@ -8,6 +8,7 @@ goal-conditioned success (GC) survives later subtasks that change the scene agai
 
 from __future__ import annotations
 
+from collections import Counter
 from dataclasses import replace
 
 import numpy as np
@@ -45,7 +46,7 @@ class RecentTabletopEnv(ManipulationEnv):
         self._geom_owner: dict[int, str] = {}
         self._gripper_geoms: frozenset[int] = frozenset()
         self._finger_pads: tuple[frozenset[int], ...] = ()
-        self._contact_cache: tuple[tuple[int, float] | None, set[tuple[int, int]]] = (None, set())
+        self._contact_cache: tuple[tuple[int, float] | None, Counter[tuple[int, int]]] = (None, Counter())
         self._adhesion_gain = 0.0
         self._seal: str | None = None  # the object a vacuum cup is sealed on
         self._episode = 0
@@ -193,13 +194,11 @@ class RecentTabletopEnv(ManipulationEnv):
         sim.model.actuator_gainprm[actuator, 0] = self._adhesion_gain if self._seal else 0.0
 
     def _cup_contacts(self) -> dict[str, int]:
-        data, counts = self.sim.data, {}
-        for contact in data.contact[: data.ncon]:  # contact points, not pairs: a seal needs several
-            if self._cup_geom not in (contact.geom1, contact.geom2):
-                continue
-            name = self._geom_owner.get(contact.geom2 if contact.geom1 == self._cup_geom else contact.geom1)
-            if name is not None:
-                counts[name] = counts.get(name, 0) + 1
+        """Contact points between the cup and each object (a seal needs several, not just one pair)."""
+        counts: dict[str, int] = {}
+        for (a, b), points in self._contacts().items():
+            if a == self._cup_geom and b in self._geom_owner:
+                counts[self._geom_owner[b]] = counts.get(self._geom_owner[b], 0) + points
         return counts
 
     def _post_action(self, action):
@@ -317,14 +316,15 @@ class RecentTabletopEnv(ManipulationEnv):
             return self._seal == name
         return all(self._pad_touches(pads, name) for pads in self._finger_pads)
 
-    def _contacts(self) -> set[tuple[int, int]]:
-        """Geom pairs in contact now (both orders), read once per simulated instant."""
+    def _contacts(self) -> Counter[tuple[int, int]]:
+        """Contact points per geom pair (both orders), read once per simulated instant and shared
+        by the grasp, touch and vacuum-seal checks."""
         key = (self._episode, self.sim.data.time)
         if self._contact_cache[0] != key:
-            pairs = set()
+            pairs: Counter[tuple[int, int]] = Counter()
             for contact in self.sim.data.contact[: self.sim.data.ncon]:
-                pairs.add((contact.geom1, contact.geom2))
-                pairs.add((contact.geom2, contact.geom1))
+                pairs[(contact.geom1, contact.geom2)] += 1
+                pairs[(contact.geom2, contact.geom1)] += 1
             self._contact_cache = (key, pairs)
         return self._contact_cache[1]
 

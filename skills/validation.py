@@ -13,6 +13,9 @@ import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
+from recent_plugin.agent import AgentSettings, RecentAgent
+from recent_plugin.episode import run_episode
+from robosuite_envs.gym_env import RecentEnv
 from robosuite_envs.observation import Observation
 from robosuite_envs.suites import SEEDS, validation_task
 from skills.repository import LIBRARY, Skill
@@ -78,10 +81,6 @@ EFFECT_CHECKS = {
 
 def validate(skill: Skill, seeds: tuple[int, ...] = SEEDS, *, agent=None, on_episode=None) -> ValidationRecord:
     """Run ``skill`` unmodified on its source robot in its subtask's task, once per seed."""
-    from recent_plugin.agent import AgentSettings, RecentAgent
-    from recent_plugin.episode import run_episode
-    from robosuite_envs.gym_env import RecentEnv
-
     agent = agent or RecentAgent(AgentSettings(backend="rule", offline_validation=False))
     task = validation_task(skill.subtask)
     objects = list(task.plan[0].args.values())
@@ -90,7 +89,7 @@ def validate(skill: Skill, seeds: tuple[int, ...] = SEEDS, *, agent=None, on_epi
     try:
         for seed in seeds:
             started = time.perf_counter()
-            reason = _validate_once(skill, agent, env, task.task_id, seed, objects, run_episode)
+            reason = _validate_once(skill, agent, env, task.task_id, seed, objects)
             record.seconds[str(seed)] = round(time.perf_counter() - started, 2)
             if reason:
                 record.failures[str(seed)] = reason
@@ -104,7 +103,7 @@ def validate(skill: Skill, seeds: tuple[int, ...] = SEEDS, *, agent=None, on_epi
     return record
 
 
-def _validate_once(skill, agent, env, task_id, seed, objects, run_episode) -> str:
+def _validate_once(skill: Skill, agent, env: RecentEnv, task_id: str, seed: int, objects: list[str]) -> str:
     """Empty string when the seed passes, else why it did not."""
     raw, _ = env.reset(seed=seed)
     first = Observation.decode(raw["agent_pos"], raw["environment_state"], env.spec_task.object_names())

@@ -31,24 +31,23 @@ class ObjectKind:
     description: str = ""
 
 
-def _box(name, size, rgba):
-    return BoxObject(name=name, size=np.array(size) / 2, rgba=list(rgba), density=400.0, friction=(1.5, 0.005, 0.0001))
+def _shape(cls, *, density: float = 400.0, friction: float = 1.5, **kwargs):
+    """A builder for one of robosuite's generated shapes (``size`` = full extents)."""
+
+    def build(name, size, rgba):
+        extents = [size[0] / 2] if cls is BallObject else np.array(size) / 2
+        return cls(
+            name=name, size=extents, rgba=list(rgba), density=density, friction=(friction, 0.005, 0.0001), **kwargs
+        )
+
+    return build
 
 
-def _slab(name, size, rgba):
-    return BoxObject(name=name, size=np.array(size) / 2, rgba=list(rgba), density=600.0, friction=(0.6, 0.005, 0.0001))
-
-
-def _sphere(name, size, rgba):
-    return BallObject(name=name, size=[size[0] / 2], rgba=list(rgba), density=400.0, friction=(1.0, 0.005, 0.0001))
-
-
-def _plate(name, size, rgba):
-    return BoxObject(name=name, size=np.array(size) / 2, rgba=list(rgba), joints=None, friction=(1.0, 0.005, 0.0001))
-
-
-def _region(name, size, rgba):
-    return BoxObject(name=name, size=np.array(size) / 2, rgba=list(rgba), joints=None, obj_type="visual")
+_box = _shape(BoxObject)
+_sphere = _shape(BallObject, friction=1.0)
+_slab = _shape(BoxObject, density=600.0, friction=0.6)
+_plate = _shape(BoxObject, friction=1.0, joints=None)
+_region = _shape(BoxObject, joints=None, obj_type="visual")
 
 
 def _bin(name, size, rgba):
