@@ -11,6 +11,7 @@ import logging
 import time
 from dataclasses import dataclass, field
 from itertools import takewhile
+from pathlib import Path
 
 from ontology.builder import Ontology, build_ontology
 from recent_plugin.executor import PlannedSkill, TaskExecutor
@@ -20,7 +21,7 @@ from robosuite_envs.embodiments import get_embodiment
 from robosuite_envs.observation import Observation
 from robosuite_envs.primitives import api_functions
 from robosuite_envs.tasks import get_task
-from skills.repository import serve_skill
+from skills.repository import LIBRARY, serve_skill
 
 log = logging.getLogger(__name__)
 
@@ -35,6 +36,7 @@ class AgentSettings:
     max_skill_steps: int = 3000
     base_url: str | None = None  # the completions server of the openai backend
     offline_validation: bool = True  # serve only validated skills (False: the paper's ablation)
+    skill_library: str | None = None  # a directory of skills (+ validation/); None: the bundled Panda skills
 
 
 @dataclass
@@ -65,10 +67,11 @@ class RecentAgent:
         self.ontology = ontology or build_ontology()
         self._ontology_hash = hashlib.sha256(self.ontology.to_turtle().encode()).hexdigest()
         self._cache: dict[tuple[str, ...], GroundedSkill] = {}
+        self.library = Path(s.skill_library) if s.skill_library else LIBRARY
 
     def ground(self, skill_name: str, robot: str) -> tuple[GroundedSkill, bool]:
         """Ground ``skill_name`` for ``robot``, reusing a cached result unless code, ontology or LM changed."""
-        skill = serve_skill(skill_name, require_validated=self.settings.offline_validation)
+        skill = serve_skill(skill_name, self.library, require_validated=self.settings.offline_validation)
         key = (skill.name, skill.code_sha256, robot, self._ontology_hash, self.infiller.name, self.infiller.model)
         if key in self._cache:
             return self._cache[key], True

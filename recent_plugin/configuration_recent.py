@@ -30,6 +30,7 @@ class RecentConfig(PreTrainedConfig):
     max_skill_steps: int = AgentSettings.max_skill_steps
     base_url: str | None = AgentSettings.base_url
     offline_validation: bool = AgentSettings.offline_validation  # False: serve unvalidated skills (ablation)
+    skill_library: str | None = AgentSettings.skill_library  # your own skills directory (default: bundled)
     device: str | None = "cpu"
     normalization_mapping: dict[str, NormalizationMode] = field(
         default_factory=lambda: {

@@ -3,8 +3,11 @@
 from __future__ import annotations
 
 import json
+import os
+from pathlib import Path
 
-from skills.repository import list_skills, load_skill
+from robosuite_envs.suites import SEEDS
+from skills.repository import LIBRARY, derived_capabilities, list_skills, load_skill, source_call_sites
 from skills.validation import load_record, save_record, validate
 
 
@@ -20,6 +23,19 @@ def register(sub) -> None:
     check = actions.add_parser("validate", help="run skills on Panda over the five seeds and record the outcome")
     check.add_argument("--skill", action="append", help="a skill to validate (repeatable; default: all)")
     check.set_defaults(handler=_validate)
+    gen = actions.add_parser(
+        "generate",
+        help="have an LLM write a Panda skill for a subtask; stored only if it passes Validate",
+        description="Sends Q(skill, Panda) to an OpenAI-compatible /v1/chat/completions endpoint and stores "
+        "the answer in the library only if it passes the AST policy and Validate(skill, Panda) on every seed.",
+    )
+    gen.add_argument("--subtask", required=True, help="a subtask (recent envs list shows them per task)")
+    gen.add_argument("--base-url", required=True, help="e.g. https://api.openai.com or http://localhost:8000")
+    gen.add_argument("--model", required=True)
+    gen.add_argument("--api-key-env", default="OPENAI_API_KEY", help="environment variable holding the key")
+    gen.add_argument("--library", type=Path, default=LIBRARY, help="where to store the skill (default: bundled)")
+    gen.add_argument("--force", action="store_true", help="replace an existing skill of that name")
+    gen.set_defaults(handler=_generate)
 
 
 def _row(name: str) -> dict:
@@ -52,6 +68,9 @@ def _show(args) -> int:
     print(f"# subtask: {skill.subtask}")
     print(f"# preconditions: {', '.join(skill.preconditions) or '-'}")
     print(f"# effects: {', '.join(skill.effects) or '-'}")
+    print(f"# capabilities: {', '.join(skill.capabilities or derived_capabilities(skill))}")
+    sites = source_call_sites(skill)
+    print(f"# call sites: {', '.join(f'{s.name} (line {s.span.line})' for s in sites) or '-'}")
     if record is None:
         print("# validation: never validated")
     else:
@@ -73,7 +92,7 @@ def _validate(args) -> int:
     names = args.skill or list_skills()
     skills = [load_skill(name) for name in names]  # unknown names fail before anything runs
     failed = []
-    with tqdm(total=5 * len(skills), unit="episode", desc="validate") as bar:
+    with tqdm(total=len(SEEDS) * len(skills), unit="episode", desc="validate") as bar:
         for skill in skills:
             bar.set_postfix_str(skill.name)
             record = validate(skill, on_episode=lambda seed, reason: bar.update(1))
@@ -82,5 +101,27 @@ def _validate(args) -> int:
                 failed.append(f"{skill.name}: {record.failures}")
     for line in failed:
         print(f"FAILED {line}")
-    print(f"{len(skills) - len(failed)}/{len(skills)} skill(s) validated; records in skills/validation/")
+    print(f"{len(skills) - len(failed)}/{len(skills)} skill(s) validated; records in skills/library/validation/")
     return 1 if failed else 0
+
+
+def _generate(args) -> int:
+    from tqdm import tqdm
+
+    from skills.generation import generate_skill
+
+    with tqdm(total=len(SEEDS), unit="episode", desc=f"validate generated {args.subtask}") as bar:
+        result = generate_skill(
+            args.subtask,
+            base_url=args.base_url,
+            model=args.model,
+            api_key=os.environ.get(args.api_key_env),
+            library=args.library,
+            force=args.force,
+            on_episode=lambda seed, reason: bar.update(1),
+        )
+    if not result.stored:
+        print(f"not stored: {result.reason}\n--- the completion ---\n{result.code}")
+        return 1
+    print(f"stored {result.skill}: " + ", ".join(str(p) for p in result.paths))
+    return 0

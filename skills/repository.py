@@ -12,7 +12,10 @@ from pathlib import Path
 
 import yaml
 
-from ontology.skill_code import parse_skill
+from ontology.skill_code import CallSite, call_sites, parse_skill
+from ontology.specs import ApiSpec, load_api_spec
+from robosuite_envs.embodiments import get_embodiment
+from robosuite_envs.primitives import api_spec_path
 
 LIBRARY = Path(__file__).with_name("library")
 
@@ -36,10 +39,16 @@ class Skill:
     path: Path
     preconditions: tuple[str, ...] = ()
     effects: tuple[str, ...] = ()
+    capabilities: tuple[str, ...] = ()  # what the source robot must be able to do (union over its call sites)
 
     @property
     def code_sha256(self) -> str:
         return hashlib.sha256(self.code.encode()).hexdigest()
+
+
+def records_dir(library: Path = LIBRARY) -> Path:
+    """Validation records travel with their skills: ``<library>/validation/<skill>.json``."""
+    return library / "validation"
 
 
 def list_skills(library: Path = LIBRARY) -> list[str]:
@@ -66,9 +75,33 @@ def load_skill(name: str, library: Path = LIBRARY) -> Skill:
         intent=meta["intent"],
         code=code,
         path=code_path,
-        preconditions=tuple(meta.get("preconditions") or ()),
-        effects=tuple(meta.get("effects") or ()),
+        preconditions=_names(meta, "preconditions", meta_path),
+        effects=_names(meta, "effects", meta_path),
+        capabilities=_names(meta, "capabilities", meta_path),
     )
+
+
+def _names(meta: dict, key: str, path: Path) -> tuple[str, ...]:
+    value = meta.get(key) or []
+    if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
+        raise ValueError(f"{path}: field {key!r} must be a list of names, got {value!r}")
+    return tuple(value)
+
+
+def source_call_sites(skill: Skill) -> list[CallSite]:
+    """The call sites the ontology sees: primitives of the source robot's API, in source order."""
+    api = source_api(skill)
+    return [site for site in call_sites(skill.code, str(skill.path)) if api.get(site.name) is not None]
+
+
+def derived_capabilities(skill: Skill) -> list[str]:
+    """Capabilities of the primitives the code calls, read from the source API's metadata."""
+    api = source_api(skill)
+    return sorted({cap for site in source_call_sites(skill) for cap in api.get(site.name).capabilities})
+
+
+def source_api(skill: Skill) -> ApiSpec:
+    return load_api_spec(api_spec_path(get_embodiment(skill.source_embodiment).api))
 
 
 def serve_skill(name: str, library: Path = LIBRARY, *, require_validated: bool = True) -> Skill:
@@ -80,7 +113,7 @@ def serve_skill(name: str, library: Path = LIBRARY, *, require_validated: bool =
 
     skill = load_skill(name, library)
     if require_validated:
-        record = load_record(name, library.parent / "validation")
+        record = load_record(name, records_dir(library))
         if record is None or not record.matches(skill):
             why = (
                 "it was never validated"

@@ -3,7 +3,7 @@
 A skill is served to grounding only with a record whose code hash matches the file and whose
 every seed passed: its precondition checks held at the start and its expected effects (the
 subtask's success predicate among them) were observed at the end. Records are JSON files in
-``skills/validation/`` and are committed with the skills.
+``skills/library/validation/`` and are committed with the skills.
 """
 
 from __future__ import annotations
@@ -18,9 +18,9 @@ from recent_plugin.episode import run_episode
 from robosuite_envs.gym_env import RecentEnv
 from robosuite_envs.observation import Observation
 from robosuite_envs.suites import SEEDS, validation_task
-from skills.repository import LIBRARY, Skill
+from skills.repository import LIBRARY, Skill, records_dir
 
-RECORDS = LIBRARY.parent / "validation"
+RECORDS = records_dir(LIBRARY)
 
 
 @dataclass
@@ -81,7 +81,8 @@ EFFECT_CHECKS = {
 
 def validate(skill: Skill, seeds: tuple[int, ...] = SEEDS, *, agent=None, on_episode=None) -> ValidationRecord:
     """Run ``skill`` unmodified on its source robot in its subtask's task, once per seed."""
-    agent = agent or RecentAgent(AgentSettings(backend="rule", offline_validation=False))
+    library = str(skill.path.parent)  # the agent must serve this very file
+    agent = agent or RecentAgent(AgentSettings(backend="rule", offline_validation=False, skill_library=library))
     task = validation_task(skill.subtask)
     objects = list(task.plan[0].args.values())
     record = ValidationRecord(skill.name, skill.code_sha256, skill.source_embodiment, task.task_id, list(seeds))

@@ -2,11 +2,8 @@
 
 from __future__ import annotations
 
-import json
-import threading
-from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
-
 import pytest
+from loopback import json_server
 
 from recent_plugin.grounding.grounder import ground_skill
 from recent_plugin.infillers import make_infiller
@@ -19,46 +16,30 @@ ANSWERS = {
 }
 
 
-class FakeCompletions(BaseHTTPRequestHandler):
-    """Answers /v1/completions like vLLM or llama.cpp's server would, from fixed completions."""
+REQUESTS: list[dict] = []
 
-    requests: list[dict] = []
 
-    def do_POST(self):
-        body = json.loads(self.rfile.read(int(self.headers["Content-Length"])))
-        FakeCompletions.requests.append({"path": self.path, **body})
-        if self.path == "/tokenize":
-            reply = {"tokens": list(range(len(body["content"].split())))}
-        else:
-            hint = next((k for k in ANSWERS if k in body["prompt"]), None)
-            text = ANSWERS[hint] if hint else ""
-            reply = {"choices": [{"text": text}], "usage": {"completion_tokens": len(text) // 4, "prompt_tokens": 100}}
-        data = json.dumps(reply).encode()
-        self.send_response(200)
-        self.send_header("Content-Type", "application/json")
-        self.send_header("Content-Length", str(len(data)))
-        self.end_headers()
-        self.wfile.write(data)
-
-    def log_message(self, *args):
-        pass
+def completions(path: str, body: dict) -> dict:
+    """Answers like vLLM or llama.cpp's server would, from fixed completions."""
+    if path == "/tokenize":
+        return {"tokens": list(range(len(body["content"].split())))}
+    hint = next((k for k in ANSWERS if k in body["prompt"]), None)
+    text = ANSWERS[hint] if hint else ""
+    return {"choices": [{"text": text}], "usage": {"completion_tokens": len(text) // 4, "prompt_tokens": 100}}
 
 
 @pytest.fixture
 def server():
-    httpd = ThreadingHTTPServer(("127.0.0.1", 0), FakeCompletions)
-    thread = threading.Thread(target=httpd.serve_forever, daemon=True)
-    thread.start()
-    FakeCompletions.requests = []
-    yield f"http://127.0.0.1:{httpd.server_address[1]}"
-    httpd.shutdown()
+    REQUESTS.clear()
+    with json_server(completions, REQUESTS) as url:
+        yield url
 
 
 def test_grounds_through_a_completions_server(server, ontology, put_in_bin):
     infiller = make_infiller("openai", "Qwen/Qwen2.5-Coder-7B", base_url=server)
     grounded = ground_skill(put_in_bin, "UR5e", ontology, infiller)
     assert grounded.valid, [c.message for c in grounded.calls]
-    completions = [r for r in FakeCompletions.requests if r["path"] == "/v1/completions"]
+    completions = [r for r in REQUESTS if r["path"] == "/v1/completions"]
     assert len(completions) == 3
     prompt = completions[0]["prompt"]
     assert (
@@ -77,7 +58,7 @@ def test_grounds_through_a_completions_server(server, ontology, put_in_bin):
 
 def test_unreachable_server_is_a_clear_error(ontology, put_in_bin):
     infiller = make_infiller("openai", "Qwen/Qwen2.5-Coder-7B", base_url="http://127.0.0.1:9")
-    with pytest.raises(RuntimeError, match="cannot reach the completions server"):
+    with pytest.raises(RuntimeError, match="cannot reach the server"):
         ground_skill(put_in_bin, "UR5e", ontology, infiller)
 
 

@@ -8,8 +8,16 @@ import shutil
 import pytest
 
 from robosuite_envs.suites import SEEDS
-from skills.repository import LIBRARY, SkillNotValidatedError, list_skills, load_skill, serve_skill
-from skills.validation import RECORDS, load_record, validate
+from skills.repository import (
+    LIBRARY,
+    SkillNotValidatedError,
+    derived_capabilities,
+    list_skills,
+    load_skill,
+    records_dir,
+    serve_skill,
+)
+from skills.validation import load_record, validate
 
 
 def test_every_stored_skill_passed_validate_on_all_five_seeds_with_its_current_code():
@@ -21,10 +29,15 @@ def test_every_stored_skill_passed_validate_on_all_five_seeds_with_its_current_c
         assert serve_skill(name).code == skill.code
 
 
+def test_metadata_declares_the_capabilities_its_call_sites_need():
+    for name in list_skills():
+        skill = load_skill(name)
+        assert skill.capabilities and list(skill.capabilities) == derived_capabilities(skill), name
+
+
 @pytest.fixture
 def library_copy(tmp_path):
-    shutil.copytree(LIBRARY, tmp_path / "library")
-    shutil.copytree(RECORDS, tmp_path / "validation")
+    shutil.copytree(LIBRARY, tmp_path / "library")  # validation records included
     return tmp_path / "library"
 
 
@@ -36,8 +49,15 @@ def test_an_edited_skill_is_refused_until_revalidated(library_copy):
     assert serve_skill("stack", library_copy, require_validated=False).code == path.read_text()  # the ablation
 
 
+def test_malformed_metadata_names_the_file_and_the_field(library_copy):
+    meta = library_copy / "stack.yaml"
+    meta.write_text(meta.read_text().replace("capabilities: [", "capabilities: grasp [", 1))
+    with pytest.raises(ValueError, match=r"stack.yaml: field 'capabilities' must be a list"):
+        load_skill("stack", library_copy)
+
+
 def test_a_skill_without_a_record_is_refused(library_copy):
-    (library_copy.parent / "validation" / "wipe_area.json").unlink()
+    (records_dir(library_copy) / "wipe_area.json").unlink()
     with pytest.raises(SkillNotValidatedError, match="never validated"):
         serve_skill("wipe_area", library_copy)
 

@@ -7,16 +7,14 @@ llama.cpp's ``/tokenize`` when the server has it, else a tokenizer-free approxim
 
 from __future__ import annotations
 
-import json
 import logging
 import time
-import urllib.error
-import urllib.request
 
 from recent_plugin.grounding.fim_prompt import build_prompt
 from recent_plugin.grounding.units import RefactoringUnit
 from recent_plugin.infillers.base import Completion, approximate_tokens
 from recent_plugin.infillers.fim_formats import fim_format
+from recent_plugin.infillers.http import post_json
 
 log = logging.getLogger(__name__)
 
@@ -33,19 +31,7 @@ class OpenAICompatInfiller:
         self._tokenize_available: bool | None = None
 
     def _post(self, path: str, body: dict) -> dict:
-        headers = {"Content-Type": "application/json"}
-        if self.api_key:
-            headers["Authorization"] = f"Bearer {self.api_key}"
-        request = urllib.request.Request(
-            self.base_url + path, data=json.dumps(body).encode(), headers=headers, method="POST"
-        )
-        try:
-            with urllib.request.urlopen(request, timeout=self.timeout_s) as response:
-                return json.loads(response.read())
-        except urllib.error.HTTPError as exc:
-            raise RuntimeError(f"{self.base_url}{path} answered {exc.code}: {exc.read()[:300]!r}") from None
-        except urllib.error.URLError as exc:
-            raise RuntimeError(f"cannot reach the completions server at {self.base_url}: {exc.reason}") from None
+        return post_json(self.base_url, path, body, api_key=self.api_key, timeout_s=self.timeout_s)
 
     def count_tokens(self, text: str) -> int:
         if self._tokenize_available is not False:
