@@ -182,7 +182,9 @@ def _warnings(onto, site, original, target, source, robot, sites, bindings) -> l
     for cond in sorted(target.preconditions):
         if vocab[cond].kind != "runtime":
             continue
-        if cond not in original.preconditions:
+        if vocab[cond].always:
+            warn(cond)  # the world decides, whatever the robot: e.g. something landed on the target
+        elif cond not in original.preconditions:
             warn(cond)  # new on this robot: e.g. a suction cup needs a flat, sealable top face
         elif cond in {"target_reachable", "handle_reachable"} and onto.arms[robot].reach < onto.arms[source].reach:
             warn(cond)  # a smaller workspace than the one the skill was validated in

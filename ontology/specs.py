@@ -84,6 +84,7 @@ class ConditionSpec:
     observation: str | None = None
     message: str | None = None
     excludes: frozenset[str] = frozenset()
+    always: bool = False  # uncertain in any world: warned for every robot, the source robot included
 
 
 CONDITIONS_PATH = Path(__file__).with_name("conditions.yaml")
@@ -111,6 +112,7 @@ def load_conditions(path: Path | str = CONDITIONS_PATH) -> dict[str, ConditionSp
             observation=item.get("observation"),
             message=item.get("message"),
             excludes=frozenset(_str_list(item, "excludes", path, where) if "excludes" in item else ()),
+            always=_flag(item, "always", path, where),
         )
     for cond in conditions.values():
         for other in cond.excludes:
@@ -121,6 +123,13 @@ def load_conditions(path: Path | str = CONDITIONS_PATH) -> dict[str, ConditionSp
                     path, f"conditions.{cond.name}.excludes", f"{other!r} does not exclude {cond.name!r} back"
                 )
     return conditions
+
+
+def _flag(item: dict, key: str, path: Path, where: str) -> bool:
+    value = item.get(key, False)
+    if not isinstance(value, bool):
+        raise SpecError(path, f"{where}.{key}", f"must be true or false, got {value!r}")
+    return value
 
 
 def check_against_vocabulary(api: ApiSpec, conditions: dict[str, ConditionSpec]) -> None:

@@ -17,10 +17,12 @@ from ontology.builder import Ontology, build_ontology
 from recent_plugin.executor import PlannedSkill, TaskExecutor
 from recent_plugin.grounding.grounder import GroundedSkill, ground_skill
 from recent_plugin.infillers import Infiller, make_infiller
+from recent_plugin.insitu.adapter import InSituAdapter
+from recent_plugin.insitu.checks import SceneFacts
 from robosuite_envs.embodiments import get_embodiment
 from robosuite_envs.observation import Observation
 from robosuite_envs.primitives import api_functions
-from robosuite_envs.tasks import get_task
+from robosuite_envs.tasks import TaskSpec, get_task
 from skills.repository import LIBRARY, serve_skill
 
 log = logging.getLogger(__name__)
@@ -37,6 +39,8 @@ class AgentSettings:
     base_url: str | None = None  # the completions server of the openai backend
     offline_validation: bool = True  # serve only validated skills (False: the paper's ablation)
     skill_library: str | None = None  # a directory of skills (+ validation/); None: the bundled Panda skills
+    insitu: bool = True  # run-time checks patch upcoming segments (False: the paper's "w/o in-situ" ablation)
+    max_repairs: int = 2  # reactive repairs of failed segments, per skill
 
 
 @dataclass
@@ -102,6 +106,28 @@ class RecentAgent:
         report.igt_seconds = time.perf_counter() - started
         runnable = list(takewhile(lambda p: p.grounded.valid, plan))  # run what can run, then hold still
         executor = TaskExecutor(
-            runnable, api_functions(embodiment.api), first_obs, embodiment.name, max_steps=self.settings.max_skill_steps
+            runnable,
+            api_functions(embodiment.api),
+            first_obs,
+            embodiment.name,
+            max_steps=self.settings.max_skill_steps,
+            adapter=self.adapter(task, robot),
         )
         return executor, report
+
+    def adapter(self, task: TaskSpec, robot: str) -> InSituAdapter:
+        """A fresh in-situ adapter for one episode (its calls and events are that episode's)."""
+        scene = SceneFacts(
+            kinds={o.name: o.kind for o in task.objects},
+            sizes={o.name: tuple(o.size) for o in task.objects if o.size is not None},
+        )
+        return InSituAdapter(
+            robot=robot,
+            api=self.ontology.api(robot),
+            apis=self.ontology.apis,
+            infiller=self.infiller,
+            scene=scene,
+            insitu=self.settings.insitu,
+            max_retries=self.settings.max_retries,
+            max_repairs=self.settings.max_repairs,
+        )

@@ -31,6 +31,8 @@ class RecentConfig(PreTrainedConfig):
     base_url: str | None = AgentSettings.base_url
     offline_validation: bool = AgentSettings.offline_validation  # False: serve unvalidated skills (ablation)
     skill_library: str | None = AgentSettings.skill_library  # your own skills directory (default: bundled)
+    insitu: bool = AgentSettings.insitu  # False: no run-time checks, reactive repair only (ablation)
+    max_repairs: int = AgentSettings.max_repairs
     device: str | None = "cpu"
     normalization_mapping: dict[str, NormalizationMode] = field(
         default_factory=lambda: {

@@ -12,11 +12,14 @@ from __future__ import annotations
 import ast
 import builtins
 import copy
+import textwrap
 from collections.abc import Callable, Generator
 from dataclasses import dataclass, field
+from typing import Protocol
 
 import numpy as np
 
+from ontology.diagnosis import Warning
 from recent_plugin.failures import PRIMITIVE_FAILURE_CATEGORY, FailureCategory
 from recent_plugin.grounding.grounder import GroundedSkill
 from recent_plugin.grounding.validation import SAFE_HELPERS
@@ -33,6 +36,18 @@ class Segment:
     line: int
     source: str
     node: ast.stmt
+    guards: tuple[Warning, ...] = ()  # run-time checks evaluated before the segment starts
+    checked: bool = False  # guards evaluated (or the segment is itself a patch)
+
+
+class Adapter(Protocol):
+    """In-situ adaptation as the executor sees it (implemented in :mod:`recent_plugin.insitu`)."""
+
+    def guard(self, grounded: GroundedSkill, segments: list[Segment]) -> None: ...
+
+    def before_segment(self, executor: SkillExecutor, index: int) -> None: ...
+
+    def repair(self, executor: SkillExecutor, failure: SkillFailure) -> bool: ...
 
 
 @dataclass
@@ -86,6 +101,7 @@ class SkillExecutor:
         session: RobotSession,
         *,
         max_steps: int = 3000,
+        adapter: Adapter | None = None,
     ):
         if not grounded.valid:
             raise ValueError(
@@ -96,6 +112,13 @@ class SkillExecutor:
         self.primitives = primitives
         func = entry_function(grounded.code, grounded.entry)
         self.segments = split_segments(grounded.code, func)
+        self.indent = " " * func.body[-1].col_offset
+        lines = grounded.code.splitlines(keepends=True)
+        self._head = "".join(lines[: self.segments[0].line - 1]) if self.segments else ""
+        self._tail = "".join(lines[func.end_lineno :])  # functions defined after the entry
+        self.adapter = adapter
+        if adapter is not None:
+            adapter.guard(grounded, self.segments)
         self.max_steps = max_steps
         self.namespace: dict[str, object] = {
             "__builtins__": _SAFE_BUILTINS,
@@ -120,12 +143,34 @@ class SkillExecutor:
         return self.failure is not None
 
     def replace_segment(self, index: int, source: str) -> None:
-        """Swap a segment that has not started (in-situ adaptation never rewrites the past)."""
+        """Swap a segment that has not started for one or more statements (never rewrites the past)."""
         if index < self.cursor or (index == self.cursor and self._running is not None):
             raise ValueError(f"segment {index} has already started; only upcoming segments can be patched")
-        node = ast.parse(source).body[0]
         old = self.segments[index]
-        self.segments[index] = Segment(index, old.line, source, ast.copy_location(node, old.node))
+        text = textwrap.dedent(self.indent + source)  # later lines carry the body's indentation
+        new = [
+            Segment(index + i, old.line, self._reindent(ast.get_source_segment(text, node)), node, checked=True)
+            for i, node in enumerate(ast.parse(text).body)
+        ]
+        for node in new:
+            ast.copy_location(node.node, old.node)
+        self.segments[index : index + 1] = new
+        for i, segment in enumerate(self.segments):
+            segment.index = i
+
+    def source(self) -> str:
+        """The skill as it stands now: patched segments in place of the ones they replaced."""
+        return self._head + "".join(self.indent + s.source + "\n" for s in self.segments) + self._tail
+
+    def _reindent(self, statement: str) -> str:
+        """A statement as segments keep it: first line bare, later lines at the function body's indent."""
+        return statement.replace("\n", "\n" + self.indent)
+
+    def segment_offsets(self, index: int) -> tuple[int, int]:
+        """Character range of segment ``index`` in :meth:`source`."""
+        start = len(self._head) + sum(len(self.indent) + len(s.source) + 1 for s in self.segments[:index])
+        start += len(self.indent)
+        return start, start + len(self.segments[index].source)
 
     def _compile(self, segment: Segment) -> Generator:
         template = ast.parse("def _recent_segment():\n    if False:\n        yield\n")
@@ -142,10 +187,14 @@ class SkillExecutor:
         """Advance by one action; segments without primitive calls complete within the same step."""
         while self.failure is None and self.cursor < len(self.segments):
             if self.steps >= self.max_steps:
-                self._fail(FailureCategory.TIMEOUT, f"skill exceeded {self.max_steps} control steps")
+                self._fail(FailureCategory.TIMEOUT, f"skill exceeded {self.max_steps} control steps", repairable=False)
                 return None
             try:
                 if self._running is None:
+                    segment = self.segments[self.cursor]
+                    if self.adapter is not None and not segment.checked:
+                        segment.checked = True
+                        self.adapter.before_segment(self, self.cursor)
                     self._running = self._compile(self.segments[self.cursor])
                 action = next(self._running)
                 self.steps += 1
@@ -163,10 +212,13 @@ class SkillExecutor:
                 self._fail(FailureCategory.NON_EXECUTABLE, f"{type(exc).__name__}: {exc}")
         return None
 
-    def _fail(self, category: FailureCategory, message: str) -> None:
+    def _fail(self, category: FailureCategory, message: str, *, repairable: bool = True) -> None:
         segment = self.segments[min(self.cursor, len(self.segments) - 1)]
-        self.failure = SkillFailure(self.grounded.skill, segment.index, segment.line, category, message)
+        failure = SkillFailure(self.grounded.skill, segment.index, segment.line, category, message)
         self._running = None
+        if repairable and self.adapter is not None and self.adapter.repair(self, failure):
+            return  # the failed segment was replaced by a repair; it runs again from the current state
+        self.failure = failure
 
 
 @dataclass
@@ -186,8 +238,10 @@ class TaskExecutor:
         embodiment: str,
         *,
         max_steps: int = 3000,
+        adapter: Adapter | None = None,
     ):
         self.session = RobotSession(embodiment, first_obs)
+        self.adapter = adapter
         self.plan = plan
         self.primitives = primitives
         self.max_steps = max_steps
@@ -206,7 +260,12 @@ class TaskExecutor:
             if self.current is None:
                 planned = self.plan[self.index]
                 self.current = SkillExecutor(
-                    planned.grounded, planned.args, self.primitives, self.session, max_steps=self.max_steps
+                    planned.grounded,
+                    planned.args,
+                    self.primitives,
+                    self.session,
+                    max_steps=self.max_steps,
+                    adapter=self.adapter,
                 )
             action = self.current.step()
             if action is not None:

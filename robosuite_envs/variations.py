@@ -26,7 +26,7 @@ VARIATIONS: dict[str, str] = {
 ON = ("pose_perturbation", "sensing_noise", "obstacle")  # the paper's perturbations: `--variations on`
 
 NOISE_SIGMA = 0.004
-PERTURB_STEPS = (12, 20)  # after the skill read the object's position, before the grasp closes
+PERTURB_STEPS = (2, 6)  # after the skill read the object's position, before the approach starts
 OBSTACLE_STEPS = (40, 60)  # mid-task: while the object is being fetched
 FAR_TARGET_XY = (0.33, 0.31)  # beyond a UR5e's reach from the table-side base at (-0.56, 0)
 TARGET_KINDS = ("plate", "region", "bin", "pen")

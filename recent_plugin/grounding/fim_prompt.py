@@ -10,11 +10,15 @@ from dataclasses import dataclass
 
 from ontology.diagnosis import ParameterMapping
 from recent_plugin.grounding.units import Hints, RefactoringUnit
+from recent_plugin.infillers.base import approximate_tokens
 
 # GBNF grammars for the span: code statements, never comments (a small model otherwise sometimes
 # copies a hint line instead of writing the call). Backends without grammar support ignore them.
 STATEMENT_LINE = r'root ::= [a-zA-Z_] [^\n]* "\n"'
 STATEMENT_LINES = r"root ::= line+" + "\n" + r'line ::= [ ]* [a-zA-Z_] [^\n]* "\n"'
+
+
+RUNTIME_SPAN_TYPES = ("in_situ_revision", "reactive_repair")  # spans patched while the skill runs
 
 
 @dataclass(frozen=True)
@@ -32,6 +36,14 @@ def hint_lines(span_type: str, hints: Hints) -> list[str]:
     A retry narrows the cues to the original call, the rejection and the call to write: a small
     model that copied a hint line instead of writing code gets less to copy the second time.
     """
+    if span_type in RUNTIME_SPAN_TYPES:
+        return [
+            f"{hints.robot} {span_type.replace('_', ' ')}: {hints.reason}",
+            f"Observed: {hints.observation}",
+            *([f"Rejected before: {hints.feedback}"] if hints.feedback else []),
+            f"Was: {_one_line(hints.original_call)}",
+            f"Write: {_one_line(hints.substitute_call)}",
+        ]
     if hints.attempt > 0:
         call = [f"Call exactly: {_one_line(hints.substitute_call)}"] if hints.substitute_call else []
         return [f"Was: {hints.original_call}", f"Rejected before: {hints.feedback}", *call]
@@ -69,6 +81,6 @@ def build_prompt(unit: RefactoringUnit, span_tokens: int) -> FimPrompt:
         prefix=unit.prefix + comments + unit.indent,
         suffix=unit.suffix,
         stop=("\n", "  #") if single_line else ("\n\n",),
-        max_tokens=max(24, 2 * span_tokens + 16),
+        max_tokens=max(24, 2 * max(span_tokens, approximate_tokens(unit.hints.substitute_call or "")) + 16),
         grammar=STATEMENT_LINE if single_line else STATEMENT_LINES,
     )

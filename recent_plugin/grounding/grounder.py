@@ -13,10 +13,11 @@ import difflib
 import io
 import time
 import tokenize
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 from ontology.builder import Ontology
-from ontology.diagnosis import Conflict, Diagnosis, diagnose
+from ontology.diagnosis import Conflict, Diagnosis, Warning, diagnose
+from ontology.skill_code import CodeSpan
 from recent_plugin.failures import FailureCategory
 from recent_plugin.grounding.units import RefactoringUnit, apply_unit, unit_from_conflict
 from recent_plugin.grounding.validation import Verdict, validate_program
@@ -53,6 +54,27 @@ class GroundedSkill:
     calls: list[LMCall] = field(default_factory=list)
     verdict: Verdict | None = None
     seconds: float = 0.0  # wall time from diagnosis to validated code (IGT for this skill)
+    edits: list[tuple[int, int, int]] = field(default_factory=list)  # (start, end, new length), original offsets
+
+    def warnings(self) -> list[Warning]:
+        """The diagnosis' run-time warnings with their spans moved onto the grounded code."""
+        return [replace(w, span=self._moved(w.span)) for w in self.diagnosis.warnings]
+
+    def _moved(self, span: CodeSpan) -> CodeSpan:
+        def offset(o: int) -> int:
+            shift = 0
+            for start, end, length in sorted(self.edits):
+                if end <= o:
+                    shift += length - (end - start)
+                elif start <= o:
+                    return start + shift  # inside an edited span: its replacement's start
+            return o + shift
+
+        start = offset(span.start)
+        inside = next(((s, length) for s, e, length in self.edits if s <= span.start < e), None)
+        end = start + inside[1] if inside else offset(span.end)
+        line = self.code.count("\n", 0, start) + 1
+        return CodeSpan(start, end, line, self.code.count("\n", 0, max(start, end - 1)) + 1)
 
     @property
     def valid(self) -> bool:
@@ -137,13 +159,14 @@ def ground_skill(
             )
             result.seconds = time.perf_counter() - started
             return result
-        result.code = accepted
+        result.code, text_length = accepted
+        result.edits.append((conflict.span.start, conflict.span.end, text_length))
     result.verdict = validate_program(result.code, api, skill.entry, apis)
     result.seconds = time.perf_counter() - started
     return result
 
 
-def _resolve(result, conflict: Conflict, pending, robot, infiller, api, apis, max_retries) -> str | None:
+def _resolve(result, conflict: Conflict, pending, robot, infiller, api, apis, max_retries) -> tuple[str, int] | None:
     feedback = None
     for attempt in range(max_retries + 1):
         unit = unit_from_conflict(result.code, conflict, robot, feedback=feedback, attempt=attempt)
@@ -166,7 +189,7 @@ def _resolve(result, conflict: Conflict, pending, robot, infiller, api, apis, ma
             )
         )
         if verdict.ok:
-            return candidate
+            return candidate, len(text)
         feedback = verdict.message
     return None
 

@@ -28,6 +28,7 @@ class Hints:
     reason: str = ""
     feedback: str | None = None  # why the previous attempt was rejected, on a retry
     attempt: int = 0
+    observation: str | None = None  # in-situ: what the run-time check saw
 
 
 @dataclass(frozen=True)
@@ -63,9 +64,6 @@ def unit_from_conflict(
 ) -> RefactoringUnit:
     """Cut a unit for ``conflict`` from ``code`` (conflicts are resolved last-first, so offsets hold)."""
     start, end = conflict.span.start, conflict.span.end
-    line_start = code.rfind("\n", 0, start) + 1
-    indent = code[line_start:start]
-    lo, hi = enclosing_function(code, start)
     sub = conflict.substitute
     hints = Hints(
         robot=robot,
@@ -79,16 +77,25 @@ def unit_from_conflict(
         feedback=feedback,
         attempt=attempt,
     )
+    return cut_unit(code, start, end, conflict.span_type, hints, substitute=sub.name if sub else None)
+
+
+def cut_unit(
+    code: str, start: int, end: int, span_type: str, hints: Hints, *, substitute: str | None = None
+) -> RefactoringUnit:
+    """The unit for ``code[start:end]``: prefix and suffix reach to the enclosing function's ends."""
+    line_start = code.rfind("\n", 0, start) + 1
+    lo, hi = enclosing_function(code, start)
     return RefactoringUnit(
         span_start=start,
         span_end=end,
         span=code[start:end],
         prefix=code[lo:line_start],
         suffix=code[end:hi],
-        indent=indent,
-        span_type=conflict.span_type,
+        indent=code[line_start:start],
+        span_type=span_type,
         hints=hints,
-        substitute=sub.name if sub else None,
+        substitute=substitute,
     )
 
 

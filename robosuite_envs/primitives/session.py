@@ -60,12 +60,16 @@ class TaskContext:
 
     def __init__(self, session: RobotSession):
         self._session = session
+        self.position_reads: list[tuple[str, list[float]]] = []  # (object, the list returned): run-time checks
+        # compare what the skill planned with against what is observed now (not a skill query)
 
     def get_object_names(self) -> list[str]:
         return sorted(self._session.obs.objects)
 
     def get_object_position(self, name: str) -> list[float]:
-        return [float(v) for v in self._state(name).pos]
+        position = [float(v) for v in self._state(name).pos]
+        self.position_reads.append((name, position))
+        return position
 
     def get_object_state(self, name: str) -> float:
         """Articulation or progress: drawer opening (m), lid angle (rad), button pressed (0/1)."""

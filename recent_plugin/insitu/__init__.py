@@ -1,0 +1,1 @@
+"""Run-time grounding: checks from undetermined warnings, in-situ patches, reactive repair."""

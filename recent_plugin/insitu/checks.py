@@ -1,0 +1,165 @@
+"""Run-time unit tests instantiated from the diagnosis' undetermined warnings.
+
+Each check reads the latest observation and the values the guarded call is about to receive,
+and either passes or returns a :class:`Violation`: what was observed (rendered into the in-situ
+hints) and the statements that would make the upcoming segment valid again, written with the
+target robot's own primitives. The rule backend applies those statements as they are; an LM is
+shown them as the cue and writes the patch itself.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from ontology.diagnosis import Warning
+from ontology.specs import ApiSpec
+from robosuite_envs.observation import Observation
+
+MOVED = 0.015  # metres an object may drift from where the skill read it before it counts as moved
+LOOSE_KINDS = frozenset({"box", "sphere", "slab", "lid", "rake"})  # what can land somewhere unexpected
+CLEARANCE = 0.03  # metres around a release target that must be free
+SHIFT = CLEARANCE + 0.075  # metres a swept obstacle's centre moves: past a 10 cm slab's reach of the target
+TABLE_LIMIT = 0.3  # |x|, |y| a swept obstacle may end at (stays on the table)
+
+
+@dataclass(frozen=True)
+class SceneFacts:
+    """What checks know besides the observation: the task's object kinds and sizes."""
+
+    kinds: dict[str, str]
+    sizes: dict[str, tuple[float, float, float]]
+
+
+@dataclass(frozen=True)
+class CheckInput:
+    warning: Warning
+    obs: Observation
+    arguments: dict[str, object]  # keyword values the guarded call will receive (evaluated now)
+    roles: dict[str, str]  # parameter name -> role, from the target API
+    named: frozenset[str]  # objects the skill's arguments name
+    stale_reads: dict[str, tuple[str, list[float]]]  # variable -> (object, position read earlier)
+    scene: SceneFacts
+    api: ApiSpec
+
+
+@dataclass(frozen=True)
+class Violation:
+    check: str
+    observation: str  # what was seen, for the hints and the log
+    statements: tuple[str, ...] = ()  # to run before the segment; empty: nothing a patch can do
+
+
+Check = Callable[[CheckInput], Violation | None]
+
+
+def _by_role(inp: CheckInput, *roles: str) -> np.ndarray | None:
+    for name, role in inp.roles.items():
+        if role in roles and name in inp.arguments:
+            try:
+                value = np.asarray(inp.arguments[name], dtype=float).reshape(-1)
+            except (TypeError, ValueError):
+                return None
+            return value if value.shape == (3,) else None
+    return None
+
+
+def _fmt(v) -> str:
+    return "[" + ", ".join(f"{float(x):.3f}" for x in v) + "]"
+
+
+def object_unmoved(inp: CheckInput) -> Violation | None:
+    """Positions the call uses were read before the robot moved: re-read those that drifted."""
+    statements, seen = [], []
+    for variable, (name, then) in sorted(inp.stale_reads.items()):
+        state = inp.obs.objects.get(name)
+        if state is None:
+            continue
+        drift = float(np.linalg.norm(np.asarray(state.pos) - np.asarray(then)))
+        if drift > MOVED:
+            seen.append(f"{name} moved {100 * drift:.1f} cm since {variable} was read (now at {_fmt(state.pos)})")
+            statements.append(f"{variable} = task.get_object_position({name!r})")
+    if not statements:
+        return None
+    return Violation("object_unmoved", "; ".join(seen), tuple(statements))
+
+
+def object_present(inp: CheckInput) -> Violation | None:
+    missing = sorted(n for n in inp.named if n in inp.scene.kinds and n not in inp.obs.objects)
+    return Violation("object_present", f"not observed: {', '.join(missing)}") if missing else None
+
+
+def target_clear(inp: CheckInput) -> Violation | None:
+    """Something the skill does not name lies on the release target: sweep it off first."""
+    target = _by_role(inp, "release_target")
+    if target is None:
+        return None
+    held = {n for n, s in inp.obs.objects.items() if s.grasped}
+    for name, state in sorted(inp.obs.objects.items()):
+        if name in inp.named or name in held or inp.scene.kinds.get(name) not in LOOSE_KINDS:
+            continue
+        half = max(inp.scene.sizes.get(name, (0.05, 0.05, 0.05))[:2]) / 2
+        if np.linalg.norm(state.pos[:2] - target[:2]) < half + CLEARANCE and state.pos[2] < target[2] + 0.05:
+            statements = sweep_statements(inp, name, held)
+            return Violation(
+                "target_clear",
+                f"{name} ({inp.scene.kinds[name]}, {2 * half:.2f} m wide) lies at {_fmt(state.pos)} on the release target {_fmt(target)}",
+                statements,
+            )
+    return None
+
+
+def sweep_statements(inp: CheckInput, obstacle: str, held: set[str]) -> tuple[str, ...]:
+    """Slide the hand (and whatever it holds) through the obstacle until it is clear of the target.
+
+    The side is the one where the swept obstacle ends farthest from everything else on the table
+    (objects it rests on excepted), preferring sideways sweeps: they keep the hand as far from the
+    base as the target itself, so they stay in reach.
+    """
+    state = inp.obs.objects[obstacle]
+    size = inp.scene.sizes.get(obstacle, (0.05, 0.05, 0.05))
+    centre, half = np.asarray(state.pos, dtype=float), max(size[:2]) / 2
+    carried = max((inp.scene.sizes.get(n, (0, 0, 0)) for n in held), key=lambda s: s[2], default=None)
+    bottom = centre[2] - size[2] / 2
+    # the held object's lower face (or the closed fingertips, ~2 cm below the grip site) just above the surface
+    height = bottom + (0.012 + carried[2] / 2 if carried else 0.025)
+    lead = carried[0] / 2 if carried else 0.01  # grip site to the face that touches the obstacle
+    others = [
+        (s.pos[:2], np.asarray(inp.scene.sizes.get(n, (0.05, 0.05, 0.05))[:2]) / 2)
+        for n, s in inp.obs.objects.items()
+        if n != obstacle and n not in held and s.pos[2] + inp.scene.sizes.get(n, (0, 0, 0))[2] / 2 > bottom + 0.005
+    ]
+
+    def gap(direction: np.ndarray) -> float:
+        end = centre[:2] + direction * SHIFT
+        if np.any(np.abs(end) + half > TABLE_LIMIT):
+            return -1.0
+        return min((float(np.max(np.abs(end - pos) - extent - half)) for pos, extent in others), default=1.0)
+
+    directions = [np.array(d, dtype=float) for d in ((0, 1), (0, -1), (-1, 0))]
+    direction = max(directions, key=lambda d: (gap(d) > 0.01, d[0] == 0, gap(d)))
+    start = np.array([*(centre[:2] - direction * (half + lead + 0.02)), height])
+    goal = np.array([*(centre[:2] + direction * (SHIFT - half - lead)), height])
+    return _push_calls(inp.api, start, goal)
+
+
+def _push_calls(api: ApiSpec, start: np.ndarray, goal: np.ndarray) -> tuple[str, ...]:
+    """The robot's own push primitive when it has one, else four Cartesian moves."""
+    push = next((p for p in api.primitives if "push_object" in p.capabilities), None)
+    if push is not None:
+        begin, end = push.by_role("push_start"), push.by_role("push_goal")
+        if begin is not None and end is not None:
+            return (f"{push.name}(env, task, {begin.name}={_fmt(start)}, {end.name}={_fmt(goal)})",)
+    move = next(p for p in api.primitives if "cartesian_motion" in p.capabilities)
+    target = move.by_role("motion_target")
+    lift = np.array([0.0, 0.0, 0.08])
+    return tuple(f"{move.name}(env, task, {target.name}={_fmt(p)})" for p in (start + lift, start, goal, goal + lift))
+
+
+CHECKS: dict[str, Check] = {
+    "object_unmoved": object_unmoved,
+    "object_present": object_present,
+    "target_clear": target_clear,
+}
