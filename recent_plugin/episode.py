@@ -7,6 +7,8 @@ from dataclasses import dataclass, field
 
 from recent_plugin.agent import EpisodeGrounding, RecentAgent
 from recent_plugin.executor import SkillFailure
+from recent_plugin.grounding.grounder import LMCall
+from recent_plugin.insitu.adapter import AdaptationEvent
 from robosuite_envs.gym_env import RecentEnv
 from robosuite_envs.observation import Observation
 
@@ -24,10 +26,30 @@ class EpisodeResult:
     wall_seconds: float
     grounding: EpisodeGrounding
     failures: list[SkillFailure] = field(default_factory=list)
+    runtime_calls: list[LMCall] = field(default_factory=list)  # revise (in-situ) and repair calls
+    adaptations: list[AdaptationEvent] = field(default_factory=list)
 
     @property
     def generated_tokens(self) -> int:
-        return sum(s.generated_tokens for s in self.grounding.skills)
+        """Every token the infiller generated for this episode: before execution and during it."""
+        return sum(s.generated_tokens for s in self.grounding.skills) + sum(
+            c.generated_tokens for c in self.runtime_calls
+        )
+
+    @property
+    def ei(self) -> int:
+        """Execution interruptions: revise + repair infiller calls (the paper's EI)."""
+        return len(self.runtime_calls)
+
+    @property
+    def it(self) -> float:
+        """Idle time: seconds spent in those calls while the robot waited (the paper's IT)."""
+        return sum(c.seconds for c in self.runtime_calls)
+
+    @property
+    def igt(self) -> float:
+        """Initial grounding time: from receiving the task to the first executable code."""
+        return self.grounding.igt_seconds
 
     @property
     def skill_tokens(self) -> int:
@@ -39,7 +61,7 @@ class EpisodeResult:
 
     @property
     def lm_seconds(self) -> float:
-        return sum(s.lm_seconds for s in self.grounding.skills)
+        return sum(s.lm_seconds for s in self.grounding.skills) + self.it
 
 
 def run_episode(
@@ -100,6 +122,8 @@ def _run(
         wall_seconds=time.perf_counter() - started,
         grounding=grounding,
         failures=list(executor.failures),
+        runtime_calls=list(executor.adapter.calls) if executor.adapter else [],
+        adaptations=list(executor.adapter.events) if executor.adapter else [],
     )
 
 

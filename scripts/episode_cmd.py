@@ -52,6 +52,20 @@ def _run(args) -> int:
         "skill_tokens": result.skill_tokens,
         "go": round(result.go, 2),
         "lm_seconds": round(result.lm_seconds, 3),
+        "ei": result.ei,
+        "it_seconds": round(result.it, 3),
+        "adaptations": [
+            {
+                "kind": a.kind,
+                "skill": a.skill,
+                "segment": a.segment,
+                "checks": list(a.checks),
+                "observation": a.observation,
+                "before": a.before,
+                "after": a.after,
+            }
+            for a in result.adaptations
+        ],
         "failures": [
             {"skill": f.skill, "line": f.line, "category": str(f.category), "message": f.message}
             for f in result.failures
@@ -63,6 +77,11 @@ def _run(args) -> int:
         return 0 if result.success else 1
     for summary in summaries:
         print_grounding(summary)
+    for a in result.adaptations:
+        verdict = "patched" if a.after else "no valid patch"
+        print(f"  {a.kind} in {a.skill} segment {a.segment} ({', '.join(a.checks)}): {a.observation} -> {verdict}")
+        if a.after:
+            print("    " + a.after.replace("\n", "\n    "))
     for f in result.failures:
         print(f"  failure in {f.skill} line {f.line}: [{f.category}] {f.message}")
     outcome = "SUCCESS" if result.success else "FAILURE"
@@ -70,6 +89,7 @@ def _run(args) -> int:
         f"{outcome}: {result.task_id} on {result.robot} (seed {result.seed}), {result.gc:.0%} of subtasks, "
         f"{result.steps} steps, {result.wall_seconds:.1f} s; "
         f"grounding: {result.generated_tokens} tokens generated vs {result.skill_tokens} skill tokens "
-        f"(GO {result.go:.1f}%), LM {result.lm_seconds:.2f} s, first executable code after {result.grounding.igt_seconds:.2f} s"
+        f"(GO {result.go:.1f}%), LM {result.lm_seconds:.2f} s, first executable code after {result.grounding.igt_seconds:.2f} s; "
+        f"{result.ei} interruptions ({result.it:.2f} s idle)"
     )
     return 0 if result.success else 1

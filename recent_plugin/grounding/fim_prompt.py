@@ -36,14 +36,9 @@ def hint_lines(span_type: str, hints: Hints) -> list[str]:
     A retry narrows the cues to the original call, the rejection and the call to write: a small
     model that copied a hint line instead of writing code gets less to copy the second time.
     """
-    if span_type in RUNTIME_SPAN_TYPES:
-        return [
-            f"{hints.robot} {span_type.replace('_', ' ')}: {hints.reason}",
-            f"Observed: {hints.observation}",
-            *([f"Rejected before: {hints.feedback}"] if hints.feedback else []),
-            f"Was: {_one_line(hints.original_call)}",
-            f"Write: {_one_line(hints.substitute_call)}",
-        ]
+    if span_type in RUNTIME_SPAN_TYPES:  # an insertion: what was observed and the edit in words
+        rejected = [f"Rejected before: {hints.feedback}"] if hints.feedback else []
+        return [*rejected, f"{hints.observation}: {hints.reason}"]
     if hints.attempt > 0:
         call = [f"Call exactly: {_one_line(hints.substitute_call)}"] if hints.substitute_call else []
         return [f"Was: {hints.original_call}", f"Rejected before: {hints.feedback}", *call]

@@ -83,16 +83,22 @@ def unit_from_conflict(
 def cut_unit(
     code: str, start: int, end: int, span_type: str, hints: Hints, *, substitute: str | None = None
 ) -> RefactoringUnit:
-    """The unit for ``code[start:end]``: prefix and suffix reach to the enclosing function's ends."""
+    """The unit for ``code[start:end]``: prefix and suffix reach to the enclosing function's ends.
+
+    An empty span at a statement's start is an insertion: the suffix then begins on the next
+    line, so the LM writes whole lines before the statement rather than the start of it.
+    """
     line_start = code.rfind("\n", 0, start) + 1
     lo, hi = enclosing_function(code, start)
+    indent = code[line_start:start]
+    suffix = code[end:hi] if start < end else "\n" + indent + code[end:hi]
     return RefactoringUnit(
         span_start=start,
         span_end=end,
         span=code[start:end],
         prefix=code[lo:line_start],
-        suffix=code[end:hi],
-        indent=code[line_start:start],
+        suffix=suffix,
+        indent=indent,
         span_type=span_type,
         hints=hints,
         substitute=substitute,

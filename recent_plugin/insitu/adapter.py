@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import ast
 import logging
+import textwrap
 from dataclasses import dataclass, field
 
 from ontology.diagnosis import Warning
@@ -80,8 +81,8 @@ class InSituAdapter:
                 AdaptationEvent("revise", executor.grounded.skill, index, checks, observation, segment.source, None, 0)
             )
             return
-        reason = "; ".join(dict.fromkeys(w.message for w in segment.guards if w.check in checks))
-        self._patch(executor, index, "revise", "in_situ_revision", checks, reason, observation, statements)
+        instruction = "; and ".join(v.instruction for v in violations if v.statements)
+        self._patch(executor, index, "revise", "in_situ_revision", checks, instruction, observation, statements)
 
     def _evaluate(self, executor: SkillExecutor, segment: Segment, warning: Warning) -> Violation | None:
         call = next(
@@ -128,26 +129,16 @@ class InSituAdapter:
         segment = executor.segments[failure.segment]
         if failure.segment < executor.cursor:
             return False
-        # Positions the segment uses are re-read: the usual cause is a world that moved on.
-        used = {n.id for n in ast.walk(segment.node) if isinstance(n, ast.Name)}
-        reads = executor.namespace["task"].position_reads
-        statements = tuple(
-            dict.fromkeys(
-                f"{var} = task.get_object_position({name!r})"
-                for var, value in executor.namespace.items()
-                if var in used
-                for name, read in reads
-                if value is read
-            )
-        )
+        # The usual cause is a world that moved on: recompute what the statement uses, then retry it.
+        statements = recomputation(executor.segments[: failure.segment], segment.node, set(executor.primitives))
         return self._patch(
             executor,
             failure.segment,
             "repair",
             "reactive_repair",
             (str(failure.category),),
-            f"{failure.category}: the statement failed at run time",
-            failure.message,
+            f"recompute {', '.join(s.split(' = ')[0] for s in statements)} before retrying",
+            f"{_bare(segment.source, executor).split('(')[0]} failed ({failure.message})",
             statements,
         )
 
@@ -163,11 +154,36 @@ class InSituAdapter:
         observation: str,
         statements: tuple[str, ...],
     ) -> bool:
+        """Insert statements before segment ``index`` (an empty FIM span: the segment stays the suffix).
+
+        Without statements a repair simply runs the segment again, with no infiller call.
+        """
+        segment = executor.segments[index]
+        accepted, attempts = (None, 0) if statements else ("", 0)
+        if statements:
+            accepted, attempts = self._infill_insertion(
+                executor, index, kind, span_type, reason, observation, statements
+            )
+        after = None if accepted is None else "\n".join(filter(None, [accepted, _bare(segment.source, executor)]))
+        self.events.append(
+            AdaptationEvent(kind, executor.grounded.skill, index, checks, observation, segment.source, after, attempts)
+        )
+        if accepted is None:
+            log.warning("%s: no valid %s patch for segment %d of %s", self.robot, kind, index, executor.grounded.skill)
+            return False
+        if accepted:
+            executor.replace_segment(index, after.replace("\n", "\n" + executor.indent))
+        return True
+
+    def _infill_insertion(
+        self, executor, index, kind, span_type, reason, observation, statements
+    ) -> tuple[str | None, int]:
         segment = executor.segments[index]
         code = executor.source()
-        start, end = executor.segment_offsets(index)
-        suggestion = "\n".join([*statements, segment.source.replace("\n" + executor.indent, "\n")])
-        feedback, accepted = None, None
+        start, _ = executor.segment_offsets(index)
+        suggestion = "\n".join(statements)
+        wanted = _called(suggestion)
+        feedback = None
         for attempt in range(self.max_retries + 1):
             hints = Hints(
                 robot=self.robot,
@@ -178,12 +194,18 @@ class InSituAdapter:
                 attempt=attempt,
                 observation=observation,
             )
-            unit = cut_unit(code, start, end, span_type, hints)
+            unit = cut_unit(code, start, start, span_type, hints)
             completion = self.infiller.infill(unit)
             text = clean_completion(completion.text, unit)
-            verdict = validate_program(apply_unit(code, unit, text), self.api, executor.grounded.entry, self.apis)
+            candidate = apply_unit(code, unit, text + "\n" + unit.indent if text else "")
+            verdict = validate_program(candidate, self.api, executor.grounded.entry, self.apis)
             if verdict.ok and not text:
                 verdict = Verdict.reject(FailureCategory.EMPTY_CONTINUATION, "the patch is empty")
+            elif verdict.ok and _called(text) != wanted:
+                verdict = Verdict.reject(
+                    FailureCategory.HALLUCINATED_API,
+                    f"the patch must call {sorted(wanted)}, it calls {sorted(_called(text))}",
+                )
             self.calls.append(
                 LMCall(
                     kind=kind,
@@ -198,19 +220,27 @@ class InSituAdapter:
                 )
             )
             if verdict.ok:
-                accepted = text
-                break
+                return textwrap.dedent(unit.indent + text), attempt + 1
             feedback = verdict.message
-        self.events.append(
-            AdaptationEvent(
-                kind, executor.grounded.skill, index, checks, observation, segment.source, accepted, attempt + 1
-            )
-        )
-        if accepted is None:
-            log.warning("%s: no valid %s patch for segment %d of %s", self.robot, kind, index, executor.grounded.skill)
-            return False
-        executor.replace_segment(index, accepted)
-        return True
+        return None, self.max_retries + 1
+
+
+def _bare(source: str, executor: SkillExecutor) -> str:
+    """A segment's source without the body indentation of its later lines."""
+    return source.replace("\n" + executor.indent, "\n")
+
+
+def _called(code: str) -> set[str]:
+    """Names of the functions and task queries ``code`` calls."""
+    try:
+        tree = ast.parse(textwrap.dedent(code))
+    except SyntaxError:
+        return set()
+    return {
+        n.func.id if isinstance(n.func, ast.Name) else n.func.attr
+        for n in ast.walk(tree)
+        if isinstance(n, ast.Call) and isinstance(n.func, ast.Name | ast.Attribute)
+    }
 
 
 def _value(node: ast.expr, executor: SkillExecutor) -> object | None:
@@ -221,3 +251,20 @@ def _value(node: ast.expr, executor: SkillExecutor) -> object | None:
         return eval(compile(ast.Expression(node), "<check>", "eval"), dict(executor.namespace))  # noqa: S307
     except Exception:  # noqa: BLE001 - a value we cannot compute is a check we cannot run
         return None
+
+
+def recomputation(earlier: list[Segment], node: ast.stmt, primitives: set[str]) -> tuple[str, ...]:
+    """Earlier assignments (no primitive calls) that the statement depends on, in order, to run again."""
+    needed = {n.id for n in ast.walk(node) if isinstance(n, ast.Name) and isinstance(n.ctx, ast.Load)}
+    chosen = []
+    for segment in reversed(earlier):
+        stmt = segment.node
+        if not isinstance(stmt, ast.Assign | ast.AugAssign | ast.AnnAssign):
+            continue
+        calls = {n.func.id for n in ast.walk(stmt) if isinstance(n, ast.Call) and isinstance(n.func, ast.Name)}
+        targets = {n.id for n in ast.walk(stmt) if isinstance(n, ast.Name) and isinstance(n.ctx, ast.Store)}
+        if calls & primitives or not targets & needed:
+            continue
+        chosen.append(segment.source)
+        needed |= {n.id for n in ast.walk(stmt) if isinstance(n, ast.Name) and isinstance(n.ctx, ast.Load)}
+    return tuple(reversed(chosen))

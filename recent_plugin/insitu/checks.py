@@ -50,6 +50,7 @@ class Violation:
     check: str
     observation: str  # what was seen, for the hints and the log
     statements: tuple[str, ...] = ()  # to run before the segment; empty: nothing a patch can do
+    instruction: str = ""  # the edit in words, as the LM's cue ("read obj_pos again")
 
 
 Check = Callable[[CheckInput], Violation | None]
@@ -83,7 +84,8 @@ def object_unmoved(inp: CheckInput) -> Violation | None:
             statements.append(f"{variable} = task.get_object_position({name!r})")
     if not statements:
         return None
-    return Violation("object_unmoved", "; ".join(seen), tuple(statements))
+    variables = ", ".join(s.split(" = ")[0] for s in statements)
+    return Violation("object_unmoved", "; ".join(seen), tuple(statements), f"read {variables} again")
 
 
 def object_present(inp: CheckInput) -> Violation | None:
@@ -100,13 +102,18 @@ def target_clear(inp: CheckInput) -> Violation | None:
     for name, state in sorted(inp.obs.objects.items()):
         if name in inp.named or name in held or inp.scene.kinds.get(name) not in LOOSE_KINDS:
             continue
-        half = max(inp.scene.sizes.get(name, (0.05, 0.05, 0.05))[:2]) / 2
-        if np.linalg.norm(state.pos[:2] - target[:2]) < half + CLEARANCE and state.pos[2] < target[2] + 0.05:
+        size = inp.scene.sizes.get(name, (0.05, 0.05, 0.05))
+        half = max(size[:2]) / 2
+        carried = max((inp.scene.sizes.get(n, (0, 0, 0))[2] / 2 for n in held), default=0.0)
+        # in the way only if its top reaches where the held object's underside will be (not at a bin's bottom)
+        reaches_up = state.pos[2] + size[2] / 2 > target[2] - carried - 0.01
+        if np.linalg.norm(state.pos[:2] - target[:2]) < half + CLEARANCE and reaches_up:
             statements = sweep_statements(inp, name, held)
             return Violation(
                 "target_clear",
                 f"{name} ({inp.scene.kinds[name]}, {2 * half:.2f} m wide) lies at {_fmt(state.pos)} on the release target {_fmt(target)}",
                 statements,
+                "push it off first: " + "; then ".join(statements),
             )
     return None
 
@@ -139,7 +146,7 @@ def sweep_statements(inp: CheckInput, obstacle: str, held: set[str]) -> tuple[st
         return min((float(np.max(np.abs(end - pos) - extent - half)) for pos, extent in others), default=1.0)
 
     directions = [np.array(d, dtype=float) for d in ((0, 1), (0, -1), (-1, 0))]
-    direction = max(directions, key=lambda d: (gap(d) > 0.01, d[0] == 0, gap(d)))
+    direction = max(directions, key=lambda d: (gap(d) > 0.0 and d[0] == 0, gap(d) > 0.0, gap(d)))
     start = np.array([*(centre[:2] - direction * (half + lead + 0.02)), height])
     goal = np.array([*(centre[:2] + direction * (SHIFT - half - lead)), height])
     return _push_calls(inp.api, start, goal)
