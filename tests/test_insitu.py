@@ -1,0 +1,85 @@
+"""In-situ adaptation: run-time checks patch only the upcoming segment; repairs; honest EI/IT/GO."""
+
+from __future__ import annotations
+
+import time
+
+import pytest
+
+from recent_plugin.agent import AgentSettings, RecentAgent
+from recent_plugin.episode import run_episode
+from recent_plugin.grounding.units import RefactoringUnit
+from recent_plugin.infillers.base import Completion
+from recent_plugin.infillers.rule import RuleInfiller
+
+
+class CountingInfiller(RuleInfiller):
+    """The rule renderer with a fixed cost per call: one token per word and 0.25 s, so tests can add up."""
+
+    name = "counting"
+
+    def infill(self, unit: RefactoringUnit) -> Completion:
+        text = super().infill(unit).text
+        return Completion(text=text, generated_tokens=len(text.split()), seconds=0.25)
+
+
+@pytest.fixture(scope="module")
+def counting_agent(ontology):
+    return RecentAgent(AgentSettings(backend="rule"), infiller=CountingInfiller(), ontology=ontology)
+
+
+def test_obstacle_on_the_target_is_swept_off_by_a_patch_of_the_upcoming_segment_only(panda_agent):
+    result = run_episode(panda_agent, "kinematic/cube_on_plate", "Panda", seed=0, variations="obstacle")
+    assert result.success and not result.failures
+    (event,) = result.adaptations
+    assert event.kind == "revise" and event.checks == ("target_clear",) and "obstacle (slab" in event.observation
+    assert event.before == 'place(env, task, target_pos=drop_pos, approach_axis="z")'
+    push, place = event.after.splitlines()
+    assert push.startswith("push(env, task, start_pos=[") and place == event.before  # inserted, not rewritten
+    assert event.segment == 5  # the place, after the pick: the one event, so nothing earlier ran again
+
+
+def test_a_moved_object_is_read_again_before_the_grasp(panda_agent):
+    result = run_episode(panda_agent, "kinematic/cube_on_plate", "UR5e", seed=0, variations="pose_perturbation")
+    assert result.success
+    (event,) = result.adaptations
+    assert event.checks == ("object_unmoved",) and "cube moved" in event.observation
+    assert event.after.splitlines() == ["obj_pos = task.get_object_position('cube')", event.before]
+
+
+def test_without_insitu_the_moved_object_is_repaired_after_the_grasp_fails(ontology):
+    agent = RecentAgent(AgentSettings(backend="rule", insitu=False), infiller=RuleInfiller(), ontology=ontology)
+    result = run_episode(agent, "kinematic/cube_on_plate", "UR5e", seed=0, variations="pose_perturbation")
+    assert [e.kind for e in result.adaptations] == ["repair"]  # no run-time checks, only the reactive path
+    assert "obj_pos = task.get_object_position(obj)" in result.adaptations[0].after
+    assert result.success
+
+
+def test_ei_it_and_go_add_up_from_the_recorded_calls(counting_agent):
+    result = run_episode(counting_agent, "kinematic/cube_on_plate", "UR5e", seed=0, variations="on")
+    grounding_calls = [c for s in result.grounding.skills for c in s.calls]
+    assert result.ei == len(result.runtime_calls) == 2  # the moved cube, then the obstacle
+    assert {c.kind for c in result.runtime_calls} == {"revise"}
+    assert result.it == pytest.approx(0.25 * 2)
+    tokens = sum(len(c.text.split()) for c in grounding_calls + result.runtime_calls)
+    assert result.generated_tokens == tokens
+    assert result.go == pytest.approx(100 * tokens / result.skill_tokens)
+    assert result.skill_tokens == counting_agent.infiller.count_tokens(
+        "".join(s.original for s in result.grounding.skills)
+    )
+
+
+def test_igt_is_the_time_to_the_first_executable_code(counting_agent):
+    started = time.perf_counter()
+    result = run_episode(counting_agent, "kinematic/press_button", "Robotiq85", seed=1)
+    assert 0 < result.igt <= time.perf_counter() - started
+    assert result.igt == pytest.approx(result.grounding.igt_seconds)
+
+
+@pytest.mark.slow
+def test_real_lm_writes_the_insitu_patches(ontology, llama_infiller):
+    agent = RecentAgent(AgentSettings(), infiller=llama_infiller, ontology=ontology)
+    result = run_episode(agent, "kinematic/cube_on_plate", "UR5e", seed=0, variations="on")
+    assert result.success, [(c.text, c.message) for c in result.runtime_calls]
+    assert [e.checks for e in result.adaptations] == [("object_unmoved",), ("target_clear",)]
+    assert all(e.after for e in result.adaptations) and result.it > 0
