@@ -39,6 +39,7 @@ class AgentSettings:
     base_url: str | None = None  # the completions server of the openai backend
     offline_validation: bool = True  # serve only validated skills (False: the paper's ablation)
     skill_library: str | None = None  # a directory of skills (+ validation/); None: the bundled Panda skills
+    mode: str = "recent"  # grounding method: recent | name-similarity | full-regen | no-ontology (ablations)
     insitu: bool = True  # run-time checks patch upcoming segments (False: the paper's "w/o in-situ" ablation)
     max_repairs: int = 2  # reactive repairs of failed segments, per skill
 
@@ -76,10 +77,20 @@ class RecentAgent:
     def ground(self, skill_name: str, robot: str) -> tuple[GroundedSkill, bool]:
         """Ground ``skill_name`` for ``robot``, reusing a cached result unless code, ontology or LM changed."""
         skill = serve_skill(skill_name, self.library, require_validated=self.settings.offline_validation)
-        key = (skill.name, skill.code_sha256, robot, self._ontology_hash, self.infiller.name, self.infiller.model)
+        key = (
+            skill.name,
+            skill.code_sha256,
+            robot,
+            self._ontology_hash,
+            self.infiller.name,
+            self.infiller.model,
+            self.settings.mode,
+        )
         if key in self._cache:
             return self._cache[key], True
-        grounded = ground_skill(skill, robot, self.ontology, self.infiller, max_retries=self.settings.max_retries)
+        grounded = ground_skill(
+            skill, robot, self.ontology, self.infiller, max_retries=self.settings.max_retries, mode=self.settings.mode
+        )
         if grounded.valid:
             self._cache[key] = grounded
         else:

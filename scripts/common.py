@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 
 from recent_plugin.agent import AgentSettings, RecentAgent
+from recent_plugin.grounding.ablations import GROUNDING_MODES
 from recent_plugin.infillers import BACKENDS
 from recent_plugin.models.registry import DEFAULT_MODEL
 
@@ -20,9 +21,26 @@ def add_lm_arguments(parser: argparse.ArgumentParser) -> None:
     lm.add_argument(
         "--base-url", default=None, help="completions server for --backend openai, e.g. http://127.0.0.1:8000"
     )
+    method = parser.add_argument_group("method (the paper's ablations)")
+    method.add_argument(
+        "--mode", choices=GROUNDING_MODES, default="recent", help="how skills are grounded (default: recent)"
+    )
+    method.add_argument("--no-insitu", action="store_true", help="no run-time checks; reactive repair only")
+    method.add_argument(
+        "--no-offline-validation", action="store_true", help="serve skills that were never validated"
+    )
 
 
 def agent_from_args(args: argparse.Namespace) -> RecentAgent:
     return RecentAgent(
-        AgentSettings(backend=args.backend, model=args.model, n_threads=args.threads, max_retries=args.max_retries)
+        AgentSettings(
+            backend=args.backend,
+            model=args.model,
+            n_threads=args.threads,
+            max_retries=args.max_retries,
+            base_url=args.base_url,
+            mode=args.mode,
+            insitu=not args.no_insitu,
+            offline_validation=not args.no_offline_validation,
+        )
     )

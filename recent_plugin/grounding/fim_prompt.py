@@ -39,6 +39,9 @@ def hint_lines(span_type: str, hints: Hints) -> list[str]:
     if span_type in RUNTIME_SPAN_TYPES:  # an insertion: what was observed and the edit in words
         rejected = [f"Rejected before: {hints.feedback}"] if hints.feedback else []
         return [*rejected, f"{hints.observation}: {hints.reason}"]
+    if span_type == "full_regeneration":  # the whole body: every conflict's cue (or only the API)
+        rejected = [f"Rejected before: {hints.feedback}"] if hints.feedback else []
+        return [*rejected, f"{hints.robot}: {hints.reason}"]
     if hints.attempt > 0:
         call = [f"Call exactly: {_one_line(hints.substitute_call)}"] if hints.substitute_call else []
         return [f"Was: {hints.original_call}", f"Rejected before: {hints.feedback}", *call]

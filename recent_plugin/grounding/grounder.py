@@ -19,6 +19,12 @@ from ontology.builder import Ontology
 from ontology.diagnosis import Conflict, Diagnosis, Warning, diagnose
 from ontology.skill_code import CodeSpan
 from recent_plugin.failures import FailureCategory
+from recent_plugin.grounding.ablations import (
+    GROUNDING_MODES,
+    WHOLE_SKILL_MODES,
+    name_similarity_conflicts,
+    whole_skill_unit,
+)
 from recent_plugin.grounding.units import RefactoringUnit, apply_unit, unit_from_conflict
 from recent_plugin.grounding.validation import Verdict, validate_program
 from recent_plugin.infillers.base import Infiller
@@ -128,14 +134,22 @@ def clean_completion(text: str, unit: RefactoringUnit) -> str:
     lines = [line.rstrip() for line in strip_comments(text).strip().splitlines() if line.strip()]
     if not lines:
         return ""
-    return "\n".join([lines[0], *(unit.indent + line.lstrip() for line in lines[1:])])
+    # later lines already at (or inside) the body's indentation keep theirs: nested blocks stay nested
+    return "\n".join(
+        [lines[0], *(line if line.startswith(unit.indent) else unit.indent + line.lstrip() for line in lines[1:])]
+    )
 
 
 def ground_skill(
-    skill: Skill, robot: str, onto: Ontology, infiller: Infiller, *, max_retries: int = 2
+    skill: Skill, robot: str, onto: Ontology, infiller: Infiller, *, max_retries: int = 2, mode: str = "recent"
 ) -> GroundedSkill:
+    """Ground ``skill`` for ``robot``; ``mode`` selects the method or one of the paper's ablations."""
+    if mode not in GROUNDING_MODES:
+        raise ValueError(f"unknown grounding mode {mode!r}; choose one of: {', '.join(GROUNDING_MODES)}")
     started = time.perf_counter()
     diagnosis = diagnose(onto, skill.name, skill.code, robot, source=skill.source_embodiment)
+    if mode == "name-similarity":
+        diagnosis = name_similarity_conflicts(diagnosis, onto.api(skill.source_embodiment), onto.api(robot))
     result = GroundedSkill(
         skill=skill.name,
         entry=skill.entry,
@@ -148,6 +162,10 @@ def ground_skill(
         model=infiller.model,
     )
     api, apis = onto.api(robot), onto.apis
+    if mode in WHOLE_SKILL_MODES:
+        _regenerate(result, skill, robot, infiller, api, apis, max_retries, mode)
+        result.seconds = time.perf_counter() - started
+        return result
     pending = list(diagnosis.conflicts)
     while pending:
         conflict = pending.pop()  # last first: earlier offsets stay valid
@@ -164,6 +182,49 @@ def ground_skill(
     result.verdict = validate_program(result.code, api, skill.entry, apis)
     result.seconds = time.perf_counter() - started
     return result
+
+
+_EMPTY = Verdict.reject(FailureCategory.EMPTY_CONTINUATION, "the regenerated body is empty")
+
+
+def _regenerate(result: GroundedSkill, skill: Skill, robot, infiller, api, apis, max_retries, mode) -> None:
+    """The whole-body ablations: one span, the entire skill, regenerated until it validates."""
+    result.verdict = validate_program(skill.code, api, skill.entry, apis)
+    if result.verdict.ok and not result.diagnosis.warnings and mode == "no-ontology":
+        return
+    if not result.diagnosis.conflicts and mode == "full-regen":
+        return
+    feedback = None
+    for attempt in range(max_retries + 1):
+        unit = whole_skill_unit(
+            skill.code, skill.entry, result.diagnosis, robot, api, mode, feedback=feedback, attempt=attempt
+        )
+        completion = infiller.infill(unit)
+        text = clean_completion(completion.text, unit)
+        candidate = apply_unit(skill.code, unit, text)
+        verdict = validate_program(candidate, api, skill.entry, apis) if text else _EMPTY
+        result.calls.append(
+            LMCall(
+                "ground",
+                unit.span_type,
+                unit.span,
+                text,
+                completion.generated_tokens,
+                completion.seconds,
+                verdict.ok,
+                None if verdict.ok else str(verdict.category),
+                verdict.message,
+            )
+        )
+        if verdict.ok:
+            result.code, result.verdict = candidate, verdict
+            result.edits = [(unit.span_start, unit.span_end, len(text))]
+            return
+        feedback = verdict.message
+    result.verdict = Verdict.reject(
+        FailureCategory(result.calls[-1].category or FailureCategory.EMPTY_CONTINUATION),
+        f"unrecoverable: the regenerated skill did not validate after {max_retries + 1} attempts ({feedback})",
+    )
 
 
 def _resolve(result, conflict: Conflict, pending, robot, infiller, api, apis, max_retries) -> tuple[str, int] | None:

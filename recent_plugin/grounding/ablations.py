@@ -1,0 +1,115 @@
+"""The paper's grounding ablations, each a change to what the infiller is asked, nothing else.
+
+* ``name-similarity`` — substitutes and parameter mappings chosen by API-name similarity instead of
+  the ontology's ``substitutableBy`` and role matching; edits stay localized.
+* ``full-regen`` — the ontology's hints for every conflict, but the LM rewrites the whole body of
+  the skill instead of filling one span per conflict.
+* ``no-ontology`` — no diagnosis hints at all: the LM rewrites the whole body given only the target
+  robot's API.
+
+(``no-insitu`` and ``no-offline-validation`` are agent settings: ``insitu`` and ``offline_validation``.)
+"""
+
+from __future__ import annotations
+
+import ast
+import difflib
+from dataclasses import replace
+
+from ontology.diagnosis import Conflict, Diagnosis, ParameterMapping
+from ontology.specs import ApiSpec, PrimitiveSpec
+from recent_plugin.grounding.substitution import has_placeholders, render_substitute_call
+from recent_plugin.grounding.units import Hints, RefactoringUnit, cut_unit
+
+GROUNDING_MODES = ("recent", "name-similarity", "full-regen", "no-ontology")
+WHOLE_SKILL_MODES = ("full-regen", "no-ontology")
+
+
+def _similarity(a: str, b: str) -> float:
+    return difflib.SequenceMatcher(None, a.lower(), b.lower()).ratio()
+
+
+def name_similarity_conflicts(diagnosis: Diagnosis, source: ApiSpec, target: ApiSpec) -> Diagnosis:
+    """Replace each conflict's substitute and mapping with the most similarly *named* ones."""
+    conflicts = []
+    for conflict in diagnosis.conflicts:
+        original = source.get(conflict.original)
+        substitute = max(target.primitives, key=lambda p: (_similarity(conflict.original, p.name), p.name))
+        conflicts.append(_rename_mapping(conflict, original, substitute))
+    return replace(diagnosis, conflicts=tuple(conflicts))
+
+
+def _rename_mapping(conflict: Conflict, original: PrimitiveSpec, substitute: PrimitiveSpec) -> Conflict:
+    mapping, dropped, taken = [], [], set()
+    for param in original.parameters:
+        free = [p for p in substitute.parameters if p.name not in taken]
+        best = max(free, key=lambda p: _similarity(param.name, p.name), default=None)
+        if best is None or _similarity(param.name, best.name) < 0.5:
+            dropped.append(param.name)
+            continue
+        taken.add(best.name)
+        mapping.append(ParameterMapping(param.name, best.name, role=""))
+    unfilled = tuple(p.name for p in substitute.parameters if p.required and p.name not in taken)
+    return replace(
+        conflict,
+        span_type="interface_rewiring" if unfilled else "api_substitution",
+        substitute=substitute,
+        mapping=tuple(mapping),
+        dropped=tuple(dropped),
+        unfilled=unfilled,
+        preparatory=(),
+        reason=f"no {conflict.original}; the most similar name is {substitute.name}",
+    )
+
+
+def body_span(code: str, entry: str) -> tuple[int, int]:
+    """Character range of the entry function's statements (its docstring excluded)."""
+    func = next(n for n in ast.parse(code).body if isinstance(n, ast.FunctionDef) and n.name == entry)
+    body = func.body[1:] if _has_docstring(func) and len(func.body) > 1 else func.body
+    starts = [0]
+    for line in code.splitlines(keepends=True):
+        starts.append(starts[-1] + len(line))
+    first, last = body[0], body[-1]
+    return starts[first.lineno - 1] + first.col_offset, starts[last.end_lineno - 1] + last.end_col_offset
+
+
+def _has_docstring(func: ast.FunctionDef) -> bool:
+    first = func.body[0]
+    return isinstance(first, ast.Expr) and isinstance(first.value, ast.Constant) and isinstance(first.value.value, str)
+
+
+def whole_skill_unit(
+    code: str, entry: str, diagnosis: Diagnosis, robot: str, api: ApiSpec, mode: str, *, feedback=None, attempt=0
+) -> RefactoringUnit:
+    """One unit spanning the whole body: with every conflict's hint (full-regen) or only the API (no-ontology)."""
+    start, end = body_span(code, entry)
+    if mode == "full-regen":
+        rendered = _render_all(code, diagnosis)
+        reason = "; ".join(
+            f"line {c.span.line}: {c.reason}" + (f" ({c.substitute.signature()})" if c.substitute else "")
+            for c in diagnosis.conflicts
+        )
+        expected = rendered[start : end + len(rendered) - len(code)] if rendered is not None else None
+    else:
+        reason = f"rewrite for {robot}; its primitives: " + "; ".join(p.signature() for p in api.primitives)
+        expected = None  # without the ontology there is nothing to render without an LM
+    hints = Hints(
+        robot=robot,
+        original_call=code[start:end],
+        substitute_call=expected,
+        reason=reason,
+        feedback=feedback,
+        attempt=attempt,
+    )
+    return cut_unit(code, start, end, "full_regeneration", hints)
+
+
+def _render_all(code: str, diagnosis: Diagnosis) -> str | None:
+    """The whole program with every ontology substitution applied (None where an argument is undecided)."""
+    for conflict in sorted(diagnosis.conflicts, key=lambda c: c.span.start, reverse=True):
+        call = render_substitute_call(code[conflict.span.start : conflict.span.end], conflict)
+        if call is None or has_placeholders(call):
+            return None
+        indent = code[code.rfind("\n", 0, conflict.span.start) + 1 : conflict.span.start]
+        code = code[: conflict.span.start] + call.replace("\n", "\n" + indent) + code[conflict.span.end :]
+    return code
