@@ -13,6 +13,7 @@ import difflib
 import io
 import time
 import tokenize
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 
 from ontology.builder import Ontology
@@ -171,8 +172,8 @@ def ground_skill(
         conflict = pending.pop()  # last first: earlier offsets stay valid
         accepted = _resolve(result, conflict, pending, robot, infiller, api, apis, max_retries)
         if accepted is None:
-            result.verdict = Verdict.reject(
-                FailureCategory(result.calls[-1].category or FailureCategory.EMPTY_CONTINUATION),
+            result.verdict = _unrecoverable(
+                result,
                 f"unrecoverable: could not ground {conflict.original!r} at line {conflict.span.line} after {max_retries + 1} attempts",
             )
             result.seconds = time.perf_counter() - started
@@ -184,63 +185,41 @@ def ground_skill(
     return result
 
 
-_EMPTY = Verdict.reject(FailureCategory.EMPTY_CONTINUATION, "the regenerated body is empty")
+@dataclass(frozen=True)
+class Attempt:
+    """An accepted infill: the unit it answered, the cleaned span text and the program with it applied."""
+
+    unit: RefactoringUnit
+    text: str
+    candidate: str
+    verdict: Verdict
 
 
-def _regenerate(result: GroundedSkill, skill: Skill, robot, infiller, api, apis, max_retries, mode) -> None:
-    """The whole-body ablations: one span, the entire skill, regenerated until it validates."""
-    result.verdict = validate_program(skill.code, api, skill.entry, apis)
-    if result.verdict.ok and not result.diagnosis.warnings and mode == "no-ontology":
-        return
-    if not result.diagnosis.conflicts and mode == "full-regen":
-        return
+def infill_until_valid(
+    infiller: Infiller,
+    make_unit: Callable[[str | None, int], RefactoringUnit],
+    judge: Callable[[RefactoringUnit, str], tuple[Verdict, str]],
+    *,
+    kind: str,
+    max_retries: int,
+    calls: list[LMCall],
+) -> Attempt | None:
+    """Ask for a span, judge it, retry with the rejection as feedback; every call is recorded in ``calls``.
+
+    ``make_unit(feedback, attempt)`` cuts the unit; ``judge(unit, text)`` returns the verdict and
+    the candidate program. The one loop behind grounding, regeneration, revision and repair.
+    """
     feedback = None
     for attempt in range(max_retries + 1):
-        unit = whole_skill_unit(
-            skill.code, skill.entry, result.diagnosis, robot, api, mode, feedback=feedback, attempt=attempt
-        )
+        unit = make_unit(feedback, attempt)
         completion = infiller.infill(unit)
         text = clean_completion(completion.text, unit)
-        candidate = apply_unit(skill.code, unit, text)
-        verdict = validate_program(candidate, api, skill.entry, apis) if text else _EMPTY
-        result.calls.append(
+        verdict, candidate = judge(unit, text)
+        calls.append(
             LMCall(
-                "ground",
-                unit.span_type,
-                unit.span,
-                text,
-                completion.generated_tokens,
-                completion.seconds,
-                verdict.ok,
-                None if verdict.ok else str(verdict.category),
-                verdict.message,
-            )
-        )
-        if verdict.ok:
-            result.code, result.verdict = candidate, verdict
-            result.edits = [(unit.span_start, unit.span_end, len(text))]
-            return
-        feedback = verdict.message
-    result.verdict = Verdict.reject(
-        FailureCategory(result.calls[-1].category or FailureCategory.EMPTY_CONTINUATION),
-        f"unrecoverable: the regenerated skill did not validate after {max_retries + 1} attempts ({feedback})",
-    )
-
-
-def _resolve(result, conflict: Conflict, pending, robot, infiller, api, apis, max_retries) -> tuple[str, int] | None:
-    feedback = None
-    for attempt in range(max_retries + 1):
-        unit = unit_from_conflict(result.code, conflict, robot, feedback=feedback, attempt=attempt)
-        completion = infiller.infill(unit)
-        text = clean_completion(completion.text, unit)
-        candidate = apply_unit(result.code, unit, text)
-        verdict = validate_program(_blank(candidate, pending), api, result.entry, apis)
-        verdict = (verdict.ok and _check_span(text, unit)) or verdict
-        result.calls.append(
-            LMCall(
-                kind="ground",
+                kind=kind,
                 span_type=unit.span_type,
-                original=unit.span,
+                original=unit.hints.original_call,
                 text=text,
                 generated_tokens=completion.generated_tokens,
                 seconds=completion.seconds,
@@ -250,9 +229,64 @@ def _resolve(result, conflict: Conflict, pending, robot, infiller, api, apis, ma
             )
         )
         if verdict.ok:
-            return candidate, len(text)
+            return Attempt(unit, text, candidate, verdict)
         feedback = verdict.message
     return None
+
+
+def _unrecoverable(result: GroundedSkill, message: str) -> Verdict:
+    category = result.calls[-1].category if result.calls else None
+    return Verdict.reject(FailureCategory(category or FailureCategory.EMPTY_CONTINUATION), message)
+
+
+def _regenerate(result: GroundedSkill, skill: Skill, robot, infiller, api, apis, max_retries, mode) -> None:
+    """The whole-body ablations: one span, the entire skill, regenerated until it validates."""
+    result.verdict = validate_program(skill.code, api, skill.entry, apis)
+    if result.verdict.ok and not result.diagnosis.warnings and mode == "no-ontology":
+        return
+    if not result.diagnosis.conflicts and mode == "full-regen":
+        return
+
+    def judge(unit: RefactoringUnit, text: str) -> tuple[Verdict, str]:
+        candidate = apply_unit(skill.code, unit, text)
+        if not text:
+            return Verdict.reject(FailureCategory.EMPTY_CONTINUATION, "the regenerated body is empty"), candidate
+        return validate_program(candidate, api, skill.entry, apis), candidate
+
+    accepted = infill_until_valid(
+        infiller,
+        lambda feedback, attempt: whole_skill_unit(
+            skill.code, skill.entry, result.diagnosis, robot, api, mode, feedback=feedback, attempt=attempt
+        ),
+        judge,
+        kind="ground",
+        max_retries=max_retries,
+        calls=result.calls,
+    )
+    if accepted is None:
+        result.verdict = _unrecoverable(
+            result, f"unrecoverable: the regenerated skill did not validate after {max_retries + 1} attempts"
+        )
+        return
+    result.code, result.verdict = accepted.candidate, accepted.verdict
+    result.edits = [(accepted.unit.span_start, accepted.unit.span_end, len(accepted.text))]
+
+
+def _resolve(result, conflict: Conflict, pending, robot, infiller, api, apis, max_retries) -> tuple[str, int] | None:
+    def judge(unit: RefactoringUnit, text: str) -> tuple[Verdict, str]:
+        candidate = apply_unit(result.code, unit, text)
+        verdict = validate_program(_blank(candidate, pending), api, result.entry, apis)
+        return (verdict.ok and _check_span(text, unit)) or verdict, candidate
+
+    accepted = infill_until_valid(
+        infiller,
+        lambda feedback, attempt: unit_from_conflict(result.code, conflict, robot, feedback=feedback, attempt=attempt),
+        judge,
+        kind="ground",
+        max_retries=max_retries,
+        calls=result.calls,
+    )
+    return None if accepted is None else (accepted.candidate, len(accepted.text))
 
 
 def _check_span(text: str, unit: RefactoringUnit) -> Verdict | None:

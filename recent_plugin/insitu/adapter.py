@@ -21,8 +21,8 @@ from ontology.diagnosis import Warning
 from ontology.specs import ApiSpec
 from recent_plugin.executor import Segment, SkillExecutor, SkillFailure
 from recent_plugin.failures import FailureCategory
-from recent_plugin.grounding.grounder import GroundedSkill, LMCall, clean_completion
-from recent_plugin.grounding.units import Hints, apply_unit, cut_unit
+from recent_plugin.grounding.grounder import GroundedSkill, LMCall, infill_until_valid
+from recent_plugin.grounding.units import Hints, RefactoringUnit, apply_unit, cut_unit
 from recent_plugin.grounding.validation import Verdict, validate_program
 from recent_plugin.infillers.base import Infiller
 from recent_plugin.insitu.checks import CHECKS, CheckInput, SceneFacts, Violation
@@ -123,12 +123,10 @@ class InSituAdapter:
     def repair(self, executor: SkillExecutor, failure: SkillFailure) -> bool:
         """Replace the failed segment with a repaired one; it then runs again from the current state."""
         skill = executor.grounded.skill
-        if self._repairs.get(skill, 0) >= self.max_repairs:
+        if self._repairs.get(skill, 0) >= self.max_repairs or failure.segment < executor.cursor:
             return False
         self._repairs[skill] = self._repairs.get(skill, 0) + 1
         segment = executor.segments[failure.segment]
-        if failure.segment < executor.cursor:
-            return False
         # The usual cause is a world that moved on: recompute what the statement uses, then retry it.
         statements = recomputation(executor.segments[: failure.segment], segment.node, set(executor.primitives))
         return self._patch(
@@ -183,8 +181,8 @@ class InSituAdapter:
         start, _ = executor.segment_offsets(index)
         suggestion = "\n".join(statements)
         wanted = _called(suggestion)
-        feedback = None
-        for attempt in range(self.max_retries + 1):
+
+        def make_unit(feedback: str | None, attempt: int) -> RefactoringUnit:
             hints = Hints(
                 robot=self.robot,
                 original_call=segment.source,
@@ -194,35 +192,25 @@ class InSituAdapter:
                 attempt=attempt,
                 observation=observation,
             )
-            unit = cut_unit(code, start, start, span_type, hints)
-            completion = self.infiller.infill(unit)
-            text = clean_completion(completion.text, unit)
+            return cut_unit(code, start, start, span_type, hints)
+
+        def judge(unit: RefactoringUnit, text: str) -> tuple[Verdict, str]:
             candidate = apply_unit(code, unit, text + "\n" + unit.indent if text else "")
-            verdict = validate_program(candidate, self.api, executor.grounded.entry, self.apis)
-            if verdict.ok and not text:
-                verdict = Verdict.reject(FailureCategory.EMPTY_CONTINUATION, "the patch is empty")
-            elif verdict.ok and _called(text) != wanted:
-                verdict = Verdict.reject(
-                    FailureCategory.HALLUCINATED_API,
-                    f"the patch must call {sorted(wanted)}, it calls {sorted(_called(text))}",
-                )
-            self.calls.append(
-                LMCall(
-                    kind=kind,
-                    span_type=span_type,
-                    original=segment.source,
-                    text=text,
-                    generated_tokens=completion.generated_tokens,
-                    seconds=completion.seconds,
-                    accepted=verdict.ok,
-                    category=None if verdict.ok else str(verdict.category),
-                    message=verdict.message,
-                )
-            )
-            if verdict.ok:
-                return textwrap.dedent(unit.indent + text), attempt + 1
-            feedback = verdict.message
-        return None, self.max_retries + 1
+            if not text:
+                return Verdict.reject(FailureCategory.EMPTY_CONTINUATION, "the patch is empty"), candidate
+            if _called(text) != wanted:
+                message = f"the patch must call {sorted(wanted)}, it calls {sorted(_called(text))}"
+                return Verdict.reject(FailureCategory.HALLUCINATED_API, message), candidate
+            return validate_program(candidate, self.api, executor.grounded.entry, self.apis), candidate
+
+        before = len(self.calls)
+        accepted = infill_until_valid(
+            self.infiller, make_unit, judge, kind=kind, max_retries=self.max_retries, calls=self.calls
+        )
+        attempts = len(self.calls) - before
+        if accepted is None:
+            return None, attempts
+        return textwrap.dedent(accepted.unit.indent + accepted.text), attempts
 
 
 def _bare(source: str, executor: SkillExecutor) -> str:
