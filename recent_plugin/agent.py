@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 from itertools import takewhile
 from pathlib import Path
 
+from logs.events import Emit, ignore
 from ontology.builder import Ontology, build_ontology
 from recent_plugin.executor import PlannedSkill, TaskExecutor
 from recent_plugin.grounding.grounder import GroundedSkill, ground_skill
@@ -102,19 +103,25 @@ class RecentAgent:
             )
         return grounded, False
 
-    def start_episode(self, task_id: str, robot: str, first_obs: Observation) -> tuple[TaskExecutor, EpisodeGrounding]:
+    def start_episode(
+        self, task_id: str, robot: str, first_obs: Observation, emit: Emit = ignore
+    ) -> tuple[TaskExecutor, EpisodeGrounding]:
+        """Ground the task's skills (the events of grounding go to ``emit`` once IGT is measured)."""
         started = time.perf_counter()
         task = get_task(task_id)
         embodiment = get_embodiment(robot)
         report = EpisodeGrounding(task_id=task_id, robot=robot)
-        plan, all_cached = [], True
+        plan, cached = [], []
         for step in task.plan:
-            grounded, cached = self.ground(step.skill, robot)
-            all_cached &= cached
+            grounded, hit = self.ground(step.skill, robot)
+            cached.append(hit)
             report.skills.append(grounded)
             plan.append(PlannedSkill(grounded, dict(step.args)))
-        report.cached = all_cached
+        report.cached = all(cached)
         report.igt_seconds = time.perf_counter() - started
+        for grounded, hit in zip(report.skills, cached, strict=True):
+            for event in grounded.events(cached=hit):
+                emit(event)
         runnable = list(takewhile(lambda p: p.grounded.valid, plan))  # run what can run, then hold still
         executor = TaskExecutor(
             runnable,
@@ -122,11 +129,12 @@ class RecentAgent:
             first_obs,
             embodiment.name,
             max_steps=self.settings.max_skill_steps,
-            adapter=self.adapter(task, robot),
+            adapter=self.adapter(task, robot, emit),
+            emit=emit,
         )
         return executor, report
 
-    def adapter(self, task: TaskSpec, robot: str) -> InSituAdapter:
+    def adapter(self, task: TaskSpec, robot: str, emit: Emit = ignore) -> InSituAdapter:
         """A fresh in-situ adapter for one episode (its calls and events are that episode's)."""
         scene = SceneFacts(
             kinds={o.name: o.kind for o in task.objects},
@@ -141,4 +149,5 @@ class RecentAgent:
             insitu=self.settings.insitu,
             max_retries=self.settings.max_retries,
             max_repairs=self.settings.max_repairs,
+            emit=emit,
         )

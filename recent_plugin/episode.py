@@ -5,13 +5,17 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass, field
 
+from logs.events import EpisodeEnded, EpisodeStarted, SubtaskSucceeded, ignore
+from logs.recorder import Recorder
 from recent_plugin.agent import EpisodeGrounding, RecentAgent
 from recent_plugin.executor import SkillFailure
+from recent_plugin.failures import FailureCategory
 from recent_plugin.grounding.grounder import LMCall
 from recent_plugin.insitu.adapter import AdaptationEvent
 from robosuite_envs.gym_env import RecentEnv
 from robosuite_envs.observation import Observation
 
+CAMERA_SIZE = 84  # the logged front view, pixels per side
 SETTLE_STEPS = 20  # after the plan ends, let objects come to rest before judging success
 
 
@@ -26,6 +30,7 @@ class EpisodeResult:
     wall_seconds: float
     grounding: EpisodeGrounding
     failures: list[SkillFailure] = field(default_factory=list)
+    finished: bool = True  # the plan ran to its end (or failed) before the step limit
     runtime_calls: list[LMCall] = field(default_factory=list)  # revise (in-situ) and repair calls
     adaptations: list[AdaptationEvent] = field(default_factory=list)
 
@@ -63,6 +68,37 @@ class EpisodeResult:
     def lm_seconds(self) -> float:
         return sum(s.lm_seconds for s in self.grounding.skills) + self.it
 
+    def first_failure(self) -> tuple[str, str]:
+        """(category, message) of what stopped the episode: a skill that failed or one that never grounded."""
+        if self.failures:
+            return str(self.failures[0].category), self.failures[0].message
+        broken = next((s for s in self.grounding.skills if not s.valid), None)
+        if broken is not None and broken.verdict is not None:
+            return str(broken.verdict.category), f"{broken.skill}: {broken.verdict.message}"
+        if not self.success:
+            return str(FailureCategory.TIMEOUT if not self.finished else FailureCategory.SUBTASK_FAILED), ""
+        return "", ""
+
+    def ended_event(self) -> EpisodeEnded:
+        category, message = self.first_failure()
+        return EpisodeEnded(
+            self.task_id,
+            self.robot,
+            self.seed,
+            self.success,
+            self.gc,
+            self.steps,
+            self.wall_seconds,
+            self.generated_tokens,
+            self.skill_tokens,
+            self.go,
+            self.ei,
+            self.it,
+            self.igt,
+            category,
+            message,
+        )
+
 
 def run_episode(
     agent: RecentAgent,
@@ -75,44 +111,72 @@ def run_episode(
     env: RecentEnv | None = None,
     variations: str = "off",
     to_completion: bool = False,
+    recorder: Recorder | None = None,
+    camera: bool = False,
 ) -> EpisodeResult:
     """Ground the task's skills for ``robot`` and execute them until success or the step limit.
 
     Without an ``env`` one is built (with ``variations``) and closed again afterwards. With
     ``to_completion`` the skills run to their end even after the task succeeded (validation
-    checks the effects a skill leaves behind).
+    checks the effects a skill leaves behind). With a ``recorder`` every event and step is logged
+    (``camera``: with an 84×84 front view).
     """
     if env is not None:
-        return _run(agent, env, task_id, robot, seed, progress, to_completion)
-    env = RecentEnv(task=task_id, robot=robot, render_mode="none", max_episode_steps=max_steps, variations=variations)
+        return _run(agent, env, task_id, robot, seed, progress, to_completion, recorder)
+    env = RecentEnv(
+        task=task_id,
+        robot=robot,
+        render_mode="rgb_array" if camera else "none",
+        visualization_width=CAMERA_SIZE,
+        visualization_height=CAMERA_SIZE,
+        max_episode_steps=max_steps,
+        variations=variations,
+    )
     try:
-        return _run(agent, env, task_id, robot, seed, progress, to_completion)
+        return _run(agent, env, task_id, robot, seed, progress, to_completion, recorder)
     finally:
         env.close()
 
 
 def _run(
-    agent: RecentAgent, env: RecentEnv, task_id: str, robot: str, seed: int, progress: bool, to_completion: bool
+    agent: RecentAgent,
+    env: RecentEnv,
+    task_id: str,
+    robot: str,
+    seed: int,
+    progress: bool,
+    to_completion: bool,
+    recorder: Recorder | None,
 ) -> EpisodeResult:
     started = time.perf_counter()
     raw, _ = env.reset(seed=seed)
     names = env.spec_task.object_names()
+    episode = recorder.start_episode(_started_event(agent, env, seed)) if recorder else None
     executor, grounding = agent.start_episode(
-        task_id, robot, Observation.decode(raw["agent_pos"], raw["environment_state"], names)
+        task_id,
+        robot,
+        Observation.decode(raw["agent_pos"], raw["environment_state"], names),
+        emit=episode.emit if episode else ignore,
     )
     bar = _bar(env._max_episode_steps, progress, f"{task_id} on {robot}")
-    success, steps, settled, info = False, 0, 0, {}
+    success, steps, settled, info, done = False, 0, 0, {}, 0
     while True:
         action = executor.act(Observation.decode(raw["agent_pos"], raw["environment_state"], names))
+        if episode is not None:
+            image = env.render() if env.render_mode == "rgb_array" else None
+            episode.step(raw["agent_pos"], raw["environment_state"], action, image)
         raw, _, terminated, truncated, info = env.step(action)
         steps += 1
         bar.update(1)
         success = bool(info["is_success"])
+        if episode is not None and info["subtasks_done"] > done:
+            done = info["subtasks_done"]
+            episode.emit(SubtaskSucceeded(done - 1, done, len(env.spec_task.plan)))
         settled = settled + 1 if executor.finished else 0
         if (terminated and not to_completion) or truncated or settled > SETTLE_STEPS:
             break
     bar.close()
-    return EpisodeResult(
+    result = EpisodeResult(
         task_id=task_id,
         robot=robot,
         seed=seed,
@@ -124,6 +188,25 @@ def _run(
         failures=list(executor.failures),
         runtime_calls=list(executor.adapter.calls) if executor.adapter else [],
         adaptations=list(executor.adapter.events) if executor.adapter else [],
+        finished=executor.finished,
+    )
+    if episode is not None:
+        episode.end(result.ended_event())
+    return result
+
+
+def _started_event(agent: RecentAgent, env: RecentEnv, seed: int) -> EpisodeStarted:
+    s = agent.settings
+    return EpisodeStarted(
+        env.spec_task.task_id,
+        env.embodiment.name,
+        seed,
+        env.task_description,
+        agent.infiller.name,
+        agent.infiller.model,
+        s.mode if s.insitu else f"{s.mode} (no in-situ)",
+        ",".join(env.variations),
+        env.spec_task.object_names(),
     )
 
 

@@ -19,6 +19,7 @@ from typing import Protocol
 
 import numpy as np
 
+from logs.events import Emit, SegmentEnded, SegmentFailed, SegmentStarted, ignore
 from ontology.diagnosis import Warning
 from recent_plugin.failures import PRIMITIVE_FAILURE_CATEGORY, FailureCategory
 from recent_plugin.grounding.grounder import GroundedSkill
@@ -102,6 +103,7 @@ class SkillExecutor:
         *,
         max_steps: int = 3000,
         adapter: Adapter | None = None,
+        emit: Emit = ignore,
     ):
         if not grounded.valid:
             raise ValueError(
@@ -132,6 +134,8 @@ class SkillExecutor:
         self._running: Generator | None = None
         self.steps = 0
         self.failure: SkillFailure | None = None
+        self.emit = emit
+        self._segment_start = 0  # self.steps when the running segment started
 
     @staticmethod
     def _defaults(func: ast.FunctionDef) -> dict[str, object]:
@@ -196,11 +200,14 @@ class SkillExecutor:
                         segment.checked = True
                         self.adapter.before_segment(self, self.cursor)
                     self._running = self._compile(self.segments[self.cursor])
+                    self._segment_start = self.steps
+                    self.emit(SegmentStarted(self.grounded.skill, self.cursor, self.segments[self.cursor].source))
                 action = next(self._running)
                 self.steps += 1
                 return action
             except StopIteration:
                 self._running = None
+                self.emit(SegmentEnded(self.grounded.skill, self.cursor, self.steps - self._segment_start))
                 self.cursor += 1
             except PrimitiveFailure as exc:
                 self._fail(PRIMITIVE_FAILURE_CATEGORY[exc.kind], str(exc))
@@ -216,6 +223,7 @@ class SkillExecutor:
         segment = self.segments[min(self.cursor, len(self.segments) - 1)]
         failure = SkillFailure(self.grounded.skill, segment.index, segment.line, category, message)
         self._running = None
+        self.emit(SegmentFailed(failure.skill, failure.segment, failure.line, str(category), message))
         if repairable and self.adapter is not None and self.adapter.repair(self, failure):
             return  # the failed segment was replaced by a repair; it runs again from the current state
         self.failure = failure
@@ -239,8 +247,10 @@ class TaskExecutor:
         *,
         max_steps: int = 3000,
         adapter: Adapter | None = None,
+        emit: Emit = ignore,
     ):
         self.session = RobotSession(embodiment, first_obs)
+        self.emit = emit
         self.adapter = adapter
         self.plan = plan
         self.primitives = primitives
@@ -266,6 +276,7 @@ class TaskExecutor:
                     self.session,
                     max_steps=self.max_steps,
                     adapter=self.adapter,
+                    emit=self.emit,
                 )
             action = self.current.step()
             if action is not None:

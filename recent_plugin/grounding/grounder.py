@@ -16,6 +16,7 @@ import tokenize
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 
+from logs.events import Event, InfillCall, PatchApplied, SkillDiagnosed, ValidationVerdict
 from ontology.builder import Ontology
 from ontology.diagnosis import Conflict, Diagnosis, Warning, diagnose
 from ontology.skill_code import CodeSpan
@@ -26,10 +27,13 @@ from recent_plugin.grounding.ablations import (
     name_similarity_conflicts,
     whole_skill_unit,
 )
+from recent_plugin.grounding.fim_prompt import build_prompt, hint_lines
 from recent_plugin.grounding.units import RefactoringUnit, apply_unit, unit_from_conflict
 from recent_plugin.grounding.validation import Verdict, validate_program
 from recent_plugin.infillers.base import Infiller
 from skills.repository import Skill
+
+FILL = "<FILL>"  # where the span goes, in the prompts the logs record
 
 
 @dataclass(frozen=True)
@@ -45,6 +49,9 @@ class LMCall:
     accepted: bool
     category: str | None = None
     message: str = ""
+    span: str = ""  # the span the unit replaced (empty for an insertion)
+    hints: tuple[str, ...] = ()  # the hint comments as the model saw them
+    prompt: str = ""  # prefix + <FILL> + suffix, format-independent (the logs show it)
 
 
 @dataclass
@@ -104,6 +111,29 @@ class GroundedSkill:
         """Grounding overhead: generated tokens ÷ tokens of the original skill code × 100."""
         return 100.0 * self.generated_tokens / max(1, self.skill_tokens)
 
+    def events(self, *, cached: bool = False) -> list[Event]:
+        """What grounding did, as typed events: the diagnosis, each infiller call and verdict, the patch."""
+        diagnosis = self.diagnosis
+        out: list[Event] = [
+            SkillDiagnosed(
+                self.skill,
+                self.robot,
+                [
+                    f"line {c.span.line}: {c.span_type} {c.original} -> {c.substitute.name if c.substitute else '?'}"
+                    for c in diagnosis.conflicts
+                ],
+                [f"line {w.span.line}: {w.check} ({w.phase})" for w in diagnosis.warnings],
+                cached,
+            )
+        ]
+        for call in self.calls:
+            out += call_events(self.skill, call)
+        if self.code != self.original:
+            out.append(PatchApplied(self.skill, "ground", self.diff(), self.code))
+        if self.verdict is not None and not self.verdict.ok:
+            out.append(ValidationVerdict(self.skill, "ground", False, str(self.verdict.category), self.verdict.message))
+        return out
+
     def diff(self) -> str:
         return "".join(
             difflib.unified_diff(
@@ -113,6 +143,24 @@ class GroundedSkill:
                 tofile=f"{self.skill}.py ({self.robot})",
             )
         )
+
+
+def call_events(skill: str, call: LMCall) -> list[Event]:
+    """An infiller call as the logs see it: the unit, prompt and completion, then the validation verdict."""
+    return [
+        InfillCall(
+            skill,
+            call.kind,
+            call.span_type,
+            call.span,
+            list(call.hints),
+            call.prompt,
+            call.text,
+            call.generated_tokens,
+            call.seconds,
+        ),
+        ValidationVerdict(skill, call.kind, call.accepted, call.category or "", "" if call.accepted else call.message),
+    ]
 
 
 def strip_imports(code: str) -> str:
@@ -215,6 +263,7 @@ def infill_until_valid(
         completion = infiller.infill(unit)
         text = clean_completion(completion.text, unit)
         verdict, candidate = judge(unit, text)
+        prompt = build_prompt(unit, 0)
         calls.append(
             LMCall(
                 kind=kind,
@@ -226,6 +275,9 @@ def infill_until_valid(
                 accepted=verdict.ok,
                 category=None if verdict.ok else str(verdict.category),
                 message=verdict.message,
+                span=unit.span,
+                hints=tuple(hint_lines(unit.span_type, unit.hints)),
+                prompt=prompt.prefix + FILL + prompt.suffix,
             )
         )
         if verdict.ok:

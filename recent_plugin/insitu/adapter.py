@@ -13,15 +13,17 @@ sums over them) and every decision as an :class:`AdaptationEvent` for the logger
 from __future__ import annotations
 
 import ast
+import difflib
 import logging
 import textwrap
 from dataclasses import dataclass, field
 
+from logs.events import CheckVerdict, Emit, PatchApplied, ignore
 from ontology.diagnosis import Warning
 from ontology.specs import ApiSpec
 from recent_plugin.executor import Segment, SkillExecutor, SkillFailure
 from recent_plugin.failures import FailureCategory
-from recent_plugin.grounding.grounder import GroundedSkill, LMCall, infill_until_valid
+from recent_plugin.grounding.grounder import GroundedSkill, LMCall, call_events, infill_until_valid
 from recent_plugin.grounding.units import Hints, RefactoringUnit, apply_unit, cut_unit
 from recent_plugin.grounding.validation import Verdict, validate_program
 from recent_plugin.infillers.base import Infiller
@@ -56,6 +58,7 @@ class InSituAdapter:
     max_repairs: int = 2  # per skill
     calls: list[LMCall] = field(default_factory=list)
     events: list[AdaptationEvent] = field(default_factory=list)
+    emit: Emit = ignore  # the loggers' view: check verdicts, infiller calls, patches
     _repairs: dict[str, int] = field(default_factory=dict)
 
     # ------------------------------------------------------------------ guards
@@ -70,7 +73,20 @@ class InSituAdapter:
 
     def before_segment(self, executor: SkillExecutor, index: int) -> None:
         segment = executor.segments[index]
-        violations = [v for w in segment.guards if (v := self._evaluate(executor, segment, w)) is not None]
+        violations = []
+        for warning in segment.guards:
+            violation = self._evaluate(executor, segment, warning)
+            self.emit(
+                CheckVerdict(
+                    executor.grounded.skill,
+                    index,
+                    warning.check,
+                    violation is None,
+                    violation.observation if violation else "",
+                )
+            )
+            if violation is not None:
+                violations.append(violation)
         if not violations:
             return
         statements = tuple(dict.fromkeys(s for v in violations for s in v.statements))
@@ -170,7 +186,9 @@ class InSituAdapter:
             log.warning("%s: no valid %s patch for segment %d of %s", self.robot, kind, index, executor.grounded.skill)
             return False
         if accepted:
+            before = executor.source()
             executor.replace_segment(index, after.replace("\n", "\n" + executor.indent))
+            self.emit(PatchApplied(executor.grounded.skill, kind, _diff(before, executor.source()), executor.source()))
         return True
 
     def _infill_insertion(
@@ -208,9 +226,20 @@ class InSituAdapter:
             self.infiller, make_unit, judge, kind=kind, max_retries=self.max_retries, calls=self.calls
         )
         attempts = len(self.calls) - before
+        for call in self.calls[before:]:
+            for event in call_events(executor.grounded.skill, call):
+                self.emit(event)
         if accepted is None:
             return None, attempts
         return textwrap.dedent(accepted.unit.indent + accepted.text), attempts
+
+
+def _diff(before: str, after: str) -> str:
+    return "".join(
+        difflib.unified_diff(
+            before.splitlines(keepends=True), after.splitlines(keepends=True), "before", "after (patched)"
+        )
+    )
 
 
 def _bare(source: str, executor: SkillExecutor) -> str:

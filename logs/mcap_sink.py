@@ -1,0 +1,156 @@
+"""MCAP sink: one file per episode, readable by Foxglove, Lichtblick and Rerun.
+
+Foxglove protobuf schemas where one fits — ``/tf`` (``FrameTransforms``: end effector and every
+object in ``world``), ``/log`` (``Log``: every event, by level), ``/joint_states`` (``JointStates``:
+the gripper opening), ``/camera/front`` (``CompressedImage``) — and JSON schemas with stable names
+(``recent.<event>``) for grounding events on ``/recent/<event>`` and the action on ``/action``.
+Messages are written unchunked and the file is flushed after every step and event, so a killed
+process loses at most the step in flight; ``recent logs verify --recover`` rewrites such a file
+with its summary.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+from dataclasses import dataclass, field
+from typing import IO
+
+import numpy as np
+from foxglove_schemas_protobuf.CompressedImage_pb2 import CompressedImage
+from foxglove_schemas_protobuf.FrameTransform_pb2 import FrameTransform
+from foxglove_schemas_protobuf.FrameTransforms_pb2 import FrameTransforms
+from foxglove_schemas_protobuf.JointState_pb2 import JointState
+from foxglove_schemas_protobuf.JointStates_pb2 import JointStates
+from foxglove_schemas_protobuf.Log_pb2 import Log
+from google.protobuf.timestamp_pb2 import Timestamp
+from mcap.writer import Writer
+from mcap_protobuf.schema import build_file_descriptor_set
+
+from logs.events import EVENT_TYPES, Stamped, Step, json_schema
+from logs.layout import LogLayout
+from robosuite_envs.observation import SLOT_DIM
+
+LOG_LEVELS = {"debug": Log.DEBUG, "info": Log.INFO, "warning": Log.WARNING, "error": Log.ERROR}
+ACTION_SCHEMA = {
+    "title": "recent.action",
+    "type": "object",
+    "properties": {"frame_index": {"type": "integer"}, "action": {"type": "array"}, "sim_time": {"type": "number"}},
+}
+
+
+@dataclass
+class _EpisodeFile:
+    stream: IO[bytes]
+    writer: Writer
+    object_names: list[str]
+    channels: dict[str, int] = field(default_factory=dict)
+    sequence: int = 0
+
+
+class McapSink:
+    def __init__(self, layout: LogLayout):
+        self.layout = layout
+        self._files: dict[int, _EpisodeFile] = {}
+
+    # ------------------------------------------------------------------ sink protocol
+    def begin(self, start: Stamped) -> None:
+        path = self.layout.mcap(start.episode_index)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        stream = open(path, "wb")  # noqa: SIM115 - kept open for the episode, closed in end()
+        writer = Writer(stream, use_chunking=False)
+        writer.start(profile="", library="lerobot_policy_recent")
+        self._files[start.episode_index] = _EpisodeFile(stream, writer, list(start.event.object_names))
+        self.event(start)
+
+    def event(self, stamped: Stamped) -> None:
+        f = self._files[stamped.episode_index]
+        e = stamped.event
+        payload = {"episode_index": stamped.episode_index, "frame_index": stamped.frame_index, **e.payload()}
+        self._write(f, f"/recent/{e.name}", "json", json.dumps(payload).encode(), stamped.log_time_ns, e.name)
+        message = Log(
+            timestamp=_timestamp(stamped.log_time_ns),
+            level=LOG_LEVELS[e.level],
+            message=e.summary(),
+            name=e.name,
+        )
+        self._write(f, "/log", "protobuf", message.SerializeToString(), stamped.log_time_ns, Log)
+        f.stream.flush()
+
+    def step(self, step: Step) -> None:
+        f = self._files[step.episode_index]
+        t = step.log_time_ns
+        stamp = _timestamp(t)
+        transforms = [_transform(stamp, "eef", step.state[0:3], step.state[3:7])]
+        for slot, name in enumerate(f.object_names):
+            row = step.environment_state[slot * SLOT_DIM : (slot + 1) * SLOT_DIM]
+            if row[7] > 0.5:  # present
+                transforms.append(_transform(stamp, name, row[0:3], row[3:7]))
+        self._write(
+            f, "/tf", "protobuf", FrameTransforms(transforms=transforms).SerializeToString(), t, FrameTransforms
+        )
+        joints = JointStates(timestamp=stamp, joints=[JointState(name="gripper", position=float(step.state[7]))])
+        self._write(f, "/joint_states", "protobuf", joints.SerializeToString(), t, JointStates)
+        action = {"frame_index": step.frame_index, "sim_time": step.sim_time, "action": step.action.tolist()}
+        self._write(f, "/action", "json", json.dumps(action).encode(), t, "action")
+        if step.image is not None:
+            image = CompressedImage(timestamp=stamp, frame_id="front", format="png", data=_png(step.image))
+            self._write(f, "/camera/front", "protobuf", image.SerializeToString(), t, CompressedImage)
+        f.stream.flush()
+
+    def end(self, result: Stamped) -> None:
+        f = self._files.pop(result.episode_index, None)
+        if f is None:
+            return
+        self._files[result.episode_index] = f
+        self.event(result)
+        del self._files[result.episode_index]
+        f.writer.finish()
+        f.stream.close()
+
+    def close(self) -> None:
+        """Episodes still open (a run stopped early) are finished as they stand: readable, just shorter."""
+        for f in self._files.values():
+            f.writer.finish()
+            f.stream.close()
+        self._files.clear()
+
+    # ------------------------------------------------------------------ helpers
+    def _write(self, f: _EpisodeFile, topic: str, encoding: str, data: bytes, t: int, schema) -> None:
+        channel = f.channels.get(topic)
+        if channel is None:
+            channel = f.channels[topic] = _register(f.writer, topic, encoding, schema)
+        f.writer.add_message(channel, log_time=t, data=data, publish_time=t, sequence=f.sequence)
+        f.sequence += 1
+
+
+def _register(writer: Writer, topic: str, encoding: str, schema) -> int:
+    if encoding == "protobuf":
+        schema_id = writer.register_schema(
+            name=schema.DESCRIPTOR.full_name,
+            encoding="protobuf",
+            data=build_file_descriptor_set(schema).SerializeToString(),
+        )
+    else:
+        body = ACTION_SCHEMA if schema == "action" else json_schema(EVENT_TYPES[schema])
+        schema_id = writer.register_schema(name=body["title"], encoding="jsonschema", data=json.dumps(body).encode())
+    return writer.register_channel(topic=topic, message_encoding=encoding, schema_id=schema_id)
+
+
+def _timestamp(ns: int) -> Timestamp:
+    return Timestamp(seconds=ns // 1_000_000_000, nanos=ns % 1_000_000_000)
+
+
+def _transform(stamp: Timestamp, child: str, pos: np.ndarray, quat_xyzw: np.ndarray) -> FrameTransform:
+    t = FrameTransform(timestamp=stamp, parent_frame_id="world", child_frame_id=child)
+    t.translation.x, t.translation.y, t.translation.z = (float(v) for v in pos)
+    t.rotation.x, t.rotation.y, t.rotation.z, t.rotation.w = (float(v) for v in quat_xyzw)
+    return t
+
+
+def _png(image: np.ndarray) -> bytes:
+    from PIL import Image
+
+    buffer = io.BytesIO()
+    Image.fromarray(np.asarray(image, dtype=np.uint8)).save(buffer, format="PNG", compress_level=1)
+    return buffer.getvalue()

@@ -1,0 +1,115 @@
+"""Read each log back with its own library: mcap (+ protobuf decoders), Rerun's RrdReader, pyarrow/LeRobot.
+
+Used by ``recent logs verify``, ``recent replay`` and the tests, so all three agree on what a
+log holds.
+"""
+
+from __future__ import annotations
+
+import json
+from collections import Counter
+from dataclasses import dataclass
+from pathlib import Path
+
+import pyarrow.parquet as pq
+
+
+@dataclass(frozen=True)
+class McapContents:
+    topics: Counter  # messages per topic
+    events: list[dict]  # the JSON grounding events, in order
+    complete: bool  # the file has its footer (the episode ended or the run closed it)
+
+    @property
+    def steps(self) -> int:
+        return self.topics.get("/action", 0)
+
+
+def read_mcap(path: Path) -> McapContents:
+    """Every message that can be read; a file cut short by a crash is read up to the cut."""
+    from mcap.reader import make_reader
+
+    topics, events = Counter(), []
+    try:
+        with open(path, "rb") as stream:
+            for _schema, channel, message in make_reader(stream).iter_messages():
+                topics[channel.topic] += 1
+                if channel.topic.startswith("/recent/"):
+                    events.append(json.loads(message.data))
+        return McapContents(topics, events, True)
+    except Exception:  # noqa: BLE001 - no footer: read the records in file order instead
+        topics, events = Counter(), []
+    channels: dict[int, str] = {}
+    for record in salvage_mcap_records(path):
+        kind = type(record).__name__
+        if kind == "Channel":
+            channels[record.id] = record.topic
+        elif kind == "Message":
+            topic = channels.get(record.channel_id, "")
+            topics[topic] += 1
+            if topic.startswith("/recent/"):
+                events.append(json.loads(record.data))
+    return McapContents(topics, events, False)
+
+
+def decoded_protobuf(path: Path, topic: str) -> list:
+    """The messages of one protobuf topic, decoded with their embedded schemas (Foxglove's view)."""
+    from mcap.reader import make_reader
+    from mcap_protobuf.decoder import DecoderFactory
+
+    with open(path, "rb") as stream:
+        reader = make_reader(stream, decoder_factories=[DecoderFactory()])
+        return [decoded for _s, _c, _m, decoded in reader.iter_decoded_messages(topics=[topic])]
+
+
+def salvage_mcap_records(path: Path) -> list:
+    """The records of a (possibly truncated) MCAP in file order, up to the first damaged one."""
+    from mcap.stream_reader import StreamReader
+
+    records = []
+    with open(path, "rb") as stream:
+        try:
+            for record in StreamReader(stream, skip_magic=False, emit_chunks=False).records:
+                records.append(record)
+        except Exception:  # noqa: BLE001 - a truncated tail is exactly what salvage expects
+            pass
+    return records
+
+
+@dataclass(frozen=True)
+class RrdContents:
+    rows: Counter  # rows per entity path
+
+    @property
+    def events(self) -> int:
+        return self.rows.get("/events", 0)
+
+    @property
+    def steps(self) -> int:
+        return self.rows.get("/action", 0)
+
+
+def read_rrd(path: Path) -> RrdContents:
+    from rerun.chunk import RrdReader
+
+    rows = Counter()
+    for chunk in RrdReader(str(path)).stream().collect().stream():
+        if not chunk.is_static:
+            rows[chunk.entity_path] += chunk.num_rows
+    return RrdContents(rows)
+
+
+def read_table(path: Path) -> list[dict]:
+    return pq.read_table(path).to_pylist()
+
+
+def dataset_lengths(dataset_dir: Path) -> dict[int, int]:
+    """Frames per episode of the LeRobotDataset (empty when there is none)."""
+    if not (dataset_dir / "meta" / "info.json").exists():
+        return {}
+    from lerobot.datasets.lerobot_dataset import LeRobotDatasetMetadata
+
+    from logs.dataset_sink import REPO_ID
+
+    meta = LeRobotDatasetMetadata(REPO_ID, root=dataset_dir)
+    return {int(e): int(n) for e, n in zip(meta.episodes["episode_index"], meta.episodes["length"], strict=True)}

@@ -1,0 +1,153 @@
+"""The recorder: stamps typed events and control steps and fans them out to the sinks.
+
+The agent only ever calls :meth:`EpisodeLog.emit` / :meth:`EpisodeLog.step`; a sink that raises
+is reported once and switched off for the rest of the run, so logging can never stop a robot.
+Sinks never call back into the agent.
+"""
+
+from __future__ import annotations
+
+import logging
+import shutil
+import time
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Protocol
+
+import numpy as np
+
+from logs.events import EpisodeEnded, EpisodeStarted, Event, Stamped, Step
+from logs.layout import LogLayout, episode_number
+from robosuite_envs.primitives.session import CONTROL_FREQ
+
+log = logging.getLogger(__name__)
+
+SINKS = ("mcap", "rerun", "dataset")
+
+
+class Sink(Protocol):
+    def begin(self, start: Stamped) -> None: ...
+
+    def event(self, stamped: Stamped) -> None: ...
+
+    def step(self, step: Step) -> None: ...
+
+    def end(self, result: Stamped) -> None: ...
+
+    def close(self) -> None: ...
+
+
+def make_sinks(layout: LogLayout, names: Sequence[str]) -> list[Sink]:
+    unknown = sorted(set(names) - set(SINKS))
+    if unknown:
+        raise ValueError(f"unknown log sink(s) {', '.join(unknown)}; choose from {', '.join(SINKS)}")
+    sinks: list[Sink] = []
+    if "mcap" in names:
+        from logs.mcap_sink import McapSink
+
+        sinks.append(McapSink(layout))
+    if "rerun" in names:
+        from logs.rerun_sink import RerunSink
+
+        sinks.append(RerunSink(layout.rrd))
+    if "dataset" in names:
+        from logs.dataset_sink import DatasetSink
+
+        sinks.append(DatasetSink(layout))
+    return sinks
+
+
+class Recorder:
+    """One run's logs under ``root``; episodes are numbered on from the ones already committed there."""
+
+    def __init__(self, root: str | Path, sinks: Sequence[str] = SINKS):
+        self.layout = LogLayout(Path(root))
+        self.layout.root.mkdir(parents=True, exist_ok=True)
+        self._next = self.layout.next_episode()
+        set_aside_interrupted(self.layout, self._next)
+        self.sinks = make_sinks(self.layout, sinks)
+        self.failed: dict[str, str] = {}  # sink class -> the error that switched it off
+
+    def start_episode(self, started: EpisodeStarted) -> EpisodeLog:
+        episode = EpisodeLog(self, self._next)
+        self._next += 1
+        self._fan_out("begin", episode.stamp(started))
+        return episode
+
+    def _fan_out(self, method: str, item: Stamped | Step | None = None) -> None:
+        for sink in list(self.sinks):
+            try:
+                getattr(sink, method)(*(() if item is None else (item,)))
+            except Exception as exc:  # noqa: BLE001 - a broken sink must never stop the robot
+                name = type(sink).__name__
+                self.failed[name] = f"{type(exc).__name__}: {exc}"
+                log.exception("log sink %s failed in %s and is switched off for this run", name, method)
+                self.sinks.remove(sink)
+
+    def close(self) -> None:
+        self._fan_out("close")
+
+    def __enter__(self) -> Recorder:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+class EpisodeLog:
+    """The handle the agent's loop holds for one episode: ``emit`` events, ``step`` frames, ``end``."""
+
+    def __init__(self, recorder: Recorder, index: int):
+        self.recorder = recorder
+        self.index = index
+        self.frame_index = 0
+        self.ended = False
+
+    def stamp(self, event: Event) -> Stamped:
+        return Stamped(event, self.index, self.frame_index, time.time_ns())
+
+    def emit(self, event: Event) -> None:
+        self.recorder._fan_out("event", self.stamp(event))
+
+    def step(self, state: np.ndarray, environment_state: np.ndarray, action: np.ndarray, image=None) -> None:
+        """Record the observation acted on and the action taken; the next events belong to the next step."""
+        self.recorder._fan_out(
+            "step",
+            Step(
+                self.index,
+                self.frame_index,
+                self.frame_index / CONTROL_FREQ,
+                time.time_ns(),
+                np.asarray(state, dtype=np.float32),
+                np.asarray(environment_state, dtype=np.float32),
+                np.asarray(action, dtype=np.float32),
+                image,
+            ),
+        )
+        self.frame_index += 1
+
+    def end(self, result: EpisodeEnded) -> None:
+        if not self.ended:
+            self.ended = True
+            self.recorder._fan_out("end", self.stamp(result))
+
+
+def set_aside_interrupted(layout: LogLayout, next_episode: int) -> list[Path]:
+    """Move files of episodes that never committed out of the way, so new episodes do not overwrite them."""
+    moved = []
+    stamp = time.strftime("%Y%m%d-%H%M%S")
+    for folder in (layout.mcap_dir, layout.rerun_dir, layout.events_dir):
+        for path in sorted(folder.glob("episode_*")) if folder.exists() else []:
+            if episode_number(path) >= next_episode:
+                target = layout.interrupted_dir / f"{stamp}_{path.name}"
+                target.parent.mkdir(parents=True, exist_ok=True)
+                shutil.move(path, target)
+                moved.append(target)
+    if moved:
+        log.warning(
+            "%d file(s) of interrupted episodes moved to %s; `recent logs verify %s --recover` salvages them",
+            len(moved),
+            layout.interrupted_dir,
+            layout.root,
+        )
+    return moved

@@ -1,0 +1,94 @@
+"""``recent replay``: rebuild an episode's Rerun recording from the LeRobotDataset and its grounding events.
+
+The frames come from the dataset, the events from ``grounding_events/``; both are fed through the
+same :class:`~logs.rerun_sink.RerunSink` a live run uses, so a replayed recording has the live
+one's blueprint and entity layout (and works for datasets downloaded from the Hub).
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+from pathlib import Path
+
+import numpy as np
+
+from logs.dataset_sink import CAMERA_KEY, REPO_ID
+from logs.events import EVENT_TYPES, Stamped, Step
+from logs.layout import LogLayout, episode_name
+from logs.readers import read_table
+from logs.rerun_sink import RerunSink
+from logs.verify import rerun_executable
+
+
+def replay_episode(root: str | Path, episode: int, out: Path) -> Path:
+    """Write ``out`` (an ``.rrd``) for ``episode`` of the run logged under ``root``."""
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset
+
+    layout = LogLayout(Path(root))
+    if not layout.events(episode).exists():
+        raise FileNotFoundError(
+            f"{layout.events(episode)} does not exist: episode {episode} of {root} was not committed "
+            f"(episodes there: {layout.committed() or 'none'})"
+        )
+    rows = read_table(layout.events(episode))
+    stamped = [
+        Stamped(
+            EVENT_TYPES[r["event"]](**_fields(json.loads(r["payload"]))), episode, r["frame_index"], r["log_time_ns"]
+        )
+        for r in rows
+    ]
+    frames = LeRobotDataset(REPO_ID, root=layout.dataset_dir, episodes=[episode]).hf_dataset.with_format("numpy")[:]
+    start_ns = stamped[0].log_time_ns
+    images = frames.get(CAMERA_KEY)
+    steps = [
+        Step(
+            episode,
+            int(frames["frame_index"][i]),
+            float(frames["timestamp"][i]),
+            start_ns + int(1e9 * float(frames["timestamp"][i])),
+            frames["observation.state"][i],
+            frames["observation.environment_state"][i],
+            frames["action"][i],
+            None if images is None else _hwc(images[i]),
+        )
+        for i in range(len(frames["frame_index"]))
+    ]
+    out.parent.mkdir(parents=True, exist_ok=True)
+    sink = RerunSink(lambda _index: out)
+    sink.begin(stamped[0])
+    pending = iter(stamped[1:-1])
+    event = next(pending, None)
+    for step in steps:  # events and steps interleaved as they happened
+        while event is not None and event.frame_index <= step.frame_index:
+            sink.event(event)
+            event = next(pending, None)
+        sink.step(step)
+    while event is not None:
+        sink.event(event)
+        event = next(pending, None)
+    sink.end(stamped[-1])
+    return out
+
+
+def default_output(root: str | Path, episode: int) -> Path:
+    return Path(root) / "replay" / f"{episode_name(episode)}.rrd"
+
+
+def open_viewer(path: Path) -> subprocess.Popen:
+    """Open a recording (``.rrd`` or ``.mcap``) in the Rerun viewer, without waiting for it."""
+    return subprocess.Popen([rerun_executable(), str(path)])
+
+
+def _fields(payload: dict) -> dict:
+    return {k: v for k, v in payload.items() if k not in ("episode_index", "frame_index")}
+
+
+def _hwc(image: np.ndarray) -> np.ndarray:
+    """Dataset images come back channel-first floats in [0, 1]; the viewer wants HxWx3 bytes."""
+    array = np.asarray(image)
+    if array.ndim == 3 and array.shape[0] in (1, 3):
+        array = np.moveaxis(array, 0, -1)
+    if array.dtype != np.uint8:
+        array = (np.clip(array, 0.0, 1.0) * 255).astype(np.uint8)
+    return array
