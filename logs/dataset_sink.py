@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import logging
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -23,6 +24,7 @@ from robosuite_envs.primitives.session import CONTROL_FREQ
 log = logging.getLogger(__name__)
 
 REPO_ID = "local/recent_episodes"  # the dataset's id until it is uploaded under a real one
+VIDEO_BACKEND = "pyav"  # frames are stored as images, never video; naming one skips LeRobot's torchcodec probe
 CAMERA_KEY = "observation.images.front"
 
 
@@ -62,9 +64,33 @@ class _Episode:
 
 
 class DatasetSink:
+    """Writes each ended episode; the dataset for the next one is opened right after (see ``_prepare``)."""
+
     def __init__(self, layout: LogLayout):
         self.layout = layout
         self._episodes: dict[int, _Episode] = {}
+        self._ended: list[tuple[Stamped, _Episode]] = []  # waiting for the episodes still open
+        self._ready = None  # the LeRobotDataset opened for the next episode, if one exists on disk
+        self._prepare()
+
+    def _prepare(self) -> None:
+        """Open the existing dataset now, not when the next episode ends.
+
+        Opening reads its metadata with worker threads, and the last episode of a ``lerobot-eval``
+        run is committed while the interpreter exits, when no thread can start; writing into an
+        already opened dataset needs none.
+        """
+        self._ready = None
+        if (self.layout.dataset_dir / "meta" / "info.json").exists():
+            from lerobot.datasets.lerobot_dataset import LeRobotDataset
+
+            try:
+                with _quiet_progress():
+                    self._ready = LeRobotDataset.resume(
+                        REPO_ID, root=self.layout.dataset_dir, video_backend=VIDEO_BACKEND
+                    )
+            except RuntimeError as exc:  # the interpreter is exiting: the next write reopens it, if any
+                log.debug("could not open %s ahead of the next episode: %s", self.layout.dataset_dir, exc)
 
     def begin(self, start: Stamped) -> None:
         self._episodes[start.episode_index] = _Episode(start.event)  # type: ignore[arg-type]
@@ -77,17 +103,25 @@ class DatasetSink:
         self._episodes[step.episode_index].frames.append(step)
 
     def end(self, result: Stamped) -> None:
+        """Queue the episode; once no other episode is open, write the queue in one dataset session.
+
+        Batched episodes (one per env of a vectorised ``lerobot-eval``) end together, at the
+        policy's ``reset()``; writing them in one session opens the dataset once.
+        """
         episode = self._episodes.pop(result.episode_index, None)
         if episode is None:
             return
         episode.events.append(event_row(result))
-        if episode.frames:
-            self._save_frames(result.episode_index, episode)
-        write_parquet_atomically(episode.events, self.layout.events(result.episode_index))
-        row = {"episode_index": result.episode_index, "num_frames": len(episode.frames), **result.event.payload()}
-        row.update(backend=episode.start.backend, model=episode.start.model, mode=episode.start.mode)
-        row.update(variations=episode.start.variations)
-        write_parquet_atomically([row], self.layout.results(result.episode_index))
+        self._ended.append((result, episode))
+        if not self._episodes:
+            ended, self._ended = self._ended, []
+            self._save_frames([(r.episode_index, e) for r, e in ended if e.frames])
+            for r, e in ended:  # the results row last: it marks the episode committed
+                write_parquet_atomically(e.events, self.layout.events(r.episode_index))
+                row = {"episode_index": r.episode_index, "num_frames": len(e.frames), **r.event.payload()}
+                row.update(backend=e.start.backend, model=e.start.model, mode=e.start.mode)
+                row.update(variations=e.start.variations)
+                write_parquet_atomically([row], self.layout.results(r.episode_index))
 
     def close(self) -> None:
         """Episodes that never ended are not written: a dataset holds whole episodes only."""
@@ -95,35 +129,51 @@ class DatasetSink:
             log.warning("%d unfinished episode(s) not written to the dataset", len(self._episodes))
         self._episodes.clear()
 
-    def _save_frames(self, index: int, episode: _Episode) -> None:
+    def _save_frames(self, episodes: list[tuple[int, _Episode]]) -> None:
+        if not episodes:
+            return
+        first_image = episodes[0][1].frames[0].image
+        shape = None if first_image is None else tuple(first_image.shape)
+        dataset = self._open(episodes[0][0], episodes[0][1], shape)
+        with _quiet_progress():
+            for _index, episode in episodes:
+                self._write(dataset, episode, shape)
+            dataset.finalize()
+        self._prepare()
+
+    def _open(self, index: int, episode: _Episode, shape: tuple[int, int, int] | None):
         from lerobot.datasets.lerobot_dataset import LeRobotDataset
 
-        first_image = episode.frames[0].image
-        shape = None if first_image is None else tuple(first_image.shape)
         root = self.layout.dataset_dir
-        if (root / "meta" / "info.json").exists():
-            dataset = LeRobotDataset.resume(REPO_ID, root=root)
-            if dataset.meta.total_episodes != index:
-                log.warning(
-                    "dataset holds %d episodes but this is episode %d; its episode_index will be %d",
-                    dataset.meta.total_episodes,
-                    index,
-                    dataset.meta.total_episodes,
-                )
-            if (CAMERA_KEY in dataset.features) != (shape is not None):
-                raise ValueError(
-                    f"{root} was recorded {'with' if shape is None else 'without'} a camera; "
-                    "log runs with and without cameras into different directories"
-                )
-        else:
-            dataset = LeRobotDataset.create(
+        dataset, self._ready = self._ready, None
+        if dataset is None and (root / "meta" / "info.json").exists():
+            dataset = LeRobotDataset.resume(REPO_ID, root=root, video_backend=VIDEO_BACKEND)
+        if dataset is None:
+            return LeRobotDataset.create(
                 REPO_ID,
                 fps=CONTROL_FREQ,
                 features=features(shape),
                 root=root,
                 robot_type=episode.start.robot,
                 use_videos=False,
+                video_backend=VIDEO_BACKEND,
             )
+        if dataset.meta.total_episodes != index:
+            log.warning(
+                "dataset holds %d episodes but this is episode %d; its episode_index will be %d",
+                dataset.meta.total_episodes,
+                index,
+                dataset.meta.total_episodes,
+            )
+        if (CAMERA_KEY in dataset.features) != (shape is not None):
+            raise ValueError(
+                f"{root} was recorded {'with' if shape is None else 'without'} a camera; "
+                "log runs with and without cameras into different directories"
+            )
+        return dataset
+
+    @staticmethod
+    def _write(dataset, episode: _Episode, shape) -> None:
         for frame in episode.frames:
             values = {
                 "observation.state": frame.state,
@@ -135,4 +185,17 @@ class DatasetSink:
                 values[CAMERA_KEY] = np.asarray(frame.image, dtype=np.uint8)
             dataset.add_frame(values)
         dataset.save_episode()
-        dataset.finalize()
+
+
+@contextmanager
+def _quiet_progress():
+    """``datasets`` draws a progress bar per saved episode; a run's own bar is the one to watch."""
+    import datasets
+
+    was_disabled = datasets.utils.are_progress_bars_disabled()
+    datasets.utils.disable_progress_bars()
+    try:
+        yield
+    finally:
+        if not was_disabled:
+            datasets.utils.enable_progress_bars()

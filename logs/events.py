@@ -84,7 +84,7 @@ class InfillCall(Event):
 class ValidationVerdict(Event):
     name: ClassVar[str] = "validation_verdict"
     skill: str
-    kind: str
+    kind: str  # the call's kind (ground | revise | repair), or "skill" for a whole skill's final verdict
     accepted: bool
     category: str = ""  # the failure taxonomy's category when rejected
     message: str = ""

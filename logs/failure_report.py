@@ -48,7 +48,7 @@ def failure_table(roots: list[str | Path]) -> FailureTable:
                 table.counts["failed episodes"][result["failure_category"]] += 1
             events = read_table(layout.events(episode)) if layout.events(episode).exists() else []
             for row in events:
-                if row["event"] == "validation_verdict" and row["category"]:
+                if row["event"] == "validation_verdict" and row["category"] and row["kind"] != "skill":
                     table.counts["rejected spans"][row["category"]] += 1
                 elif row["event"] == "segment_failed":
                     table.counts["failed segments"][row["category"]] += 1

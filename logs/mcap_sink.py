@@ -66,7 +66,8 @@ class McapSink:
     def event(self, stamped: Stamped) -> None:
         f = self._files[stamped.episode_index]
         e = stamped.event
-        payload = {"episode_index": stamped.episode_index, "frame_index": stamped.frame_index, **e.payload()}
+        payload = {"event": e.name, "episode_index": stamped.episode_index, "frame_index": stamped.frame_index}
+        payload.update(e.payload())
         self._write(f, f"/recent/{e.name}", "json", json.dumps(payload).encode(), stamped.log_time_ns, e.name)
         message = Log(
             timestamp=_timestamp(stamped.log_time_ns),

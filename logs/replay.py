@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from logs.dataset_sink import CAMERA_KEY, REPO_ID
+from logs.dataset_sink import CAMERA_KEY, REPO_ID, VIDEO_BACKEND
 from logs.events import EVENT_TYPES, Stamped, Step
 from logs.layout import LogLayout, episode_name
 from logs.readers import read_table
@@ -38,7 +38,9 @@ def replay_episode(root: str | Path, episode: int, out: Path) -> Path:
         )
         for r in rows
     ]
-    frames = LeRobotDataset(REPO_ID, root=layout.dataset_dir, episodes=[episode]).hf_dataset.with_format("numpy")[:]
+    frames = LeRobotDataset(
+        REPO_ID, root=layout.dataset_dir, episodes=[episode], video_backend=VIDEO_BACKEND
+    ).hf_dataset.with_format("numpy")[:]
     start_ns = stamped[0].log_time_ns
     images = frames.get(CAMERA_KEY)
     steps = [

@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 from itertools import takewhile
 from pathlib import Path
 
-from logs.events import Emit, ignore
+from logs.events import Emit, EpisodeStarted, ignore
 from ontology.builder import Ontology, build_ontology
 from recent_plugin.executor import PlannedSkill, TaskExecutor
 from recent_plugin.grounding.grounder import GroundedSkill, ground_skill
@@ -133,6 +133,21 @@ class RecentAgent:
             emit=emit,
         )
         return executor, report
+
+    def started_event(self, task_id: str, robot: str, seed: int, task: str, variations: str = "") -> EpisodeStarted:
+        """The first event of an episode's log: what runs, on what, with which LM and method."""
+        s = self.settings
+        return EpisodeStarted(
+            task_id,
+            robot,
+            seed,
+            task,
+            self.infiller.name,
+            self.infiller.model,
+            s.mode if s.insitu else f"{s.mode} (no in-situ)",
+            variations,
+            get_task(task_id).object_names(),
+        )
 
     def adapter(self, task: TaskSpec, robot: str, emit: Emit = ignore) -> InSituAdapter:
         """A fresh in-situ adapter for one episode (its calls and events are that episode's)."""

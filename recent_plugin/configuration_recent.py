@@ -35,6 +35,8 @@ class RecentConfig(PreTrainedConfig):
     mode: str = AgentSettings.mode  # recent | name-similarity | full-regen | no-ontology (the paper's ablations)
     insitu: bool = AgentSettings.insitu  # False: no run-time checks, reactive repair only (ablation)
     max_repairs: int = AgentSettings.max_repairs
+    log_dir: str | None = "outputs/recent_logs"  # MCAP + Rerun + LeRobotDataset per episode; None: no logs
+    log_sinks: str = "mcap,rerun,dataset"  # comma list of the sinks to write
     device: str | None = "cpu"
     normalization_mapping: dict[str, NormalizationMode] = field(
         default_factory=lambda: {

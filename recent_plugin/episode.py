@@ -5,10 +5,10 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass, field
 
-from logs.events import EpisodeEnded, EpisodeStarted, SubtaskSucceeded, ignore
+from logs.events import EpisodeEnded, SubtaskSucceeded, ignore
 from logs.recorder import Recorder
 from recent_plugin.agent import EpisodeGrounding, RecentAgent
-from recent_plugin.executor import SkillFailure
+from recent_plugin.executor import SkillFailure, TaskExecutor
 from recent_plugin.failures import FailureCategory
 from recent_plugin.grounding.grounder import LMCall
 from recent_plugin.insitu.adapter import AdaptationEvent
@@ -24,8 +24,8 @@ class EpisodeResult:
     task_id: str
     robot: str
     seed: int
-    success: bool
-    gc: float  # goal-conditioned success: the fraction of the plan's subtasks achieved
+    success: bool | None  # None where the env's verdict is not visible (the policy inside lerobot-eval)
+    gc: float | None  # goal-conditioned success: the fraction of the plan's subtasks achieved
     steps: int
     wall_seconds: float
     grounding: EpisodeGrounding
@@ -75,7 +75,7 @@ class EpisodeResult:
         broken = next((s for s in self.grounding.skills if not s.valid), None)
         if broken is not None and broken.verdict is not None:
             return str(broken.verdict.category), f"{broken.skill}: {broken.verdict.message}"
-        if not self.success:
+        if self.success is False:
             return str(FailureCategory.TIMEOUT if not self.finished else FailureCategory.SUBTASK_FAILED), ""
         return "", ""
 
@@ -151,7 +151,10 @@ def _run(
     started = time.perf_counter()
     raw, _ = env.reset(seed=seed)
     names = env.spec_task.object_names()
-    episode = recorder.start_episode(_started_event(agent, env, seed)) if recorder else None
+    episode = None
+    if recorder is not None:
+        started_event = agent.started_event(task_id, robot, seed, env.task_description, ",".join(env.variations))
+        episode = recorder.start_episode(started_event)
     executor, grounding = agent.start_episode(
         task_id,
         robot,
@@ -176,37 +179,38 @@ def _run(
         if (terminated and not to_completion) or truncated or settled > SETTLE_STEPS:
             break
     bar.close()
-    result = EpisodeResult(
-        task_id=task_id,
-        robot=robot,
-        seed=seed,
-        success=success,
-        gc=float(info.get("gc", 0.0)),
-        steps=steps,
-        wall_seconds=time.perf_counter() - started,
-        grounding=grounding,
-        failures=list(executor.failures),
-        runtime_calls=list(executor.adapter.calls) if executor.adapter else [],
-        adaptations=list(executor.adapter.events) if executor.adapter else [],
-        finished=executor.finished,
+    result = episode_result(
+        executor, grounding, seed, success, float(info.get("gc", 0.0)), steps, time.perf_counter() - started
     )
     if episode is not None:
         episode.end(result.ended_event())
     return result
 
 
-def _started_event(agent: RecentAgent, env: RecentEnv, seed: int) -> EpisodeStarted:
-    s = agent.settings
-    return EpisodeStarted(
-        env.spec_task.task_id,
-        env.embodiment.name,
-        seed,
-        env.task_description,
-        agent.infiller.name,
-        agent.infiller.model,
-        s.mode if s.insitu else f"{s.mode} (no in-situ)",
-        ",".join(env.variations),
-        env.spec_task.object_names(),
+def episode_result(
+    executor: TaskExecutor,
+    grounding: EpisodeGrounding,
+    seed: int,
+    success: bool | None,
+    gc: float | None,
+    steps: int,
+    wall_seconds: float,
+) -> EpisodeResult:
+    """The result record of an episode from what its executor and grounding recorded."""
+    adapter = executor.adapter
+    return EpisodeResult(
+        task_id=grounding.task_id,
+        robot=grounding.robot,
+        seed=seed,
+        success=success,
+        gc=gc,
+        steps=steps,
+        wall_seconds=wall_seconds,
+        grounding=grounding,
+        failures=list(executor.failures),
+        runtime_calls=list(adapter.calls) if adapter else [],
+        adaptations=list(adapter.events) if adapter else [],
+        finished=executor.finished,
     )
 
 

@@ -2,20 +2,39 @@
 
 At the first step of an episode it grounds the task's skills for the env's robot (cached across
 episodes) and then returns one action per ``select_action`` from a per-batch-element executor.
+Each batch element's episode is logged (``log_dir``): grounding events, every observation and
+action, and at ``reset()`` its result.
 """
 
 from __future__ import annotations
+
+import threading
+import time
+from dataclasses import dataclass
 
 import numpy as np
 import torch
 from lerobot.policies.pretrained import PreTrainedPolicy
 from lerobot.utils.constants import OBS_ENV_STATE, OBS_STATE
 
+from logs.events import ignore
+from logs.recorder import EpisodeLog, Recorder
 from recent_plugin.agent import EpisodeGrounding, RecentAgent
 from recent_plugin.configuration_recent import RecentConfig
+from recent_plugin.episode import episode_result
 from recent_plugin.executor import TaskExecutor
 from robosuite_envs.observation import Observation
 from robosuite_envs.tasks import get_task, parse_task_string
+
+
+@dataclass
+class _Episode:
+    """One batch element's episode: its executor, what grounding cost, and its log."""
+
+    executor: TaskExecutor
+    grounding: EpisodeGrounding
+    log: EpisodeLog | None
+    started: float
 
 
 class RecentPolicy(PreTrainedPolicy):
@@ -27,14 +46,44 @@ class RecentPolicy(PreTrainedPolicy):
         config.validate_features()
         self.config = config
         self.agent = RecentAgent(config.agent_settings())
-        self._executors: list[TaskExecutor | None] = []
+        self._episodes: list[_Episode | None] = []
         self.groundings: list[EpisodeGrounding] = []
+        self.recorder: Recorder | None = None
+        if config.log_dir:
+            self.recorder = Recorder(config.log_dir, [s.strip() for s in config.log_sinks.split(",") if s.strip()])
+            # lerobot-eval never resets after the last episode: commit it when the program ends, while
+            # threads can still start (the dataset writer needs them; plain atexit runs too late).
+            threading._register_atexit(self.close_logs)
+
+    @property
+    def _executors(self) -> list[TaskExecutor | None]:
+        return [e.executor if e else None for e in self._episodes]
+
+    def close_logs(self) -> None:
+        """Commit the episodes still running and close the log files (also run at interpreter exit)."""
+        if self.recorder is not None:
+            self.reset()
+            self.recorder.close()
+            self.recorder = None
 
     def get_optim_params(self) -> dict:
         return {}
 
     def reset(self):
-        self._executors = []
+        """End every batch element's episode (its result goes to the logs) before the next begins."""
+        for episode in self._episodes:
+            if episode is not None and episode.log is not None:
+                result = episode_result(
+                    episode.executor,
+                    episode.grounding,
+                    self.config.seed,
+                    None,  # the env's verdict is lerobot-eval's to report
+                    None,
+                    episode.log.frame_index,
+                    time.perf_counter() - episode.started,
+                )
+                episode.log.end(result.ended_event())
+        self._episodes = []
 
     def forward(self, batch: dict[str, torch.Tensor]):
         raise NotImplementedError("RECENT grounds skill code at deployment time; it has nothing to train")
@@ -50,14 +99,26 @@ class RecentPolicy(PreTrainedPolicy):
         tasks = batch.get("task") or [""] * len(states)
         if isinstance(tasks, str):
             tasks = [tasks]
-        if len(self._executors) != len(states):
-            self._executors = [None] * len(states)
+        if len(self._episodes) != len(states):
+            self._episodes = [None] * len(states)
         actions = []
         for b, (state, env_state, text) in enumerate(zip(states, env_states, tasks, strict=True)):
             task_id, robot = parse_task_string(text)
             obs = Observation.decode(state, env_state, get_task(task_id).object_names())
-            if self._executors[b] is None:
-                self._executors[b], report = self.agent.start_episode(task_id, robot, obs)
-                self.groundings.append(report)
-            actions.append(self._executors[b].act(obs))
+            if self._episodes[b] is None:
+                self._episodes[b] = self._start(task_id, robot, text, obs)
+            episode = self._episodes[b]
+            action = episode.executor.act(obs)
+            if episode.log is not None:
+                episode.log.step(state, env_state, action)
+            actions.append(action)
         return torch.as_tensor(np.stack(actions), dtype=torch.float32)
+
+    def _start(self, task_id: str, robot: str, text: str, obs: Observation) -> _Episode:
+        started = time.perf_counter()
+        log = None
+        if self.recorder is not None:
+            log = self.recorder.start_episode(self.agent.started_event(task_id, robot, self.config.seed, text))
+        executor, report = self.agent.start_episode(task_id, robot, obs, emit=log.emit if log else ignore)
+        self.groundings.append(report)
+        return _Episode(executor, report, log, started)

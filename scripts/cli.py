@@ -6,6 +6,10 @@ recent model fetch|list|path
 recent ontology build|stats|diagnose
 recent skills list|show
 recent envs list|show        embodiments, subtasks, task suites, variations
+recent logs verify           check (and --recover) logged runs
+recent failures report       failures of logged runs by category, with a bar chart
+recent replay                open or rebuild an episode's Rerun recording
+recent upload                push a run's datasets to the Hugging Face Hub
 """
 
 from __future__ import annotations
@@ -14,9 +18,9 @@ import argparse
 import logging
 import sys
 
-from scripts import envs_cmd, episode_cmd, ground_cmd, model_cmd, ontology_cmd, skills_cmd
+from scripts import envs_cmd, episode_cmd, ground_cmd, logs_cmd, model_cmd, ontology_cmd, skills_cmd
 
-COMMANDS = (episode_cmd, ground_cmd, envs_cmd, model_cmd, ontology_cmd, skills_cmd)
+COMMANDS = (episode_cmd, ground_cmd, envs_cmd, model_cmd, ontology_cmd, skills_cmd, logs_cmd)
 
 
 def build_parser() -> argparse.ArgumentParser:

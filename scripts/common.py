@@ -26,9 +26,7 @@ def add_lm_arguments(parser: argparse.ArgumentParser) -> None:
         "--mode", choices=GROUNDING_MODES, default="recent", help="how skills are grounded (default: recent)"
     )
     method.add_argument("--no-insitu", action="store_true", help="no run-time checks; reactive repair only")
-    method.add_argument(
-        "--no-offline-validation", action="store_true", help="serve skills that were never validated"
-    )
+    method.add_argument("--no-offline-validation", action="store_true", help="serve skills that were never validated")
 
 
 def agent_from_args(args: argparse.Namespace) -> RecentAgent:

@@ -7,6 +7,7 @@ import json
 from recent_plugin.episode import run_episode
 from scripts.common import add_lm_arguments, agent_from_args
 from scripts.ground_cmd import grounding_summary, print_grounding
+from scripts.logs_cmd import add_log_arguments, recorder_from_args
 
 
 def register(sub) -> None:
@@ -24,20 +25,28 @@ def register(sub) -> None:
     )
     parser.add_argument("--json", action="store_true", help="print one JSON object instead of text")
     add_lm_arguments(parser)
+    add_log_arguments(parser)
     parser.set_defaults(handler=_run)
 
 
 def _run(args) -> int:
     agent = agent_from_args(args)
-    result = run_episode(
-        agent,
-        args.task,
-        args.robot,
-        seed=args.seed,
-        max_steps=args.max_steps,
-        progress=not args.json,
-        variations=args.variations,
-    )
+    recorder = recorder_from_args(args)
+    try:
+        result = run_episode(
+            agent,
+            args.task,
+            args.robot,
+            seed=args.seed,
+            max_steps=args.max_steps,
+            progress=not args.json,
+            variations=args.variations,
+            recorder=recorder,
+            camera=args.camera,
+        )
+    finally:
+        if recorder is not None:
+            recorder.close()
     summaries = [grounding_summary(g) for g in result.grounding.skills]
     record = {
         "task": result.task_id,
@@ -71,6 +80,7 @@ def _run(args) -> int:
             for f in result.failures
         ],
         "skills": summaries,
+        "log": _log_record(recorder),
     }
     if args.json:
         print(json.dumps(record, indent=2))
@@ -92,4 +102,21 @@ def _run(args) -> int:
         f"(GO {result.go:.1f}%), LM {result.lm_seconds:.2f} s, first executable code after {result.grounding.igt_seconds:.2f} s; "
         f"{result.ei} interruptions ({result.it:.2f} s idle)"
     )
+    log = _log_record(recorder)
+    if log:
+        print(
+            f"logged episode {log['episode']} to {log['dir']} (replay: recent replay {log['dir']} --episode {log['episode']})"
+        )
+        for sink, error in log["failed_sinks"].items():
+            print(f"  log sink {sink} failed and was switched off: {error}")
     return 0 if result.success else 1
+
+
+def _log_record(recorder) -> dict | None:
+    if recorder is None:
+        return None
+    return {
+        "dir": str(recorder.layout.root),
+        "episode": recorder.layout.next_episode() - 1,
+        "failed_sinks": dict(recorder.failed),
+    }

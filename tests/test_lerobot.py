@@ -30,7 +30,7 @@ def test_policy_factory_builds_recent_and_returns_batched_actions():
     from robosuite_envs.lerobot_env import RecentEnvConfig
 
     env_cfg = RecentEnvConfig(task="cube_in_bin", robot="UR5e")
-    policy = make_policy(RecentConfig(backend="rule"), env_cfg=env_cfg)
+    policy = make_policy(RecentConfig(backend="rule", log_dir=None), env_cfg=env_cfg)
     pre, post = make_pre_post_processors(policy.config)
     env = RecentEnv(task="cube_in_bin", robot="UR5e", render_mode="none")
     obs, _ = env.reset(seed=0)
@@ -61,6 +61,7 @@ def test_lerobot_eval_runs_two_tasks_with_batch_size_two(tmp_path):
         "--eval.n_episodes=2",
         "--eval.batch_size=2",
         f"--output_dir={out}",
+        f"--policy.log_dir={tmp_path / 'logs'}",
     ]
     proc = subprocess.run(cmd, capture_output=True, text=True, timeout=900, env={**os.environ, "TQDM_DISABLE": "1"})
     assert proc.returncode == 0, proc.stderr[-3000:]
@@ -68,3 +69,7 @@ def test_lerobot_eval_runs_two_tasks_with_batch_size_two(tmp_path):
     assert info["overall"]["n_episodes"] == 4
     assert {row["task_group"] for row in info["per_task"]} == set(tasks)
     assert info["overall"]["pc_success"] == 100.0, info["per_task"]
+    from logs.verify import verify
+
+    report = verify(tmp_path / "logs")  # the policy logged each batch element's episode
+    assert report.ok and len(report.episodes) == 4, (report.problems, [e.problems for e in report.episodes])

@@ -130,8 +130,8 @@ class GroundedSkill:
             out += call_events(self.skill, call)
         if self.code != self.original:
             out.append(PatchApplied(self.skill, "ground", self.diff(), self.code))
-        if self.verdict is not None and not self.verdict.ok:
-            out.append(ValidationVerdict(self.skill, "ground", False, str(self.verdict.category), self.verdict.message))
+        if self.verdict is not None and not self.verdict.ok:  # the skill's own verdict, after its rejected spans
+            out.append(ValidationVerdict(self.skill, "skill", False, str(self.verdict.category), self.verdict.message))
         return out
 
     def diff(self) -> str:

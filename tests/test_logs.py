@@ -1,0 +1,293 @@
+"""Recording and replay: each artefact read back with its own library, counts agreeing across logs.
+
+One run with two episodes is recorded once per module: a successful one with in-situ patches
+(UR5e, variations on, rule backend) and one whose grounding fails on purpose (scripted spans with
+a hallucinated kwarg, an empty continuation and an import).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from logs.layout import LogLayout
+from logs.readers import decoded_protobuf, read_mcap, read_rrd, read_table
+from logs.recorder import Recorder
+from recent_plugin.agent import AgentSettings, RecentAgent
+from recent_plugin.episode import run_episode
+from recent_plugin.infillers.base import Completion
+
+TASK = "kinematic/cube_on_plate"
+
+
+@dataclass
+class ScriptedInfiller:
+    """Fixed completions, to inject grounding failures of known categories."""
+
+    texts: list[str]
+    name: str = "scripted"
+    model: str = "fixed"
+
+    def infill(self, unit):
+        return Completion(self.texts.pop(0), generated_tokens=5, seconds=0.01)
+
+    def count_tokens(self, text):
+        return 100
+
+
+@pytest.fixture(scope="module")
+def run(tmp_path_factory, ontology):
+    root = tmp_path_factory.mktemp("logs")
+    good = RecentAgent(AgentSettings(backend="rule"), ontology=ontology)
+    broken = RecentAgent(
+        AgentSettings(backend="rule", max_retries=2),
+        ontology=ontology,
+        infiller=ScriptedInfiller(
+            [
+                "ur5_release_at(env, task, place_pos=drop_pos)",
+                "ur5_grasp_at(env, task, grasp_pos=obj_pos, approach_distance=0.1)",  # hallucinated kwarg
+                "",  # empty continuation
+                "import os",  # non-executable
+            ]
+        ),
+    )
+    with Recorder(root) as recorder:
+        results = [
+            run_episode(good, TASK, "UR5e", seed=0, variations="on", recorder=recorder),
+            run_episode(broken, "cube_in_bin", "UR5e", seed=0, max_steps=30, recorder=recorder),
+        ]
+    return root, results
+
+
+def test_episodes_are_committed_with_their_results(run):
+    root, (good, broken) = run
+    layout = LogLayout(root)
+    assert layout.committed() == [0, 1]
+    rows = [read_table(layout.results(i))[0] for i in (0, 1)]
+    assert rows[0]["success"] is True and rows[0]["ei"] == good.ei == 2 and rows[0]["num_frames"] == good.steps
+    assert rows[1]["success"] is False and rows[1]["failure_category"] == "non_executable"
+    assert rows[1]["num_frames"] == broken.steps < 30  # nothing to run: it held still, then settled
+
+
+def test_mcap_holds_foxglove_messages_and_json_events(run):
+    root, (good, _) = run
+    path = LogLayout(root).mcap(0)
+    contents = read_mcap(path)
+    assert contents.complete and contents.steps == good.steps
+    assert contents.topics["/tf"] == contents.topics["/joint_states"] == good.steps
+    events = contents.events
+    assert events[0]["task_id"] == TASK and events[-1]["success"] is True
+    names = [e.get("skill") for e in events if "skill" in e]
+    assert set(names) == {"place_on_plate"}
+    transforms = decoded_protobuf(path, "/tf")
+    assert len(transforms) == good.steps
+    children = {t.child_frame_id for t in transforms[0].transforms}
+    assert {"eef", "cube", "plate"} <= children and all(t.parent_frame_id == "world" for t in transforms[0].transforms)
+    logs = decoded_protobuf(path, "/log")
+    assert len(logs) == len(events)
+    assert any(log.name == "check_verdict" and "object_unmoved" in log.message for log in logs)
+    stamps = [log.timestamp.seconds * 10**9 + log.timestamp.nanos for log in logs]
+    assert stamps == sorted(stamps) and stamps[0] > 1.6e18  # nanoseconds since the epoch
+
+
+def test_rerun_recording_matches_the_mcap(run):
+    from logs.verify import rerun_executable
+
+    root, (good, _) = run
+    path = LogLayout(root).rrd(0)
+    contents = read_rrd(path)
+    assert contents.steps == good.steps and contents.rows["/world/eef"] == good.steps
+    assert contents.events == len(read_mcap(LogLayout(root).mcap(0)).events)
+    assert contents.rows["/skill/code"] == 3  # the grounding patch and two in-situ patches
+    subprocess.run([rerun_executable(), "rrd", "verify", str(path)], check=True, capture_output=True)
+
+
+def test_datasets_load_and_join_on_episode_index(run):
+    import datasets
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset
+
+    root, (good, broken) = run
+    layout = LogLayout(root)
+    events = datasets.load_dataset("parquet", data_files=str(layout.events_dir / "*.parquet"), split="train")
+    results = datasets.load_dataset("parquet", data_files=str(layout.results_dir / "*.parquet"), split="train")
+    frames = LeRobotDataset("local/recent_episodes", root=layout.dataset_dir, video_backend="pyav")
+    assert frames.num_episodes == 2 and frames.num_frames == good.steps + broken.steps
+    assert sorted(results["episode_index"]) == [0, 1]
+    mcap_events = read_mcap(layout.mcap(0)).events
+    episode0 = [row for row in events if row["episode_index"] == 0]
+    assert [row["event"] for row in episode0] == [e["event"] for e in mcap_events]
+    assert [row["frame_index"] for row in episode0] == [e["frame_index"] for e in mcap_events]
+    patch = next(row for row in episode0 if row["event"] == "patch_applied" and row["kind"] == "revise")
+    frame = frames[patch["frame_index"]]  # events join the frames on (episode_index, frame_index)
+    assert int(frame["episode_index"]) == 0 and int(frame["frame_index"]) == patch["frame_index"]
+    np.testing.assert_allclose(frames[0]["action"].numpy(), read_mcap_action(layout.mcap(0)), atol=1e-6)
+
+
+def read_mcap_action(path: Path) -> list[float]:
+    from mcap.reader import make_reader
+
+    with open(path, "rb") as stream:
+        for _s, _c, message in make_reader(stream).iter_messages(topics=["/action"]):
+            return json.loads(message.data)["action"]
+    raise AssertionError("no action")
+
+
+def test_verify_finds_the_logs_consistent_and_replay_rebuilds_the_recording(run, tmp_path):
+    from logs.replay import replay_episode
+    from logs.verify import verify
+
+    root, (good, broken) = run
+    report = verify(root)
+    assert report.ok, (report.problems, [e.problems for e in report.episodes])
+    assert [e.steps["dataset"] for e in report.episodes] == [good.steps, broken.steps]
+    replayed = read_rrd(replay_episode(root, 0, tmp_path / "replay.rrd"))
+    assert replayed.steps == good.steps and replayed.events == read_rrd(LogLayout(root).rrd(0)).events
+
+
+def test_failure_report_lists_the_injected_categories(run, tmp_path):
+    from logs.failure_report import failure_table, plot_failures
+
+    root, _ = run
+    table = failure_table([root])
+    assert dict(table.counts["rejected spans"]) == {
+        "hallucinated_kwarg": 1,
+        "empty_continuation": 1,
+        "non_executable": 1,
+    }
+    assert dict(table.counts["failed episodes"]) == {"non_executable": 1}
+    assert "| hallucinated_kwarg | 1 | 0 | 0 |" in table.markdown()
+    png = plot_failures(table, tmp_path / "failures.png")
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_upload_pushes_dataset_tables_and_card_to_the_hub(run):
+    from logs.upload import upload
+
+    root, _ = run
+    hub = RecordingHub()
+    url = upload(root, "someone/recent-runs", private=True, api=hub)
+    assert url.endswith("someone/recent-runs") and hub.private is True
+    assert {"meta/info.json", "grounding_events/episode_000000.parquet", "results/episode_000001.parquet"} <= hub.files
+    assert not any(f.startswith(("mcap/", "rerun/")) for f in hub.files)
+    card = hub.card
+    assert "config_name: grounding_events" in card and "2 episodes (1 successful)" in card
+    assert hub.tags == ["v3.0"]
+
+
+@pytest.mark.skipif(not os.environ.get("HF_TOKEN"), reason="needs HF_TOKEN and a network to reach the Hub")
+def test_upload_to_the_real_hub(run):  # pragma: no cover - no machine here reaches the Hub
+    from huggingface_hub import HfApi
+
+    from logs.upload import upload
+
+    root, _ = run
+    user = HfApi().whoami()["name"]
+    upload(root, f"{user}/recent-logs-test", private=True)
+
+
+class RecordingHub:
+    """Stands in for ``huggingface_hub.HfApi``: records what would be pushed."""
+
+    def __init__(self):
+        self.files: set[str] = set()
+        self.card = ""
+        self.tags: list[str] = []
+        self.private = None
+
+    def create_repo(self, repo_id, *, repo_type, private, exist_ok):
+        assert repo_type == "dataset"
+        self.private = private
+        return f"https://huggingface.co/datasets/{repo_id}"
+
+    def upload_file(self, *, path_or_fileobj, path_in_repo, repo_id, repo_type):
+        self.card = Path(path_or_fileobj).read_text()
+        self.files.add(path_in_repo)
+
+    def upload_folder(self, *, folder_path, repo_id, repo_type, path_in_repo=""):
+        for path in Path(folder_path).rglob("*"):
+            if path.is_file():
+                self.files.add(str(Path(path_in_repo) / path.relative_to(folder_path)))
+
+    def create_tag(self, repo_id, *, tag, repo_type, exist_ok):
+        self.tags.append(tag)
+
+
+class BrokenSink:
+    def begin(self, start):
+        pass
+
+    def event(self, stamped):
+        pass
+
+    def step(self, step):
+        raise OSError("disk full")
+
+    def end(self, result):
+        pass
+
+    def close(self):
+        pass
+
+
+def test_a_failing_sink_is_switched_off_and_the_episode_goes_on(tmp_path, ontology):
+    agent = RecentAgent(AgentSettings(backend="rule"), ontology=ontology)
+    recorder = Recorder(tmp_path, ["mcap"])
+    recorder.sinks.append(BrokenSink())
+    with recorder:
+        result = run_episode(agent, "kinematic/press_button", "UR5e", seed=0, recorder=recorder)
+    assert result.success
+    assert recorder.failed == {"BrokenSink": "OSError: disk full"}
+    assert read_mcap(LogLayout(tmp_path).mcap(0)).steps == result.steps
+
+
+CHILD = """
+import sys
+from logs.recorder import Recorder
+from recent_plugin.agent import AgentSettings, RecentAgent
+from recent_plugin.episode import run_episode
+recorder = Recorder(sys.argv[1])
+run_episode(RecentAgent(AgentSettings(backend="rule")), "kinematic/tidy_bench", "UR5e", seed=0, recorder=recorder)
+"""
+
+
+def test_sigkill_mid_episode_then_recover_salvages_everything_flushed(tmp_path):
+    from logs.verify import recover, verify
+
+    layout = LogLayout(tmp_path)
+    child = subprocess.Popen([sys.executable, "-c", CHILD, str(tmp_path)], cwd=Path(__file__).parents[1])
+    try:
+        seen = None
+        deadline = time.time() + 240
+        while time.time() < deadline and child.poll() is None:
+            if layout.mcap(0).exists():
+                contents = read_mcap(layout.mcap(0))
+                if contents.steps >= 120:
+                    seen = contents
+                    break
+            time.sleep(0.5)
+        assert seen is not None, "the episode never got 120 steps into its log"
+        child.send_signal(signal.SIGKILL)
+        child.wait(timeout=30)
+    finally:
+        if child.poll() is None:
+            child.kill()
+    assert not verify(tmp_path).ok  # the interrupted episode is reported
+    salvaged = recover(tmp_path)
+    assert len(salvaged) == 2
+    recovered = read_mcap(layout.mcap_dir / "episode_000000.recovered.mcap")
+    assert recovered.complete
+    assert recovered.steps >= seen.steps and len(recovered.events) >= len(seen.events)
+    assert recovered.events[: len(seen.events)] == seen.events
+    assert read_rrd(layout.rerun_dir / "episode_000000.recovered.rrd").events >= 1
+    assert verify(tmp_path).ok  # recovered files are accounted for
+    Recorder(tmp_path, ["mcap"]).close()  # the next run sets the interrupted files aside
+    assert sorted(p.suffix for p in layout.interrupted_dir.iterdir()) == [".mcap", ".mcap", ".rrd", ".rrd"]
