@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import json
 import logging
+import queue
+import threading
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 
@@ -64,14 +66,36 @@ class _Episode:
 
 
 class DatasetSink:
-    """Writes each ended episode; the dataset for the next one is opened right after (see ``_prepare``)."""
+    """Writes ended episodes on a writer thread, so the robot never waits for parquet files.
+
+    The thread is started with the sink (threads cannot start while the interpreter exits, when a
+    ``lerobot-eval`` run's last episodes are committed); ``close()`` waits for it to finish. An
+    error on the thread switches the sink off at the next call.
+    """
 
     def __init__(self, layout: LogLayout):
         self.layout = layout
         self._episodes: dict[int, _Episode] = {}
         self._ended: list[tuple[Stamped, _Episode]] = []  # waiting for the episodes still open
         self._ready = None  # the LeRobotDataset opened for the next episode, if one exists on disk
-        self._prepare()
+        self._jobs: queue.Queue = queue.Queue()
+        self._error: BaseException | None = None
+        self._writer = threading.Thread(target=self._work, name="recent-dataset-writer", daemon=True)
+        self._writer.start()
+        self._jobs.put([])  # first job: open the existing dataset
+
+    def _work(self) -> None:
+        while (job := self._jobs.get()) is not None:
+            try:
+                self._commit(job)
+            except BaseException as exc:  # noqa: BLE001 - reported to the recorder on the next call
+                log.exception("writing episodes to %s failed", self.layout.root)
+                self._error = exc
+
+    def _raise_pending(self) -> None:
+        if self._error is not None:
+            error, self._error = self._error, None
+            raise error
 
     def _prepare(self) -> None:
         """Open the existing dataset now, not when the next episode ends.
@@ -93,6 +117,7 @@ class DatasetSink:
                 log.debug("could not open %s ahead of the next episode: %s", self.layout.dataset_dir, exc)
 
     def begin(self, start: Stamped) -> None:
+        self._raise_pending()
         self._episodes[start.episode_index] = _Episode(start.event)  # type: ignore[arg-type]
         self.event(start)
 
@@ -115,19 +140,30 @@ class DatasetSink:
         self._ended.append((result, episode))
         if not self._episodes:
             ended, self._ended = self._ended, []
-            self._save_frames([(r.episode_index, e) for r, e in ended if e.frames])
-            for r, e in ended:  # the results row last: it marks the episode committed
-                write_parquet_atomically(e.events, self.layout.events(r.episode_index))
-                row = {"episode_index": r.episode_index, "num_frames": len(e.frames), **r.event.payload()}
-                row.update(backend=e.start.backend, model=e.start.model, mode=e.start.mode)
-                row.update(variations=e.start.variations)
-                write_parquet_atomically([row], self.layout.results(r.episode_index))
+            self._jobs.put(ended)
+        self._raise_pending()
+
+    def _commit(self, ended: list[tuple[Stamped, _Episode]]) -> None:
+        if not ended:
+            self._prepare()
+            return
+        self._save_frames([(r.episode_index, e) for r, e in ended if e.frames])
+        for r, e in ended:  # the results row last: it marks the episode committed
+            write_parquet_atomically(e.events, self.layout.events(r.episode_index))
+            row = {"episode_index": r.episode_index, "num_frames": len(e.frames), **r.event.payload()}
+            row.update(backend=e.start.backend, model=e.start.model, mode=e.start.mode)
+            row.update(variations=e.start.variations)
+            write_parquet_atomically([row], self.layout.results(r.episode_index))
 
     def close(self) -> None:
-        """Episodes that never ended are not written: a dataset holds whole episodes only."""
+        """Wait for the writer; episodes that never ended are not written (whole episodes only)."""
         if self._episodes:
             log.warning("%d unfinished episode(s) not written to the dataset", len(self._episodes))
         self._episodes.clear()
+        if self._writer.is_alive():
+            self._jobs.put(None)
+            self._writer.join()
+        self._raise_pending()
 
     def _save_frames(self, episodes: list[tuple[int, _Episode]]) -> None:
         if not episodes:

@@ -99,6 +99,14 @@ def test_mcap_holds_foxglove_messages_and_json_events(run):
     assert stamps == sorted(stamps) and stamps[0] > 1.6e18  # nanoseconds since the epoch
 
 
+def test_rerun_opens_the_mcap(run):
+    from rerun.chunk import McapReader
+
+    root, _ = run
+    entities = {chunk.entity_path for chunk in McapReader(str(LogLayout(root).mcap(0))).stream().collect().stream()}
+    assert {"/tf", "/log", "/joint_states", "/action", "/recent/patch_applied", "/recent/check_verdict"} <= entities
+
+
 def test_rerun_recording_matches_the_mcap(run):
     from logs.verify import rerun_executable
 
