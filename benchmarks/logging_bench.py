@@ -49,8 +49,11 @@ def main() -> None:
         }
         seconds = dict.fromkeys(SETTINGS, 0.0)
         steps = 0
+        names = list(SETTINGS)
         for episode in range(args.episodes):
-            for name, (_, camera) in SETTINGS.items():  # interleaved: drift hits every setting alike
+            order = names[episode % len(names) :] + names[: episode % len(names)]  # rotated: no setting always first
+            for name in order:  # interleaved: drift hits every setting alike
+                camera = SETTINGS[name][1]
                 started = time.perf_counter()
                 result = run_episode(
                     agent, args.task, args.robot, seed=episode, recorder=recorders[name], camera=camera
@@ -65,7 +68,7 @@ def main() -> None:
     per_episode = {name: total / args.episodes for name, total in seconds.items()}
     print(
         f"\n{args.task} on {args.robot}, {args.episodes} episodes per setting (seeds 0..{args.episodes - 1}, "
-        f"{steps / args.episodes:.0f} steps on average), rule backend, settings interleaved"
+        f"{steps / args.episodes:.0f} steps on average), rule backend, settings interleaved in rotating order"
     )
     print(f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}\n")
     print("| setting | wall time per episode (incl. final flush) | ratio to the same run without sinks |")

@@ -122,7 +122,7 @@ def run_episode(
     (``camera``: with an 84×84 front view).
     """
     if env is not None:
-        return _run(agent, env, task_id, robot, seed, progress, to_completion, recorder)
+        return _run(agent, env, task_id, robot, seed, progress, to_completion, recorder, camera)
     env = RecentEnv(
         task=task_id,
         robot=robot,
@@ -133,7 +133,7 @@ def run_episode(
         variations=variations,
     )
     try:
-        return _run(agent, env, task_id, robot, seed, progress, to_completion, recorder)
+        return _run(agent, env, task_id, robot, seed, progress, to_completion, recorder, camera)
     finally:
         env.close()
 
@@ -147,6 +147,7 @@ def _run(
     progress: bool,
     to_completion: bool,
     recorder: Recorder | None,
+    camera: bool,
 ) -> EpisodeResult:
     started = time.perf_counter()
     raw, _ = env.reset(seed=seed)
@@ -166,7 +167,7 @@ def _run(
     while True:
         action = executor.act(Observation.decode(raw["agent_pos"], raw["environment_state"], names))
         if episode is not None:
-            image = env.render() if env.render_mode == "rgb_array" else None
+            image = env.render() if camera else None
             episode.step(raw["agent_pos"], raw["environment_state"], action, image)
         raw, _, terminated, truncated, info = env.step(action)
         steps += 1
