@@ -58,6 +58,13 @@ def event_row(stamped: Stamped) -> dict:
     }
 
 
+def result_row(result: Stamped, start: EpisodeStarted, num_frames: int) -> dict:
+    """The episode's row in ``results/``: its EpisodeEnded fields plus how it was run."""
+    row = {"episode_index": result.episode_index, "num_frames": num_frames, **result.event.payload()}
+    row.update(backend=start.backend, model=start.model, mode=start.mode, variations=start.variations)
+    return row
+
+
 @dataclass
 class _Episode:
     start: EpisodeStarted
@@ -150,10 +157,7 @@ class DatasetSink:
         self._save_frames([(r.episode_index, e) for r, e in ended if e.frames])
         for r, e in ended:  # the results row last: it marks the episode committed
             write_parquet_atomically(e.events, self.layout.events(r.episode_index))
-            row = {"episode_index": r.episode_index, "num_frames": len(e.frames), **r.event.payload()}
-            row.update(backend=e.start.backend, model=e.start.model, mode=e.start.mode)
-            row.update(variations=e.start.variations)
-            write_parquet_atomically([row], self.layout.results(r.episode_index))
+            write_parquet_atomically([result_row(r, e.start, len(e.frames))], self.layout.results(r.episode_index))
 
     def close(self) -> None:
         """Wait for the writer; episodes that never ended are not written (whole episodes only)."""

@@ -17,7 +17,7 @@ from typing import Protocol
 import numpy as np
 
 from logs.events import EpisodeEnded, EpisodeStarted, Event, Stamped, Step
-from logs.layout import LogLayout, episode_number
+from logs.layout import LogLayout, episode_number, write_parquet_atomically
 from robosuite_envs.primitives.session import CONTROL_FREQ
 
 log = logging.getLogger(__name__)
@@ -63,13 +63,23 @@ class Recorder:
     def __init__(self, root: str | Path, sinks: Sequence[str] = SINKS):
         self.layout = LogLayout(Path(root))
         self.layout.root.mkdir(parents=True, exist_ok=True)
-        self._next = self.layout.next_episode()
+        self._next = self._first = self.layout.next_episode()
         set_aside_interrupted(self.layout, self._next)
         self.sinks = make_sinks(self.layout, sinks)
         self.failed: dict[str, str] = {}  # sink class -> the error that switched it off
 
+    @property
+    def last_episode(self) -> int | None:
+        """Index of the most recently started episode (None before the first)."""
+        return self._next - 1 if self._next > self._first else None
+
+    @property
+    def writes_results(self) -> bool:
+        """Whether a sink writes the result row that commits an episode (else the recorder does)."""
+        return any(type(s).__name__ == "DatasetSink" for s in self.sinks)
+
     def start_episode(self, started: EpisodeStarted) -> EpisodeLog:
-        episode = EpisodeLog(self, self._next)
+        episode = EpisodeLog(self, self._next, started)
         self._next += 1
         self._fan_out("begin", episode.stamp(started))
         return episode
@@ -97,9 +107,10 @@ class Recorder:
 class EpisodeLog:
     """The handle the agent's loop holds for one episode: ``emit`` events, ``step`` frames, ``end``."""
 
-    def __init__(self, recorder: Recorder, index: int):
+    def __init__(self, recorder: Recorder, index: int, started: EpisodeStarted):
         self.recorder = recorder
         self.index = index
+        self.started = started
         self.frame_index = 0
         self.ended = False
 
@@ -129,7 +140,14 @@ class EpisodeLog:
     def end(self, result: EpisodeEnded) -> None:
         if not self.ended:
             self.ended = True
-            self.recorder._fan_out("end", self.stamp(result))
+            stamped = self.stamp(result)
+            self.recorder._fan_out("end", stamped)
+            if not self.recorder.writes_results:  # without the dataset sink, commit the episode here
+                from logs.dataset_sink import result_row
+
+                write_parquet_atomically(
+                    [result_row(stamped, self.started, self.frame_index)], self.recorder.layout.results(self.index)
+                )
 
 
 def set_aside_interrupted(layout: LogLayout, next_episode: int) -> list[Path]:

@@ -117,6 +117,6 @@ def _log_record(recorder) -> dict | None:
         return None
     return {
         "dir": str(recorder.layout.root),
-        "episode": recorder.layout.next_episode() - 1,
+        "episode": recorder.last_episode,
         "failed_sinks": dict(recorder.failed),
     }

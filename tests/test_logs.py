@@ -255,6 +255,8 @@ def test_a_failing_sink_is_switched_off_and_the_episode_goes_on(tmp_path, ontolo
     assert result.success
     assert recorder.failed == {"BrokenSink": "OSError: disk full"}
     assert read_mcap(LogLayout(tmp_path).mcap(0)).steps == result.steps
+    assert LogLayout(tmp_path).committed() == [0]  # committed without the dataset sink too
+    assert Recorder(tmp_path, ["mcap"]).last_episode is None and LogLayout(tmp_path).next_episode() == 1
 
 
 CHILD = """
