@@ -104,9 +104,7 @@ def _run(args) -> int:
     )
     log = _log_record(recorder)
     if log:
-        print(
-            f"logged episode {log['episode']} to {log['dir']} (replay: recent replay {log['dir']} --episode {log['episode']})"
-        )
+        print(f"logged episode {log['episode']} to {log['dir']} (watch it: recent replay {log['replay']})")
         for sink, error in log["failed_sinks"].items():
             print(f"  log sink {sink} failed and was switched off: {error}")
     return 0 if result.success else 1
@@ -118,5 +116,8 @@ def _log_record(recorder) -> dict | None:
     return {
         "dir": str(recorder.layout.root),
         "episode": recorder.last_episode,
+        "replay": str(recorder.layout.rrd(recorder.last_episode))
+        if recorder.last_episode is not None and recorder.layout.rrd(recorder.last_episode).exists()
+        else f"{recorder.layout.root} --episode {recorder.last_episode}",
         "failed_sinks": dict(recorder.failed),
     }
