@@ -12,7 +12,7 @@ from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from logs.layout import LogLayout
+from logs.layout import LogLayout, log_roots
 from logs.readers import read_table
 from recent_plugin.failures import FailureCategory
 
@@ -39,8 +39,8 @@ class FailureTable:
 
 def failure_table(roots: list[str | Path]) -> FailureTable:
     table = FailureTable()
-    for root in roots:
-        layout = LogLayout(Path(root))
+    for root in log_roots(roots):
+        layout = LogLayout(root)
         for episode in layout.committed():
             table.episodes += 1
             result = read_table(layout.results(episode))[0]

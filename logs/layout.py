@@ -73,6 +73,17 @@ class LogLayout:
         return committed[-1] + 1 if committed else 0
 
 
+def log_roots(paths: list[str | Path]) -> list[Path]:
+    """Each path that is a log directory, or the log directories below it (``recent bench`` writes one per episode)."""
+    roots: list[Path] = []
+    for path in map(Path, paths):
+        if (path / "results").is_dir() or (path / "mcap").is_dir():
+            roots.append(path)
+        else:
+            roots += sorted({p.parent for p in path.rglob("results") if p.is_dir()})
+    return roots
+
+
 def episode_name(episode: int) -> str:
     return f"episode_{episode:06d}"
 

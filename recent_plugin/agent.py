@@ -15,7 +15,12 @@ from pathlib import Path
 
 from logs.events import Emit, EpisodeStarted, ignore
 from ontology.builder import Ontology, build_ontology
-from recent_plugin.executor import PlannedSkill, TaskExecutor
+from recent_plugin.baselines import BASELINES
+from recent_plugin.baselines.adapter import BaselineAdapter
+from recent_plugin.baselines.generate import generate_skill
+from recent_plugin.baselines.program_prompt import ProgramContext
+from recent_plugin.executor import Adapter, PlannedSkill, TaskExecutor
+from recent_plugin.grounding.ablations import GROUNDING_MODES
 from recent_plugin.grounding.grounder import GroundedSkill, ground_skill
 from recent_plugin.infillers import Infiller, make_infiller
 from recent_plugin.insitu.adapter import InSituAdapter
@@ -24,9 +29,11 @@ from robosuite_envs.embodiments import get_embodiment
 from robosuite_envs.observation import Observation
 from robosuite_envs.primitives import api_functions
 from robosuite_envs.tasks import TaskSpec, get_task
-from skills.repository import LIBRARY, serve_skill
+from skills.repository import LIBRARY, Skill, serve_skill
 
 log = logging.getLogger(__name__)
+
+MODES = (*GROUNDING_MODES, *BASELINES)  # what --mode / --policy.mode accept
 
 
 @dataclass(frozen=True)
@@ -40,7 +47,7 @@ class AgentSettings:
     base_url: str | None = None  # the completions server of the openai backend
     offline_validation: bool = True  # serve only validated skills (False: the paper's ablation)
     skill_library: str | None = None  # a directory of skills (+ validation/); None: the bundled Panda skills
-    mode: str = "recent"  # grounding method: recent | name-similarity | full-regen | no-ontology (ablations)
+    mode: str = "recent"  # recent | name-similarity | full-regen | no-ontology (ablations) | cap | repair | agentless (baselines)
     insitu: bool = True  # run-time checks patch upcoming segments (False: the paper's "w/o in-situ" ablation)
     max_repairs: int = 2  # reactive repairs of failed segments, per skill
 
@@ -75,9 +82,13 @@ class RecentAgent:
         self._cache: dict[tuple[str, ...], GroundedSkill] = {}
         self.library = Path(s.skill_library) if s.skill_library else LIBRARY
 
-    def ground(self, skill_name: str, robot: str) -> tuple[GroundedSkill, bool]:
-        """Ground ``skill_name`` for ``robot``, reusing a cached result unless code, ontology or LM changed."""
-        skill = serve_skill(skill_name, self.library, require_validated=self.settings.offline_validation)
+    def ground(self, skill_name: str, robot: str, task: TaskSpec | None = None) -> tuple[GroundedSkill, bool]:
+        """Ground ``skill_name`` for ``robot``, reusing a cached result unless code, ontology or LM changed.
+
+        A baseline method writes the program from a prompt that shows ``task`` (its instruction and scene).
+        """
+        skill = self.skill(skill_name)
+        baseline = self.settings.mode in BASELINES
         key = (
             skill.name,
             skill.code_sha256,
@@ -86,12 +97,29 @@ class RecentAgent:
             self.infiller.name,
             self.infiller.model,
             self.settings.mode,
+            task.task_id if baseline and task is not None else "",
         )
         if key in self._cache:
             return self._cache[key], True
-        grounded = ground_skill(
-            skill, robot, self.ontology, self.infiller, max_retries=self.settings.max_retries, mode=self.settings.mode
-        )
+        if baseline:
+            grounded = generate_skill(
+                skill,
+                robot,
+                self.ontology,
+                self.infiller,
+                self.settings.mode,
+                program_context(task),
+                max_retries=self.settings.max_retries,
+            )
+        else:
+            grounded = ground_skill(
+                skill,
+                robot,
+                self.ontology,
+                self.infiller,
+                max_retries=self.settings.max_retries,
+                mode=self.settings.mode,
+            )
         if grounded.valid:
             self._cache[key] = grounded
         else:
@@ -113,7 +141,7 @@ class RecentAgent:
         report = EpisodeGrounding(task_id=task_id, robot=robot)
         plan, cached = [], []
         for step in task.plan:
-            grounded, hit = self.ground(step.skill, robot)
+            grounded, hit = self.ground(step.skill, robot, task)
             cached.append(hit)
             report.skills.append(grounded)
             plan.append(PlannedSkill(grounded, dict(step.args)))
@@ -149,8 +177,28 @@ class RecentAgent:
             get_task(task_id).object_names(),
         )
 
-    def adapter(self, task: TaskSpec, robot: str, emit: Emit = ignore) -> InSituAdapter:
-        """A fresh in-situ adapter for one episode (its calls and events are that episode's)."""
+    def skill(self, name: str) -> Skill:
+        """The repository's skill ``name`` as this agent serves it (validated unless the ablation says not)."""
+        return serve_skill(name, self.library, require_validated=self.settings.offline_validation)
+
+    def adapter(self, task: TaskSpec, robot: str, emit: Emit = ignore) -> Adapter:
+        """A fresh run-time adapter for one episode (its calls and events are that episode's).
+
+        RECENT's is the in-situ adapter; a baseline's regenerates after failures, its own way.
+        """
+        if self.settings.mode in BASELINES:
+            return BaselineAdapter(
+                method=self.settings.mode,
+                robot=robot,
+                api=self.ontology.api(robot),
+                apis=self.ontology.apis,
+                infiller=self.infiller,
+                context=program_context(task),
+                skills={step.skill: self.skill(step.skill) for step in task.plan},
+                max_retries=self.settings.max_retries,
+                max_repairs=self.settings.max_repairs,
+                emit=emit,
+            )
         scene = SceneFacts(
             kinds={o.name: o.kind for o in task.objects},
             sizes={o.name: tuple(o.size) for o in task.objects if o.size is not None},
@@ -166,3 +214,10 @@ class RecentAgent:
             max_repairs=self.settings.max_repairs,
             emit=emit,
         )
+
+
+def program_context(task: TaskSpec | None) -> ProgramContext:
+    """What a baseline's prompt shows of the task: its instruction and the scene's objects."""
+    if task is None:
+        return ProgramContext(instruction="")
+    return ProgramContext(task.instruction, tuple(f"{o.name} ({o.kind})" for o in task.objects))

@@ -7,8 +7,7 @@ from dataclasses import dataclass, field, fields
 from lerobot.configs import NormalizationMode, PreTrainedConfig
 from lerobot.optim import AdamConfig
 
-from recent_plugin.agent import AgentSettings
-from recent_plugin.grounding.ablations import GROUNDING_MODES
+from recent_plugin.agent import MODES, AgentSettings
 from recent_plugin.infillers import BACKENDS
 
 
@@ -32,7 +31,9 @@ class RecentConfig(PreTrainedConfig):
     base_url: str | None = AgentSettings.base_url
     offline_validation: bool = AgentSettings.offline_validation  # False: serve unvalidated skills (ablation)
     skill_library: str | None = AgentSettings.skill_library  # your own skills directory (default: bundled)
-    mode: str = AgentSettings.mode  # recent | name-similarity | full-regen | no-ontology (the paper's ablations)
+    mode: str = (
+        AgentSettings.mode
+    )  # recent | name-similarity | full-regen | no-ontology (ablations) | cap | repair | agentless
     insitu: bool = AgentSettings.insitu  # False: no run-time checks, reactive repair only (ablation)
     max_repairs: int = AgentSettings.max_repairs
     log_dir: str | None = "outputs/recent_logs"  # MCAP + Rerun + LeRobotDataset per episode; None: no logs
@@ -51,8 +52,8 @@ class RecentConfig(PreTrainedConfig):
         super().__post_init__()
         if self.backend not in BACKENDS:
             raise ValueError(f"policy.backend={self.backend!r} is not known; choose one of: {', '.join(BACKENDS)}")
-        if self.mode not in GROUNDING_MODES:
-            raise ValueError(f"policy.mode={self.mode!r} is not known; choose one of: {', '.join(GROUNDING_MODES)}")
+        if self.mode not in MODES:
+            raise ValueError(f"policy.mode={self.mode!r} is not known; choose one of: {', '.join(MODES)}")
         if self.max_retries < 0:
             raise ValueError("policy.max_retries must be >= 0")
 

@@ -16,7 +16,11 @@ from robosuite_envs.gym_env import RecentEnv
 from robosuite_envs.observation import Observation
 
 CAMERA_SIZE = 84  # the logged front view, pixels per side
-SETTLE_STEPS = 20  # after the plan ends, let objects come to rest before judging success
+SETTLE_STEPS = 20
+INTERRUPTING_CALLS = (
+    "repair",
+    "revise",
+)  # LM calls the paper's EI counts and IT times  # after the plan ends, let objects come to rest before judging success
 
 
 @dataclass
@@ -41,15 +45,20 @@ class EpisodeResult:
             c.generated_tokens for c in self.runtime_calls
         )
 
+    def interruptions(self) -> list[LMCall]:
+        """Every repair and revise call: during execution, and a baseline's answers to a rejected program."""
+        before = [c for s in self.grounding.skills for c in s.calls if c.kind in INTERRUPTING_CALLS]
+        return before + [c for c in self.runtime_calls if c.kind in INTERRUPTING_CALLS]
+
     @property
     def ei(self) -> int:
-        """Execution interruptions: revise + repair infiller calls (the paper's EI)."""
-        return len(self.runtime_calls)
+        """Execution interruptions: the number of repair + revise infiller calls (the paper's EI)."""
+        return len(self.interruptions())
 
     @property
     def it(self) -> float:
         """Idle time: seconds spent in those calls while the robot waited (the paper's IT)."""
-        return sum(c.seconds for c in self.runtime_calls)
+        return sum(c.seconds for c in self.interruptions())
 
     @property
     def igt(self) -> float:
@@ -66,7 +75,7 @@ class EpisodeResult:
 
     @property
     def lm_seconds(self) -> float:
-        return sum(s.lm_seconds for s in self.grounding.skills) + self.it
+        return sum(s.lm_seconds for s in self.grounding.skills) + sum(c.seconds for c in self.runtime_calls)
 
     def first_failure(self) -> tuple[str, str]:
         """(category, message) of what stopped the episode: a skill that failed or one that never grounded."""

@@ -2,6 +2,7 @@
 
 recent run                 ground a Panda skill onto a robot and execute it (the main job)
 recent ground              ground one skill and print the diff and the numbers
+recent bench [report]      RECENT vs ablations and baselines on the suites; tables and plots
 recent model fetch|list|path
 recent ontology build|stats|diagnose
 recent skills list|show
@@ -18,9 +19,9 @@ import argparse
 import logging
 import sys
 
-from scripts import envs_cmd, episode_cmd, ground_cmd, logs_cmd, model_cmd, ontology_cmd, skills_cmd
+from scripts import bench_cmd, envs_cmd, episode_cmd, ground_cmd, logs_cmd, model_cmd, ontology_cmd, skills_cmd
 
-COMMANDS = (episode_cmd, ground_cmd, envs_cmd, model_cmd, ontology_cmd, skills_cmd, logs_cmd)
+COMMANDS = (episode_cmd, ground_cmd, bench_cmd, envs_cmd, model_cmd, ontology_cmd, skills_cmd, logs_cmd)
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -4,13 +4,13 @@ from __future__ import annotations
 
 import argparse
 
-from recent_plugin.agent import AgentSettings, RecentAgent
-from recent_plugin.grounding.ablations import GROUNDING_MODES
+from recent_plugin.agent import MODES, AgentSettings, RecentAgent
 from recent_plugin.infillers import BACKENDS
 from recent_plugin.models.registry import DEFAULT_MODEL
 
 
-def add_lm_arguments(parser: argparse.ArgumentParser) -> None:
+def add_lm_arguments(parser: argparse.ArgumentParser, *, with_method: bool = True) -> None:
+    """LM options (and, ``with_method``, the method options: ``recent bench`` takes methods by name)."""
     lm = parser.add_argument_group("code LM")
     lm.add_argument("--backend", choices=BACKENDS, default="llamacpp", help="span generator (default: llamacpp)")
     lm.add_argument(
@@ -21,24 +21,31 @@ def add_lm_arguments(parser: argparse.ArgumentParser) -> None:
     lm.add_argument(
         "--base-url", default=None, help="completions server for --backend openai, e.g. http://127.0.0.1:8000"
     )
-    method = parser.add_argument_group("method (the paper's ablations)")
+    if not with_method:
+        return
+    method = parser.add_argument_group("method (the paper's ablations and baselines)")
     method.add_argument(
-        "--mode", choices=GROUNDING_MODES, default="recent", help="how skills are grounded (default: recent)"
+        "--mode",
+        choices=MODES,
+        default="recent",
+        help="how skills are grounded: RECENT, an ablation or a baseline (default: recent)",
     )
     method.add_argument("--no-insitu", action="store_true", help="no run-time checks; reactive repair only")
     method.add_argument("--no-offline-validation", action="store_true", help="serve skills that were never validated")
 
 
-def agent_from_args(args: argparse.Namespace) -> RecentAgent:
-    return RecentAgent(
-        AgentSettings(
-            backend=args.backend,
-            model=args.model,
-            n_threads=args.threads,
-            max_retries=args.max_retries,
-            base_url=args.base_url,
-            mode=args.mode,
-            insitu=not args.no_insitu,
-            offline_validation=not args.no_offline_validation,
-        )
+def settings_from_args(args: argparse.Namespace) -> AgentSettings:
+    return AgentSettings(
+        backend=args.backend,
+        model=args.model,
+        n_threads=args.threads,
+        max_retries=args.max_retries,
+        base_url=args.base_url,
+        mode=getattr(args, "mode", AgentSettings.mode),
+        insitu=not getattr(args, "no_insitu", False),
+        offline_validation=not getattr(args, "no_offline_validation", False),
     )
+
+
+def agent_from_args(args: argparse.Namespace) -> RecentAgent:
+    return RecentAgent(settings_from_args(args))

@@ -45,7 +45,7 @@ def register(sub) -> None:
         dest="failures_command", required=True
     )
     report = failures.add_parser("report", help="print the failure table and write a bar chart")
-    report.add_argument("dirs", nargs="+", help="one or more log directories")
+    report.add_argument("dirs", nargs="+", help="log directories, or directories holding them (a bench run's DIR/logs)")
     report.add_argument("--out", default=None, help="PNG path (default: DIR/failures.png of the first DIR)")
     report.set_defaults(handler=_failures)
 

@@ -2,15 +2,13 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import pytest
+from doubles import ScriptedInfiller
 
 from ontology.diagnosis import diagnose
 from recent_plugin.grounding.fim_prompt import build_prompt
 from recent_plugin.grounding.grounder import ground_skill
 from recent_plugin.grounding.units import unit_from_conflict
-from recent_plugin.infillers.base import Completion
 
 RULE_DIFF_LINES = {
     "-    open_gripper(env, task)",
@@ -52,21 +50,6 @@ def test_rule_backend_grounds_with_zero_tokens(ontology, put_in_bin, rule_infill
     }
     assert changed == RULE_DIFF_LINES
     assert grounded.generated_tokens == 0 and grounded.go == 0.0
-
-
-@dataclass
-class ScriptedInfiller:
-    """Replays fixed completions: exercises the retry path deterministically (the LM path is tested below)."""
-
-    texts: list[str]
-    name: str = "scripted"
-    model: str = "fixed"
-
-    def infill(self, unit):
-        return Completion(self.texts.pop(0), generated_tokens=7, seconds=0.01)
-
-    def count_tokens(self, text):
-        return 100
 
 
 def test_rejected_span_is_retried_with_feedback_then_accepted(ontology, put_in_bin):

@@ -13,35 +13,19 @@ import signal
 import subprocess
 import sys
 import time
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import pytest
+from doubles import ScriptedInfiller
 
 from logs.layout import LogLayout
 from logs.readers import decoded_protobuf, read_mcap, read_rrd, read_table
 from logs.recorder import Recorder
 from recent_plugin.agent import AgentSettings, RecentAgent
 from recent_plugin.episode import run_episode
-from recent_plugin.infillers.base import Completion
 
 TASK = "kinematic/cube_on_plate"
-
-
-@dataclass
-class ScriptedInfiller:
-    """Fixed completions, to inject grounding failures of known categories."""
-
-    texts: list[str]
-    name: str = "scripted"
-    model: str = "fixed"
-
-    def infill(self, unit):
-        return Completion(self.texts.pop(0), generated_tokens=5, seconds=0.01)
-
-    def count_tokens(self, text):
-        return 100
 
 
 @pytest.fixture(scope="module")
@@ -52,12 +36,13 @@ def run(tmp_path_factory, ontology):
         AgentSettings(backend="rule", max_retries=2),
         ontology=ontology,
         infiller=ScriptedInfiller(
-            [
+            tokens=5,
+            texts=[
                 "ur5_release_at(env, task, place_pos=drop_pos)",
                 "ur5_grasp_at(env, task, grasp_pos=obj_pos, approach_distance=0.1)",  # hallucinated kwarg
                 "",  # empty continuation
                 "import os",  # non-executable
-            ]
+            ],
         ),
     )
     with Recorder(root) as recorder:

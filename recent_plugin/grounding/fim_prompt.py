@@ -19,6 +19,7 @@ STATEMENT_LINES = r"root ::= line+" + "\n" + r'line ::= [ ]* [a-zA-Z_] [^\n]* "\
 
 
 RUNTIME_SPAN_TYPES = ("in_situ_revision", "reactive_repair")  # spans patched while the skill runs
+BASELINE_SPAN_TYPES = ("program_synthesis", "localized_repair")  # the baselines' (recent_plugin/baselines)
 
 
 @dataclass(frozen=True)
@@ -39,6 +40,12 @@ def hint_lines(span_type: str, hints: Hints) -> list[str]:
     if span_type in RUNTIME_SPAN_TYPES:  # an insertion: what was observed and the edit in words
         rejected = [f"Rejected before: {hints.feedback}"] if hints.feedback else []
         return [*rejected, f"{hints.observation}: {hints.reason}"]
+    if span_type in BASELINE_SPAN_TYPES:  # the prompt header holds the API; hints carry only the error
+        failed = [f"Failed before: {hints.feedback}"] if hints.feedback else []
+        observed = [f"Observed: {hints.observation}"] if hints.observation else []
+        if span_type == "program_synthesis":
+            return [*failed, f"Program for {hints.robot}:"]
+        return [f"Was: {_one_line(hints.original_call)}", *failed, *observed, f"Rewrite it for {hints.robot}:"]
     if span_type == "full_regeneration":  # the whole body: every conflict's cue (or only the API)
         rejected = [f"Rejected before: {hints.feedback}"] if hints.feedback else []
         return [*rejected, f"{hints.robot}: {hints.reason}"]

@@ -220,7 +220,7 @@ def ground_skill(
         conflict = pending.pop()  # last first: earlier offsets stay valid
         accepted = _resolve(result, conflict, pending, robot, infiller, api, apis, max_retries)
         if accepted is None:
-            result.verdict = _unrecoverable(
+            result.verdict = unrecoverable(
                 result,
                 f"unrecoverable: could not ground {conflict.original!r} at line {conflict.span.line} after {max_retries + 1} attempts",
             )
@@ -251,11 +251,13 @@ def infill_until_valid(
     kind: str,
     max_retries: int,
     calls: list[LMCall],
+    retry_kind: str | None = None,
 ) -> Attempt | None:
     """Ask for a span, judge it, retry with the rejection as feedback; every call is recorded in ``calls``.
 
     ``make_unit(feedback, attempt)`` cuts the unit; ``judge(unit, text)`` returns the verdict and
     the candidate program. The one loop behind grounding, regeneration, revision and repair.
+    ``retry_kind`` records the retries under another kind (a baseline's answer to an error is a repair).
     """
     feedback = None
     for attempt in range(max_retries + 1):
@@ -266,7 +268,7 @@ def infill_until_valid(
         prompt = build_prompt(unit, 0)
         calls.append(
             LMCall(
-                kind=kind,
+                kind=kind if attempt == 0 or retry_kind is None else retry_kind,
                 span_type=unit.span_type,
                 original=unit.hints.original_call,
                 text=text,
@@ -286,7 +288,8 @@ def infill_until_valid(
     return None
 
 
-def _unrecoverable(result: GroundedSkill, message: str) -> Verdict:
+def unrecoverable(result: GroundedSkill, message: str) -> Verdict:
+    """The verdict of a skill no attempt could ground: the category of its last rejected call."""
     category = result.calls[-1].category if result.calls else None
     return Verdict.reject(FailureCategory(category or FailureCategory.EMPTY_CONTINUATION), message)
 
@@ -316,7 +319,7 @@ def _regenerate(result: GroundedSkill, skill: Skill, robot, infiller, api, apis,
         calls=result.calls,
     )
     if accepted is None:
-        result.verdict = _unrecoverable(
+        result.verdict = unrecoverable(
             result, f"unrecoverable: the regenerated skill did not validate after {max_retries + 1} attempts"
         )
         return

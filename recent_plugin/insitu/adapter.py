@@ -188,7 +188,9 @@ class InSituAdapter:
         if accepted:
             before = executor.source()
             executor.replace_segment(index, after.replace("\n", "\n" + executor.indent))
-            self.emit(PatchApplied(executor.grounded.skill, kind, _diff(before, executor.source()), executor.source()))
+            self.emit(
+                PatchApplied(executor.grounded.skill, kind, source_diff(before, executor.source()), executor.source())
+            )
         return True
 
     def _infill_insertion(
@@ -234,7 +236,8 @@ class InSituAdapter:
         return textwrap.dedent(accepted.unit.indent + accepted.text), attempts
 
 
-def _diff(before: str, after: str) -> str:
+def source_diff(before: str, after: str) -> str:
+    """A patch as the logs show it: the skill before and after, as a unified diff."""
     return "".join(
         difflib.unified_diff(
             before.splitlines(keepends=True), after.splitlines(keepends=True), "before", "after (patched)"

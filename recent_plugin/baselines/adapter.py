@@ -1,0 +1,114 @@
+"""How a baseline answers a failure while it runs: regenerate, then go on from the current state.
+
+Baselines have no run-time checks (they react to errors only), so :meth:`guard` and
+:meth:`before_segment` do nothing. When a segment fails, ``cap`` regenerates the whole program
+with the error appended and runs it from its first statement; ``repair`` rewrites the failed
+statement with the error and the observed scene; ``agentless`` rewrites the statement first and
+the whole function if the skill fails again. Every call is a ``repair`` (EI, IT).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from logs.events import Emit, PatchApplied, ignore
+from ontology.specs import ApiSpec
+from recent_plugin.baselines.program_prompt import EMPTY, ProgramContext, program_unit, statement_unit
+from recent_plugin.executor import Segment, SkillExecutor, SkillFailure
+from recent_plugin.grounding.grounder import GroundedSkill, LMCall, call_events, infill_until_valid
+from recent_plugin.grounding.units import RefactoringUnit, apply_unit
+from recent_plugin.grounding.validation import Verdict, validate_program
+from recent_plugin.infillers.base import Infiller
+from recent_plugin.insitu.adapter import AdaptationEvent, source_diff
+from robosuite_envs.observation import Observation
+from skills.repository import Skill
+
+
+@dataclass
+class BaselineAdapter:
+    method: str
+    robot: str
+    api: ApiSpec
+    apis: dict[str, ApiSpec]
+    infiller: Infiller
+    context: ProgramContext
+    skills: dict[str, Skill]  # the plan's skills by name (their prompts' examples)
+    max_retries: int = 2
+    max_repairs: int = 2  # per skill
+    calls: list[LMCall] = field(default_factory=list)
+    events: list[AdaptationEvent] = field(default_factory=list)
+    emit: Emit = ignore
+    _repairs: dict[str, int] = field(default_factory=dict)
+
+    def guard(self, grounded: GroundedSkill, segments: list[Segment]) -> None:
+        """Baselines check nothing ahead of time."""
+
+    def before_segment(self, executor: SkillExecutor, index: int) -> None:
+        """Baselines check nothing ahead of time."""
+
+    def repair(self, executor: SkillExecutor, failure: SkillFailure) -> bool:
+        name = executor.grounded.skill
+        if self._repairs.get(name, 0) >= self.max_repairs or failure.segment < executor.cursor:
+            return False
+        self._repairs[name] = self._repairs.get(name, 0) + 1
+        skill = self.skills[name]
+        error = f"line {failure.line}: {failure.category}: {failure.message}"
+        observation = describe_scene(executor.session.obs)
+        whole = self.method == "cap" or (self.method == "agentless" and self._repairs[name] > 1)
+        code = executor.source()
+        segment = executor.segments[failure.segment]
+
+        def feedback(rejected: str | None) -> str:
+            return error if rejected is None else f"{error}; then rejected: {rejected}"
+
+        if whole:
+            base = skill.code
+
+            def make_unit(rejected: str | None, attempt: int) -> RefactoringUnit:
+                return program_unit(
+                    skill, self.robot, self.api, self.method, self.context,
+                    feedback=f"{feedback(rejected)}; observed: {observation}", attempt=attempt,
+                )  # fmt: skip
+        else:
+            base = code
+            span = executor.segment_offsets(failure.segment)
+
+            def make_unit(rejected: str | None, attempt: int) -> RefactoringUnit:
+                return statement_unit(
+                    code, span, skill, self.robot, self.api, self.method, self.context,
+                    feedback=feedback(rejected), observation=observation, attempt=attempt,
+                )  # fmt: skip
+
+        def judge(unit: RefactoringUnit, text: str) -> tuple[Verdict, str]:
+            candidate = apply_unit(base, unit, text)
+            return (
+                validate_program(candidate, self.api, executor.grounded.entry, self.apis) if text else EMPTY
+            ), candidate
+
+        before = len(self.calls)
+        accepted = infill_until_valid(
+            self.infiller, make_unit, judge, kind="repair", max_retries=self.max_retries, calls=self.calls
+        )
+        for call in self.calls[before:]:
+            for event in call_events(name, call):
+                self.emit(event)
+        after = accepted.text if accepted is not None else None
+        self.events.append(
+            AdaptationEvent(
+                "repair", name, failure.segment, (str(failure.category),), observation, segment.source, after,
+                len(self.calls) - before,
+            )
+        )  # fmt: skip
+        if accepted is None:
+            return False
+        previous = executor.source()
+        executor.replace_segment(failure.segment, accepted.text)
+        self.emit(PatchApplied(name, "repair", source_diff(previous, executor.source()), executor.source()))
+        return True
+
+
+def describe_scene(obs: Observation) -> str:
+    """The observed scene in one line, as a baseline's repair prompt shows it."""
+    parts = [f"{name} at [{', '.join(f'{v:.3f}' for v in state.pos)}]" for name, state in obs.objects.items()]
+    held = [name for name, state in obs.objects.items() if state.grasped]
+    return "; ".join(parts) + (f"; holding {', '.join(held)}" if held else "")

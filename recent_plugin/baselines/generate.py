@@ -1,0 +1,78 @@
+"""A baseline's program before execution: generated whole, then answered the baseline's way until it validates.
+
+The first call writes the whole body (``ground``); a rejected program is what would have raised
+once run, so each later call is the baseline's answer to an error (``repair``): ``cap``
+regenerates the whole program with the error appended, ``repair`` and ``agentless`` rewrite the
+statement the error points at (the whole program where it points at none).
+"""
+
+from __future__ import annotations
+
+import time
+
+from ontology.builder import Ontology
+from ontology.diagnosis import Diagnosis
+from recent_plugin.baselines.program_prompt import EMPTY, ProgramContext, program_unit, statement_span, statement_unit
+from recent_plugin.grounding.grounder import GroundedSkill, infill_until_valid, strip_imports, unrecoverable
+from recent_plugin.grounding.units import RefactoringUnit, apply_unit
+from recent_plugin.grounding.validation import Verdict, validate_program
+from recent_plugin.infillers.base import Infiller
+from skills.repository import Skill
+
+
+def generate_skill(
+    skill: Skill,
+    robot: str,
+    onto: Ontology,
+    infiller: Infiller,
+    method: str,
+    context: ProgramContext,
+    *,
+    max_retries: int = 2,
+) -> GroundedSkill:
+    """The baseline ``method``'s program for ``skill`` on ``robot`` (validated, or with the reason it is not)."""
+    started = time.perf_counter()
+    api, apis = onto.api(robot), onto.apis
+    result = GroundedSkill(
+        skill=skill.name,
+        entry=skill.entry,
+        robot=robot,
+        original=skill.code,
+        code=skill.code,
+        diagnosis=Diagnosis(skill.name, robot),  # baselines do not consult the ontology
+        skill_tokens=infiller.count_tokens(strip_imports(skill.code)),
+        backend=infiller.name,
+        model=infiller.model,
+    )
+    last: dict[str, object] = {"code": None, "verdict": None}  # the previous candidate and why it failed
+
+    def make_unit(feedback: str | None, attempt: int) -> RefactoringUnit:
+        verdict: Verdict | None = last["verdict"]  # type: ignore[assignment]
+        if attempt and method != "cap" and verdict is not None and verdict.line is not None:
+            span = statement_span(last["code"], skill.entry, verdict.line)
+            if span[0] < span[1]:  # the error points at a statement of the body: rewrite that one
+                last["base"] = last["code"]
+                return statement_unit(
+                    last["code"], span, skill, robot, api, method, context, feedback=feedback, attempt=attempt
+                )
+        last["base"] = skill.code
+        return program_unit(skill, robot, api, method, context, feedback=feedback, attempt=attempt)
+
+    def judge(unit: RefactoringUnit, text: str) -> tuple[Verdict, str]:
+        candidate = apply_unit(last["base"], unit, text)  # type: ignore[arg-type]
+        verdict = validate_program(candidate, api, skill.entry, apis) if text else EMPTY
+        last["code"], last["verdict"] = candidate, verdict
+        return verdict, candidate
+
+    accepted = infill_until_valid(
+        infiller, make_unit, judge, kind="ground", retry_kind="repair", max_retries=max_retries, calls=result.calls
+    )
+    if accepted is None:
+        result.code = last["code"] or skill.code  # type: ignore[assignment]
+        result.verdict = unrecoverable(
+            result, f"unrecoverable: no valid {method} program after {max_retries + 1} attempts"
+        )
+    else:
+        result.code, result.verdict = accepted.candidate, accepted.verdict
+    result.seconds = time.perf_counter() - started
+    return result

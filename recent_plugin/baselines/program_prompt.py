@@ -1,0 +1,117 @@
+"""The baselines' refactoring units: a program header before the skill's signature, then the span.
+
+Every baseline asks the same FIM infiller as RECENT. What differs is the prompt: a header of
+comments with the target robot's primitives and the Panda reference skill as the in-context
+example (``cap``, ``repair``), plus primitive descriptions, the scene's objects and the workspace
+bounds (``agentless``). The span is the whole body (program synthesis) or one failing statement
+(localized repair); either way generation stays proportional to what it replaces.
+"""
+
+from __future__ import annotations
+
+import ast
+import re
+from dataclasses import dataclass, replace
+
+from ontology.specs import ApiSpec
+from recent_plugin.failures import FailureCategory
+from recent_plugin.grounding.ablations import body_span
+from recent_plugin.grounding.units import Hints, RefactoringUnit, cut_unit
+from recent_plugin.grounding.validation import Verdict
+from robosuite_envs.primitives.session import TaskContext
+from robosuite_envs.subtasks import TABLE_Z
+from robosuite_envs.tabletop import TABLE_SIZE
+from skills.repository import Skill
+
+EMPTY = Verdict.reject(FailureCategory.EMPTY_CONTINUATION, "the completion is empty")
+PROGRAM = "program_synthesis"  # the whole body, written from the prompt
+STATEMENT = "localized_repair"  # one failing statement, rewritten in place
+
+
+@dataclass(frozen=True)
+class ProgramContext:
+    """What a baseline's prompt shows besides the skill: the task instruction and the scene."""
+
+    instruction: str
+    objects: tuple[str, ...] = ()  # "name (kind)"
+
+
+def header(skill: Skill, robot: str, api: ApiSpec, method: str, context: ProgramContext) -> str:
+    """Comment lines (and the example program) that precede the skill's signature in every prompt."""
+    described = method == "agentless"
+    example = re.sub(
+        rf"\bdef {re.escape(skill.entry)}\(", f"def {skill.entry}_{skill.source_embodiment.lower()}(", skill.code
+    )
+    lines = [f"# Example: this skill written for the {skill.source_embodiment} robot", example.rstrip("\n"), ""]
+    lines.append(f"# The {robot} robot has other primitives (env and task are always the first two arguments):")
+    for primitive in api.primitives:
+        about = f"  -- {primitive.description}" if described and primitive.description else ""
+        lines.append(f"#   {primitive.signature()}{about}")
+    lines.append("# Scene queries: " + ", ".join(f"task.{q}(...)" for q in TaskContext.QUERIES))
+    if described:
+        half_x, half_y = TABLE_SIZE[0] / 2, TABLE_SIZE[1] / 2
+        lines.append("# Scene objects: " + ", ".join(context.objects))
+        lines.append(
+            f"# Workspace: x in [{-half_x:.2f}, {half_x:.2f}] m, y in [{-half_y:.2f}, {half_y:.2f}] m, "
+            f"table top at z = {TABLE_Z:.2f} m; every target must lie inside it"
+        )
+    lines.append(f"# Task: {context.instruction}")
+    lines.append(f"# This step: {skill.intent} Write it for {robot}, calling only the {robot} primitives.")
+    return "\n".join(lines) + "\n"
+
+
+def program_unit(
+    skill: Skill,
+    robot: str,
+    api: ApiSpec,
+    method: str,
+    context: ProgramContext,
+    *,
+    feedback: str | None = None,
+    attempt: int = 0,
+) -> RefactoringUnit:
+    """The whole entry body of ``skill`` as one span, the header and signature before it."""
+    start, end = body_span(skill.code, skill.entry)
+    hints = Hints(robot=robot, original_call=skill.code[start:end], feedback=feedback, attempt=attempt)
+    unit = cut_unit(skill.code, start, end, PROGRAM, hints)
+    return replace(unit, prefix=header(skill, robot, api, method, context) + unit.prefix)
+
+
+def statement_unit(
+    code: str,
+    span: tuple[int, int],
+    skill: Skill,
+    robot: str,
+    api: ApiSpec,
+    method: str,
+    context: ProgramContext,
+    *,
+    feedback: str | None = None,
+    observation: str | None = None,
+    attempt: int = 0,
+) -> RefactoringUnit:
+    """One statement of ``code`` (its character range ``span``) as the span, the header before the function."""
+    start, end = span
+    hints = Hints(
+        robot=robot, original_call=code[start:end], feedback=feedback, attempt=attempt, observation=observation
+    )
+    unit = cut_unit(code, start, end, STATEMENT, hints)
+    return replace(unit, prefix=header(skill, robot, api, method, context) + unit.prefix)
+
+
+def statement_span(code: str, entry: str, line: int) -> tuple[int, int]:
+    """Character range of the entry body's top-level statement covering ``line`` (empty if none)."""
+    try:
+        tree = ast.parse(code)
+    except SyntaxError:
+        return 0, 0
+    func = next((n for n in tree.body if isinstance(n, ast.FunctionDef) and n.name == entry), None)
+    if func is None:
+        return 0, 0
+    starts = [0]
+    for text in code.splitlines(keepends=True):
+        starts.append(starts[-1] + len(text))
+    for stmt in func.body:
+        if stmt.lineno <= line <= (stmt.end_lineno or stmt.lineno):
+            return starts[stmt.lineno - 1] + stmt.col_offset, starts[stmt.end_lineno - 1] + stmt.end_col_offset
+    return 0, 0

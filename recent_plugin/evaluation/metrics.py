@@ -1,0 +1,79 @@
+"""SR, GC, GO, EI, IT (and IGT) as the paper's appendix defines them, mean ± std over seeds.
+
+Within one seed: SR is the fraction of tasks whose every subtask succeeded; GC the fraction of all
+subtasks achieved (weighted by each task's subtask count); GO, EI and IT are per-task means; IGT
+is the median time to first executable code of a cold start. Across seeds: mean and (population)
+standard deviation, as the paper reports "averaged over five runs with different random seeds".
+"""
+
+from __future__ import annotations
+
+import statistics
+from collections import defaultdict
+from collections.abc import Callable, Iterable
+
+METRICS = ("sr", "gc", "go", "ei", "it", "igt")
+LABELS = {"sr": "SR (%)", "gc": "GC (%)", "go": "GO (%)", "ei": "EI", "it": "IT (s)", "igt": "IGT (s)"}
+HIGHER_IS_BETTER = {"sr", "gc"}
+
+
+def seed_metrics(records: list[dict]) -> dict[str, float]:
+    """The metrics of one seed's episodes (one per task)."""
+    subtasks = [max(1, int(r.get("subtasks") or 1)) for r in records]
+    return {
+        "sr": 100.0 * statistics.fmean(bool(r["success"]) for r in records),
+        "gc": 100.0
+        * sum(float(r.get("gc") or 0.0) * m for r, m in zip(records, subtasks, strict=True))
+        / sum(subtasks),
+        "go": statistics.fmean(float(r.get("go", 0.0)) for r in records),
+        "ei": statistics.fmean(float(r.get("ei", 0)) for r in records),
+        "it": statistics.fmean(float(r.get("it", 0.0)) for r in records),
+        "igt": statistics.median(float(r.get("igt_cold", r.get("igt", 0.0))) for r in records),
+    }
+
+
+def summarize(records: list[dict]) -> dict[str, object]:
+    """Mean ± std over seeds of each metric, plus the episode count."""
+    by_seed: dict[int, list[dict]] = defaultdict(list)
+    for r in records:
+        by_seed[int(r["seed"])].append(r)
+    per_seed = [seed_metrics(rs) for _, rs in sorted(by_seed.items())]
+    out: dict[str, object] = {"episodes": len(records), "seeds": sorted(by_seed)}
+    for metric in METRICS:
+        values = [m[metric] for m in per_seed]
+        out[metric] = {"mean": statistics.fmean(values), "std": statistics.pstdev(values) if len(values) > 1 else 0.0}
+    return out
+
+
+def group(records: Iterable[dict], key: Callable[[dict], tuple]) -> dict[tuple, list[dict]]:
+    groups: dict[tuple, list[dict]] = defaultdict(list)
+    for r in records:
+        groups[key(r)].append(r)
+    return dict(groups)
+
+
+def aggregate(records: list[dict]) -> dict[str, object]:
+    """The results.json body: per method × suite (the paper's settings), × target, and × task."""
+    return {
+        "by_setting": {
+            f"{m}|{s}": summarize(rs)
+            for (m, s), rs in sorted(group(records, lambda r: (r["method"], r["suite"])).items())
+        },
+        "by_target": {
+            f"{m}|{s}|{t}": summarize(rs)
+            for (m, s, t), rs in sorted(group(records, lambda r: (r["method"], r["suite"], r["target"])).items())
+        },
+        "by_task": {
+            f"{m}|{t}|{task}": summarize(rs)
+            for (m, t, task), rs in sorted(group(records, lambda r: (r["method"], r["target"], r["task_id"])).items())
+        },
+    }
+
+
+def fmt(summary: dict, metric: str) -> str:
+    """``73.0 ± 3.7`` — how tables show one metric."""
+    cell = summary.get(metric)
+    if not cell:
+        return "–"
+    digits = 2 if metric in ("ei", "it", "igt") else 1
+    return f"{cell['mean']:.{digits}f} ± {cell['std']:.{digits}f}"

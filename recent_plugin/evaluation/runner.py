@@ -1,0 +1,230 @@
+"""Run the benchmark's episodes: one JSON record per (method, task, target, seed), resumable, in parallel.
+
+Each finished episode is written to ``DIR/episodes/<method>/<target>/<task>__s<seed>.json`` as
+soon as it ends (atomically), so a restarted run skips what is done. Workers are processes; each
+loads the LM once and shares it between the agents of all methods, so every method runs on the
+same backend and model. Episodes are logged as ``recent run`` logs them, one log directory per
+episode under ``DIR/logs/`` (MCAP, Rerun, LeRobotDataset, grounding events).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import platform
+import time
+from collections import Counter
+from collections.abc import Callable, Iterable
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import asdict, dataclass, field
+from multiprocessing import get_context
+from pathlib import Path
+
+from recent_plugin.agent import AgentSettings, RecentAgent
+from recent_plugin.evaluation.methods import settings_for
+from robosuite_envs.suites import SEEDS, get_suite
+
+SUITE_TARGETS = {"kinematic": ("UR5e", "Sawyer"), "end_effector": ("Robotiq85", "Suction")}
+
+
+@dataclass(frozen=True)
+class Job:
+    method: str
+    suite: str
+    task_id: str
+    target: str
+    seed: int
+
+    def record_path(self, out: Path) -> Path:
+        task = self.task_id.split("/")[-1]
+        return out / "episodes" / self.method / self.target / f"{task}__s{self.seed}.json"
+
+    def log_dir(self, out: Path) -> Path:
+        task = self.task_id.split("/")[-1]
+        return out / "logs" / self.method / self.target / f"{task}__s{self.seed}"
+
+
+@dataclass
+class BenchConfig:
+    out: Path
+    suites: tuple[str, ...] = ("kinematic",)
+    targets: tuple[str, ...] = ()  # empty: each suite's own targets (SUITE_TARGETS)
+    methods: tuple[str, ...] = ("recent",)
+    seeds: tuple[int, ...] = SEEDS
+    tasks: tuple[str, ...] = ()  # task names or ids within the suites; empty: all
+    variations: str = "on"
+    workers: int = 1
+    log_sinks: tuple[str, ...] = ("mcap", "rerun", "dataset")  # empty: no logs
+    agent: AgentSettings = field(default_factory=AgentSettings)
+
+    def jobs(self) -> list[Job]:
+        """Every episode of the run, grouped by method then target so each worker reuses its groundings."""
+        jobs = []
+        for method in self.methods:
+            for suite in self.suites:
+                specs = get_suite(suite)
+                chosen = [s for s in specs if not self.tasks or {s.task_id, s.task_id.split("/")[-1]} & set(self.tasks)]
+                for target in self.targets or SUITE_TARGETS[suite]:
+                    for spec in chosen:
+                        for seed in self.seeds:
+                            jobs.append(Job(method, suite, spec.task_id, target, seed))
+        known = {t for suite in self.suites for s in get_suite(suite) for t in (s.task_id, s.task_id.split("/")[-1])}
+        unknown = sorted(set(self.tasks) - known)
+        if unknown:
+            raise ValueError(f"unknown task(s) {', '.join(unknown)} in suite(s) {', '.join(self.suites)}")
+        return jobs
+
+
+def machine() -> dict[str, object]:
+    """The machine the numbers come from (they are only comparable on the same one)."""
+    cpu = platform.processor() or platform.machine()
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                cpu = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    return {"cpu": cpu, "cores": os.cpu_count(), "python": platform.python_version(), "platform": platform.platform()}
+
+
+# ---------------------------------------------------------------------------------------------- workers
+_WORKER: dict[str, object] = {}
+
+
+def _init_worker(config: BenchConfig) -> None:
+    """Load the LM once per worker process; agents of every method share it."""
+    from recent_plugin.infillers import make_infiller
+
+    s = config.agent
+    _WORKER["config"] = config
+    _WORKER["infiller"] = make_infiller(s.backend, s.model, n_threads=s.n_threads, seed=s.seed, base_url=s.base_url)
+    _WORKER["agents"] = {}
+
+
+def _agent(method: str) -> RecentAgent:
+    agents: dict[str, RecentAgent] = _WORKER["agents"]  # type: ignore[assignment]
+    if method not in agents:
+        config: BenchConfig = _WORKER["config"]  # type: ignore[assignment]
+        shared = next(iter(agents.values()), None)
+        agents[method] = RecentAgent(
+            settings_for(method, config.agent),
+            infiller=_WORKER["infiller"],  # type: ignore[arg-type]
+            ontology=shared.ontology if shared else None,
+        )
+    return agents[method]
+
+
+def run_job(job: Job) -> dict:
+    """One episode of ``job`` in this worker; its record (a failure to run is a record too)."""
+    from logs.recorder import Recorder
+    from recent_plugin.episode import run_episode
+
+    config: BenchConfig = _WORKER["config"]  # type: ignore[assignment]
+    recorder = Recorder(job.log_dir(config.out), config.log_sinks) if config.log_sinks else None
+    started = time.perf_counter()
+    try:
+        result = run_episode(
+            _agent(job.method), job.task_id, job.target, seed=job.seed, variations=config.variations, recorder=recorder
+        )
+    except Exception as exc:  # noqa: BLE001 - a crashed episode is a failed record, the run goes on
+        return {
+            **asdict(job),
+            "success": False,
+            "gc": 0.0,
+            "crashed": f"{type(exc).__name__}: {exc}",
+            "failure_category": "crash",
+            "wall_seconds": time.perf_counter() - started,
+        }
+    finally:
+        if recorder is not None:
+            recorder.close()
+    return episode_record(job, result, job.log_dir(config.out) if recorder else None)
+
+
+def episode_record(job: Job, result, log_dir: Path | None) -> dict:
+    """The numbers of one episode, from its recorded LM calls and the env's verdicts."""
+    category, message = result.first_failure()
+    calls = [c for s in result.grounding.skills for c in s.calls] + list(result.runtime_calls)
+    return {
+        **asdict(job),
+        "success": bool(result.success),
+        "gc": float(result.gc or 0.0),
+        "subtasks": len(result.grounding.skills),
+        "steps": result.steps,
+        "wall_seconds": round(result.wall_seconds, 3),
+        "generated_tokens": result.generated_tokens,
+        "skill_tokens": result.skill_tokens,
+        "go": round(result.go, 3),
+        "ei": result.ei,
+        "it": round(result.it, 4),
+        "igt": round(result.igt, 4),
+        # what grounding took when it was not served from the cache: the time to first code of a cold start
+        "igt_cold": round(sum(s.seconds for s in result.grounding.skills), 4),
+        "grounding_cached": result.grounding.cached,
+        "lm_seconds": round(result.lm_seconds, 4),
+        "lm_calls": len(calls),
+        "valid": all(s.valid for s in result.grounding.skills),
+        "failure_category": category if result.success is False else "",
+        "failure_message": message[:500] if result.success is False else "",
+        "rejected": dict(Counter(c.category for c in calls if not c.accepted and c.category)),
+        "failed_segments": dict(Counter(str(f.category) for f in result.failures)),
+        "backend": result.grounding.skills[0].backend if result.grounding.skills else "",
+        "model": result.grounding.skills[0].model if result.grounding.skills else "",
+        "log_dir": str(log_dir) if log_dir else None,
+    }
+
+
+# ---------------------------------------------------------------------------------------------- the run
+def pending(config: BenchConfig) -> tuple[list[Job], list[Job]]:
+    """(all jobs, the ones without a record yet): what a restarted run still has to do."""
+    jobs = config.jobs()
+    return jobs, [j for j in jobs if not j.record_path(config.out).exists()]
+
+
+def run_bench(config: BenchConfig, *, on_record: Callable[[dict], None] | None = None) -> list[dict]:
+    """Run every pending episode; returns the records of all episodes of ``config`` (old and new)."""
+    jobs, todo = pending(config)
+    config.out.mkdir(parents=True, exist_ok=True)
+    for record in _execute(config, todo):
+        path = Job(*(record[k] for k in ("method", "suite", "task_id", "target", "seed"))).record_path(config.out)
+        write_json(path, record)
+        if on_record is not None:
+            on_record(record)
+    return [load_record(j.record_path(config.out)) for j in jobs if j.record_path(config.out).exists()]
+
+
+def _execute(config: BenchConfig, jobs: list[Job]) -> Iterable[dict]:
+    if not jobs:
+        return
+    if config.workers <= 1:
+        _init_worker(config)
+        try:
+            for job in jobs:
+                yield run_job(job)
+        finally:
+            _WORKER.clear()
+        return
+    with ProcessPoolExecutor(
+        config.workers, mp_context=get_context("spawn"), initializer=_init_worker, initargs=(config,)
+    ) as pool:
+        futures = [pool.submit(run_job, job) for job in jobs]
+        for future in as_completed(futures):
+            yield future.result()
+
+
+def write_json(path: Path, data: object) -> None:
+    """Write whole or not at all: a killed run never leaves half a record behind."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_suffix(path.suffix + ".tmp")
+    tmp.write_text(json.dumps(data, indent=1, default=str))
+    os.replace(tmp, path)
+
+
+def load_record(path: Path) -> dict:
+    return json.loads(path.read_text())
+
+
+def load_records(out: Path) -> list[dict]:
+    """Every episode record of a benchmark directory."""
+    return [load_record(p) for p in sorted((out / "episodes").glob("*/*/*.json"))]

@@ -1,0 +1,135 @@
+"""``recent bench``: the paper's evaluation on our suites; ``recent bench report``: its tables and plots."""
+
+from __future__ import annotations
+
+import datetime as dt
+import os
+import shlex
+import sys
+from dataclasses import replace
+from pathlib import Path
+
+from recent_plugin.evaluation.methods import METHODS, parse_methods
+from robosuite_envs.suites import SEEDS, SUITES
+
+
+def register(sub) -> None:
+    parser = sub.add_parser(
+        "bench",
+        help="run RECENT, its ablations and baselines on the task suites (resumable); `bench report` renders tables",
+        description="Run every (method, task, target, seed) episode of a suite into DIR (finished episodes are "
+        "skipped on restart), then write DIR/results.json and DIR/report.md.",
+    )
+    parser.add_argument("--suite", default="kinematic", help=f"comma list of {', '.join(SUITES)} (default: kinematic)")
+    parser.add_argument(
+        "--target", default="", help="comma list of robots (default: the suite's: UR5e,Sawyer | Robotiq85,Suction)"
+    )
+    parser.add_argument(
+        "--method", default="recent", help=f"comma list, or all: {', '.join(METHODS)} (default: recent)"
+    )
+    parser.add_argument("--seeds", default=",".join(map(str, SEEDS)), help="comma list (default: the paper's five)")
+    parser.add_argument("--tasks", default="", help="comma list of task names within the suite (default: all)")
+    parser.add_argument(
+        "--variations", default="on", help="on (the paper's dynamic setting), off, all, or a comma list"
+    )
+    parser.add_argument("--out", default="outputs/bench", help="run directory (default: outputs/bench)")
+    parser.add_argument(
+        "--workers", type=int, default=1, help="parallel episode processes, each with its own LM (default: 1)"
+    )
+    parser.add_argument("--no-log", action="store_true", help="no per-episode MCAP/Rerun/dataset logs")
+    parser.add_argument("--log-sinks", default="mcap,rerun,dataset", help="sinks of the per-episode logs")
+    from scripts.common import add_lm_arguments
+
+    add_lm_arguments(parser, with_method=False)
+    parser.set_defaults(handler=_run)
+    sub_bench = parser.add_subparsers(dest="bench_command", metavar="report")
+    report = sub_bench.add_parser("report", help="tables (markdown) and plots (PNG) from one or more run directories")
+    report.add_argument("dirs", nargs="+", help="run directories written by `recent bench`")
+    report.add_argument(
+        "--out", dest="report_out", default=None, help="where report.md and the PNGs go (default: the first DIR)"
+    )
+    report.set_defaults(handler=_report)
+
+
+def _csv(text: str) -> tuple[str, ...]:
+    return tuple(t.strip() for t in text.split(",") if t.strip())
+
+
+def _run(args) -> int:
+    from tqdm import tqdm
+
+    from recent_plugin.evaluation.report import render_report, results_document
+    from recent_plugin.evaluation.runner import BenchConfig, machine, pending, run_bench, write_json
+    from scripts.common import settings_from_args
+
+    suites = _csv(args.suite)
+    unknown = [s for s in suites if s not in SUITES]
+    if unknown:
+        raise ValueError(f"unknown suite(s) {', '.join(unknown)}; choose from {', '.join(SUITES)}")
+    settings = settings_from_args(args)
+    if args.workers > 1 and settings.n_threads is None:  # share the cores instead of oversubscribing them
+        settings = replace(settings, n_threads=max(1, (os.cpu_count() or 2) // args.workers))
+    config = BenchConfig(
+        out=Path(args.out),
+        suites=suites,
+        targets=_csv(args.target),
+        methods=tuple(parse_methods(args.method)),
+        seeds=tuple(int(s) for s in _csv(args.seeds)),
+        tasks=_csv(args.tasks),
+        variations=args.variations,
+        workers=args.workers,
+        log_sinks=() if args.no_log else _csv(args.log_sinks),
+        agent=settings,
+    )
+    jobs, todo = pending(config)
+    print(f"{len(jobs)} episodes ({len(jobs) - len(todo)} already done) -> {config.out}", file=sys.stderr)
+    bar = tqdm(total=len(jobs), initial=len(jobs) - len(todo), unit="episode", desc="bench")
+
+    def on_record(record: dict) -> None:
+        bar.set_postfix_str(f"{record['method']} {record['task_id'].split('/')[-1]} {record['target']}: "
+                            f"{'ok' if record['success'] else record.get('failure_category') or 'fail'}")  # fmt: skip
+        bar.update(1)
+
+    records = run_bench(config, on_record=on_record)
+    bar.close()
+    header = {
+        "command": command_line(config),
+        "date": dt.datetime.now(dt.UTC).isoformat(timespec="seconds"),
+        "backend": settings.backend,
+        "model": settings.model,
+        "max_retries": settings.max_retries,
+        "machine": machine(),
+        "suites": list(config.suites),
+        "targets": list(config.targets) or "per suite",
+        "methods": list(config.methods),
+        "seeds": list(config.seeds),
+        "tasks": list(config.tasks) or "all",
+        "variations": config.variations,
+    }
+    write_json(config.out / "results.json", results_document(records, header))
+    report = render_report([config.out], config.out)
+    print(f"{len(records)} episodes; results: {config.out / 'results.json'}; report: {report}")
+    return 0
+
+
+def command_line(config) -> str:
+    """The ``recent bench`` command that reproduces ``config`` (what results.json records)."""
+    s = config.agent
+    words = ["recent", "bench", f"--suite={','.join(config.suites)}", f"--method={','.join(config.methods)}"]
+    words += [f"--seeds={','.join(map(str, config.seeds))}", f"--variations={config.variations}"]
+    words += [f"--target={','.join(config.targets)}"] if config.targets else []
+    words += [f"--tasks={','.join(config.tasks)}"] if config.tasks else []
+    words += [f"--backend={s.backend}", f"--model={s.model}", f"--max-retries={s.max_retries}"]
+    words += [f"--base-url={s.base_url}"] if s.base_url else []
+    words += [f"--workers={config.workers}", f"--out={config.out}"]
+    return shlex.join(words)
+
+
+def _report(args) -> int:
+    from recent_plugin.evaluation.report import render_report
+
+    dirs = [Path(d) for d in args.dirs]
+    path = render_report(dirs, Path(args.report_out) if args.report_out else dirs[0])
+    print(path.read_text())
+    print(f"written: {path} (+ sr_vs_go.png, failures_by_method.png)")
+    return 0

@@ -1,0 +1,110 @@
+"""``recent bench``: records per episode, resumable runs, results.json, the paper's metrics, the report."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from recent_plugin.evaluation.methods import parse_methods
+from recent_plugin.evaluation.metrics import seed_metrics, summarize
+from recent_plugin.evaluation.runner import load_records
+from scripts.cli import main
+
+RUN = [
+    "bench",
+    "--suite=kinematic",
+    "--tasks=cube_on_plate",
+    "--target=UR5e",
+    "--method=recent,recent-no-insitu",
+    "--seeds=0,1",
+    "--variations=on",
+    "--backend=rule",
+    "--log-sinks=mcap",
+]
+
+
+@pytest.fixture(scope="module")
+def bench_dir(tmp_path_factory):
+    out = tmp_path_factory.mktemp("bench")
+    assert main([*RUN, f"--out={out}"]) == 0
+    return out
+
+
+def test_every_episode_has_a_record_and_results_json_aggregates_them(bench_dir):
+    records = load_records(bench_dir)
+    assert sorted((r["method"], r["seed"]) for r in records) == [
+        ("recent", 0),
+        ("recent", 1),
+        ("recent-no-insitu", 0),
+        ("recent-no-insitu", 1),
+    ]
+    for r in records:
+        assert {"success", "gc", "go", "ei", "it", "igt", "igt_cold", "failure_category", "model"} <= r.keys()
+        assert (bench_dir / "logs" / r["method"] / "UR5e" / f"cube_on_plate__s{r['seed']}" / "mcap").is_dir()
+    results = json.loads((bench_dir / "results.json").read_text())
+    assert results["backend"] == "rule" and results["seeds"] == [0, 1] and results["machine"]["cores"]
+    assert results["command"].startswith("recent bench")
+    setting = results["by_setting"]["recent|kinematic"]
+    assert setting["episodes"] == 2 and set(setting) >= {"sr", "gc", "go", "ei", "it", "igt"}
+    assert "recent|UR5e|kinematic/cube_on_plate" in results["by_task"]
+
+
+def test_in_situ_adaptation_is_what_saves_the_obstacle_episodes(bench_dir):
+    """With variations on, a slab lands on the plate: RECENT sweeps it off, the ablation cannot."""
+    by = {(r["method"], r["seed"]): r for r in load_records(bench_dir)}
+    assert all(by[("recent", s)]["success"] for s in (0, 1))
+    assert not any(by[("recent-no-insitu", s)]["success"] for s in (0, 1))
+    assert all(by[("recent", s)]["ei"] >= 1 for s in (0, 1))
+
+
+def test_a_restarted_run_skips_finished_episodes(bench_dir, capsys):
+    before = {p: p.stat().st_mtime_ns for p in (bench_dir / "episodes").rglob("*.json")}
+    assert main([*RUN, f"--out={bench_dir}"]) == 0
+    assert "4 episodes (4 already done)" in capsys.readouterr().err
+    assert {p: p.stat().st_mtime_ns for p in (bench_dir / "episodes").rglob("*.json")} == before
+
+
+def test_report_renders_tables_checks_and_plots(bench_dir, tmp_path, capsys):
+    assert main(["bench", "report", str(bench_dir), "--out", str(tmp_path)]) == 0
+    report = (tmp_path / "report.md").read_text()
+    assert "| **recent** | 100.0 ± 0.0 |" in report  # main table, kinematic SR first
+    assert "| paper: recent (7B) | 73.00 | 81.76 | 7.85 | 0.72 | 1.77 |" in report
+    assert "| **recent-no-insitu** | 0.0 ± 0.0 |" in report  # ablation table
+    assert "- `recent-no-insitu`: SR (%) expected lower: -100.00 ✓" in report
+    assert "- kinematic: SR 100.0% (target ≥ 73.0%) ✓" in report
+    assert "| episode: timeout |" in report  # failure categories per method
+    for png in ("sr_vs_go.png", "failures_by_method.png"):
+        assert (tmp_path / png).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_metrics_follow_the_papers_definitions():
+    records = [
+        # seed 0: one task of 2 subtasks fully done, one task of 3 subtasks with 1 done
+        {"seed": 0, "success": True, "gc": 1.0, "subtasks": 2, "go": 10.0, "ei": 1, "it": 2.0, "igt_cold": 1.0},
+        {"seed": 0, "success": False, "gc": 1 / 3, "subtasks": 3, "go": 30.0, "ei": 3, "it": 4.0, "igt_cold": 3.0},
+        # seed 1: both tasks done
+        {"seed": 1, "success": True, "gc": 1.0, "subtasks": 2, "go": 10.0, "ei": 0, "it": 0.0, "igt_cold": 1.0},
+        {"seed": 1, "success": True, "gc": 1.0, "subtasks": 3, "go": 10.0, "ei": 0, "it": 0.0, "igt_cold": 1.0},
+    ]
+    s0 = seed_metrics(records[:2])
+    assert s0["sr"] == 50.0 and s0["gc"] == pytest.approx(60.0)  # GC weights subtasks: 3 of 5
+    assert s0["go"] == 20.0 and s0["ei"] == 2.0 and s0["it"] == 3.0 and s0["igt"] == 2.0
+    summary = summarize(records)
+    assert summary["sr"] == {"mean": 75.0, "std": 25.0}
+    assert summary["gc"]["mean"] == pytest.approx(80.0) and summary["ei"] == {"mean": 1.0, "std": 1.0}
+
+
+def test_unknown_methods_and_tasks_are_named():
+    assert parse_methods("all")[0] == "recent" and "cap" in parse_methods("all")
+    with pytest.raises(ValueError, match="unknown method.*capp"):
+        parse_methods("recent,capp")
+    assert main(["bench", "--tasks=nope", "--backend=rule", "--out=/tmp/never"]) == 2
+
+
+@pytest.mark.slow
+def test_parallel_workers_write_the_same_records(tmp_path):
+    out = tmp_path / "parallel"
+    assert main([*RUN, "--method=recent", f"--out={out}", "--workers=2", "--no-log"]) == 0
+    records = load_records(out)
+    assert len(records) == 2 and all(r["success"] for r in records)
