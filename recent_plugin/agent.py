@@ -45,6 +45,9 @@ class AgentSettings:
     seed: int = 0
     max_skill_steps: int = 3000
     base_url: str | None = None  # the completions server of the openai backend
+    lm_device: str | None = None  # transformers backend: cuda | cpu (None: CUDA when available)
+    lm_dtype: str = "auto"  # transformers backend: auto | float32 | float16 | bfloat16
+    lm_quantization: str | None = None  # transformers backend on CUDA: 8bit | 4bit
     offline_validation: bool = True  # serve only validated skills (False: the paper's ablation)
     skill_library: str | None = None  # a directory of skills (+ validation/); None: the bundled Panda skills
     mode: str = "recent"  # recent | name-similarity | full-regen | no-ontology (ablations) | cap | repair | agentless (baselines)
@@ -74,9 +77,7 @@ class RecentAgent:
         """Load the LM now, before any task arrives, so IGT measures grounding and not model loading."""
         self.settings = settings or AgentSettings()
         s = self.settings
-        self.infiller = infiller or make_infiller(
-            s.backend, s.model, n_threads=s.n_threads, seed=s.seed, base_url=s.base_url
-        )
+        self.infiller = infiller or infiller_for(s)
         self.ontology = ontology or build_ontology()
         self._ontology_hash = hashlib.sha256(self.ontology.to_turtle().encode()).hexdigest()
         self._cache: dict[tuple[str, ...], GroundedSkill] = {}
@@ -214,6 +215,20 @@ class RecentAgent:
             max_repairs=self.settings.max_repairs,
             emit=emit,
         )
+
+
+def infiller_for(s: AgentSettings) -> Infiller:
+    """The LM (or rule renderer) these settings name."""
+    return make_infiller(
+        s.backend,
+        s.model,
+        n_threads=s.n_threads,
+        seed=s.seed,
+        base_url=s.base_url,
+        device=s.lm_device,
+        dtype=s.lm_dtype,
+        quantization=s.lm_quantization,
+    )
 
 
 def program_context(task: TaskSpec | None) -> ProgramContext:

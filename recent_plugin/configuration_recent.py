@@ -16,8 +16,9 @@ from recent_plugin.infillers import BACKENDS
 class RecentConfig(PreTrainedConfig):
     """Grounds Panda reference skills onto the env's robot and executes them; nothing is trained.
 
-    ``backend``: ``llamacpp`` (GGUF on CPU), ``openai`` (an OpenAI-compatible completions server
-    at ``base_url``) or ``rule`` (ontology substitution, no LM).
+    ``backend``: ``llamacpp`` (GGUF on CPU), ``transformers`` (a Hub id or local directory on
+    ``lm_device``), ``openai`` (an OpenAI-compatible completions server at ``base_url``) or ``rule``
+    (ontology substitution, no LM).
     ``model``: a known model name (``recent model list``) or a path to a ``.gguf`` file.
     """
 
@@ -29,6 +30,9 @@ class RecentConfig(PreTrainedConfig):
     seed: int = AgentSettings.seed
     max_skill_steps: int = AgentSettings.max_skill_steps
     base_url: str | None = AgentSettings.base_url
+    lm_device: str | None = AgentSettings.lm_device  # transformers backend: cuda | cpu
+    lm_dtype: str = AgentSettings.lm_dtype
+    lm_quantization: str | None = AgentSettings.lm_quantization  # 8bit | 4bit (CUDA)
     offline_validation: bool = AgentSettings.offline_validation  # False: serve unvalidated skills (ablation)
     skill_library: str | None = AgentSettings.skill_library  # your own skills directory (default: bundled)
     mode: str = (

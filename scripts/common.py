@@ -14,13 +14,18 @@ def add_lm_arguments(parser: argparse.ArgumentParser, *, with_method: bool = Tru
     lm = parser.add_argument_group("code LM")
     lm.add_argument("--backend", choices=BACKENDS, default="llamacpp", help="span generator (default: llamacpp)")
     lm.add_argument(
-        "--model", default=DEFAULT_MODEL, help=f"model name or path to a .gguf file (default: {DEFAULT_MODEL})"
+        "--model",
+        default=DEFAULT_MODEL,
+        help=f"model name, .gguf path, or (transformers) Hub id / model dir (default: {DEFAULT_MODEL})",
     )
     lm.add_argument("--threads", type=int, default=None, help="CPU threads for llama.cpp (default: up to 2)")
     lm.add_argument("--max-retries", type=int, default=2, help="retries per rejected span (default: 2)")
     lm.add_argument(
         "--base-url", default=None, help="completions server for --backend openai, e.g. http://127.0.0.1:8000"
     )
+    lm.add_argument("--device", default=None, help="transformers backend: cuda or cpu (default: CUDA when available)")
+    lm.add_argument("--dtype", default="auto", help="transformers backend: auto, float32, float16, bfloat16")
+    lm.add_argument("--quantization", default=None, choices=("8bit", "4bit"), help="transformers backend, CUDA only")
     if not with_method:
         return
     method = parser.add_argument_group("method (the paper's ablations and baselines)")
@@ -41,6 +46,9 @@ def settings_from_args(args: argparse.Namespace) -> AgentSettings:
         n_threads=args.threads,
         max_retries=args.max_retries,
         base_url=args.base_url,
+        lm_device=args.device,
+        lm_dtype=args.dtype,
+        lm_quantization=args.quantization,
         mode=getattr(args, "mode", AgentSettings.mode),
         insitu=not getattr(args, "no_insitu", False),
         offline_validation=not getattr(args, "no_offline_validation", False),

@@ -20,7 +20,7 @@ from dataclasses import asdict, dataclass, field
 from multiprocessing import get_context
 from pathlib import Path
 
-from recent_plugin.agent import AgentSettings, RecentAgent
+from recent_plugin.agent import AgentSettings, RecentAgent, infiller_for
 from recent_plugin.evaluation.methods import settings_for
 from robosuite_envs.suites import SEEDS, get_suite
 
@@ -94,11 +94,8 @@ _WORKER: dict[str, object] = {}
 
 def _init_worker(config: BenchConfig) -> None:
     """Load the LM once per worker process; agents of every method share it."""
-    from recent_plugin.infillers import make_infiller
-
-    s = config.agent
     _WORKER["config"] = config
-    _WORKER["infiller"] = make_infiller(s.backend, s.model, n_threads=s.n_threads, seed=s.seed, base_url=s.base_url)
+    _WORKER["infiller"] = infiller_for(config.agent)
     _WORKER["agents"] = {}
 
 

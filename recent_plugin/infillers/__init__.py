@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from recent_plugin.infillers.base import Completion, Infiller
 
-BACKENDS = ("llamacpp", "openai", "rule")
+BACKENDS = ("llamacpp", "transformers", "openai", "rule")
 
 
 def make_infiller(
@@ -14,11 +14,16 @@ def make_infiller(
     n_threads: int | None = None,
     seed: int = 0,
     base_url: str | None = None,
+    device: str | None = None,
+    dtype: str = "auto",
+    quantization: str | None = None,
 ) -> Infiller:
     """Build the infiller ``backend``.
 
-    ``model`` is a known model name or a path to a GGUF file (llamacpp), or the server's model id
-    (openai, which also needs ``base_url``, e.g. ``http://127.0.0.1:8000``).
+    ``model`` is a known model name or a path to a GGUF file (llamacpp), a Hub id, a local model
+    directory, a known name or a GGUF path (transformers, on ``device`` with ``dtype`` and optional
+    ``quantization``), or the server's model id (openai, which also needs ``base_url``, e.g.
+    ``http://127.0.0.1:8000``).
     """
     if backend == "rule":
         from recent_plugin.infillers.rule import RuleInfiller
@@ -29,6 +34,10 @@ def make_infiller(
         from recent_plugin.models import ensure_model
 
         return LlamaCppInfiller(str(ensure_model(model)), n_threads=n_threads, seed=seed)
+    if backend == "transformers":
+        from recent_plugin.infillers.hf_transformers import TransformersInfiller
+
+        return TransformersInfiller(model, device=device, dtype=dtype, quantization=quantization, n_threads=n_threads)
     if backend == "openai":
         from recent_plugin.infillers.openai_compat import OpenAICompatInfiller
 
