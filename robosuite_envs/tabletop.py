@@ -71,6 +71,7 @@ class RecentTabletopEnv(ManipulationEnv):
         super()._load_model()
         robot = self.robots[0]
         robot.robot_model.set_base_xpos(robot.robot_model.base_xpos_offset["table"](TABLE_SIZE[0]))
+        exclude_mount_contacts(robot.robot_model)
         arena = TableArena(table_full_size=TABLE_SIZE, table_offset=TABLE_OFFSET)
         arena.set_origin([0, 0, 0])
         self._objects = {}
@@ -360,3 +361,27 @@ def _apply_build_variations(task: TaskSpec, variations: tuple[str, ...]) -> Task
             spec = replace(spec, surface="porous")
         objects.append(spec)
     return replace(task, objects=tuple(objects))
+
+
+def exclude_mount_contacts(robot_model) -> None:
+    """Exclude contacts between each first moving link and the static body it is mounted on.
+
+    MuJoCo filters parent-child contacts except where the parent is welded to the world, so a
+    link resting on its mount (robosuite's Sawyer: ``right_l0`` on ``right_arm_base_link``, in
+    contact at zero distance) gets friction that locks the joint. Sawyer's base yaw (``right_j0``)
+    then never turned, and the hand could not reach the table's -y half.
+    """
+    import xml.etree.ElementTree as ET
+
+    def moves(body) -> bool:
+        return body.find("joint") is not None or body.find("freejoint") is not None
+
+    def visit(body, welded: bool) -> None:
+        """``welded``: ``body`` and all its ancestors are fixed to the world."""
+        for child in body.findall("body"):
+            if welded and moves(child):
+                robot_model.contact.append(ET.Element("exclude", body1=body.get("name"), body2=child.get("name")))
+            visit(child, welded and not moves(child))
+
+    for top in robot_model.worldbody.findall("body"):
+        visit(top, not moves(top))

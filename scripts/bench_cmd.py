@@ -95,6 +95,7 @@ def _run(args) -> int:
     header = {
         "command": command_line(config),
         "date": dt.datetime.now(dt.UTC).isoformat(timespec="seconds"),
+        "git_commit": git_commit(),
         "backend": settings.backend,
         "model": settings.model,
         "max_retries": settings.max_retries,
@@ -110,6 +111,21 @@ def _run(args) -> int:
     report = render_report([config.out], config.out)
     print(f"{len(records)} episodes; results: {config.out / 'results.json'}; report: {report}")
     return 0
+
+
+def git_commit() -> str | None:
+    """The commit the run's code came from (None outside a git checkout), with ``+dirty`` for local edits."""
+    import subprocess
+
+    root = Path(__file__).resolve().parents[1]
+    try:
+        commit = subprocess.run(["git", "rev-parse", "HEAD"], cwd=root, capture_output=True, text=True, check=True)
+        dirty = subprocess.run(
+            ["git", "status", "--porcelain", "--untracked-files=no"], cwd=root, capture_output=True, text=True
+        )
+    except (OSError, subprocess.CalledProcessError):
+        return None
+    return commit.stdout.strip() + ("+dirty" if dirty.stdout.strip() else "")
 
 
 def command_line(config) -> str:

@@ -1,4 +1,4 @@
-"""Real simulated episodes: the Panda skill runs unmodified on Panda, and grounded by the LM on UR5e."""
+"""Real simulated episodes: the Panda skill runs unmodified on Panda, and grounded by the LM on the targets."""
 
 from __future__ import annotations
 
@@ -37,11 +37,34 @@ def test_suction_gripper_really_holds_and_releases(ontology, rule_infiller):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("robot", ["Robotiq85", "Suction"])
+@pytest.mark.parametrize("robot", ["Sawyer", "Robotiq85", "Suction"])
 def test_grounded_episode_on_end_effector_targets_with_the_real_lm(ontology, llama_infiller, robot):
     agent = RecentAgent(AgentSettings(), infiller=llama_infiller, ontology=ontology)
     result = run_episode(agent, "cube_in_bin", robot, seed=0)
     assert result.success, (result.failures, result.grounding.skills[0].diff())
+
+
+def test_sawyer_reaches_the_whole_table(ontology):
+    """Its base joint turns (no mount contact locks it): the hand reaches both halves of the table."""
+    import numpy as np
+
+    from robosuite_envs.gym_env import RecentEnv
+    from robosuite_envs.observation import Observation
+    from robosuite_envs.primitives.control import servo_action
+    from robosuite_envs.primitives.session import RobotSession
+
+    env = RecentEnv(task="cube_in_bin", robot="Sawyer")
+    try:
+        for target in ([0.0, -0.15, 0.9], [0.1, 0.15, 0.9]):
+            raw, _ = env.reset(seed=0)
+            names = env.spec_task.object_names()
+            session = RobotSession("Sawyer", Observation.decode(raw["agent_pos"], raw["environment_state"], names))
+            for _ in range(150):
+                session.update(Observation.decode(raw["agent_pos"], raw["environment_state"], names))
+                raw, *_ = env.step(servo_action(session, np.array(target)))
+            assert np.linalg.norm(session.obs.eef_pos - target) < 0.02, (target, session.obs.eef_pos)
+    finally:
+        env.close()
 
 
 @pytest.mark.slow
