@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 
 from logs.events import Emit, PatchApplied, ignore
 from ontology.specs import ApiSpec
-from recent_plugin.baselines.program_prompt import EMPTY, ProgramContext, program_unit, statement_unit
+from recent_plugin.baselines.program_prompt import EMPTY, ProgramContext, ProgramPrompt
 from recent_plugin.executor import Segment, SkillExecutor, SkillFailure
 from recent_plugin.grounding.grounder import GroundedSkill, LMCall, call_events, infill_until_valid
 from recent_plugin.grounding.units import RefactoringUnit, apply_unit
@@ -58,6 +58,8 @@ class BaselineAdapter:
         code = executor.source()
         segment = executor.segments[failure.segment]
 
+        prompt = ProgramPrompt(skill, self.robot, self.api, self.method, self.context)
+
         def feedback(rejected: str | None) -> str:
             return error if rejected is None else f"{error}; then rejected: {rejected}"
 
@@ -65,19 +67,15 @@ class BaselineAdapter:
             base = skill.code
 
             def make_unit(rejected: str | None, attempt: int) -> RefactoringUnit:
-                return program_unit(
-                    skill, self.robot, self.api, self.method, self.context,
-                    feedback=f"{feedback(rejected)}; observed: {observation}", attempt=attempt,
-                )  # fmt: skip
+                return prompt.program_unit(feedback=f"{feedback(rejected)}; observed: {observation}", attempt=attempt)
         else:
             base = code
             span = executor.segment_offsets(failure.segment)
 
             def make_unit(rejected: str | None, attempt: int) -> RefactoringUnit:
-                return statement_unit(
-                    code, span, skill, self.robot, self.api, self.method, self.context,
-                    feedback=feedback(rejected), observation=observation, attempt=attempt,
-                )  # fmt: skip
+                return prompt.statement_unit(
+                    code, span, feedback=feedback(rejected), observation=observation, attempt=attempt
+                )
 
         def judge(unit: RefactoringUnit, text: str) -> tuple[Verdict, str]:
             candidate = apply_unit(base, unit, text)

@@ -12,8 +12,8 @@ import time
 
 from ontology.builder import Ontology
 from ontology.diagnosis import Diagnosis
-from recent_plugin.baselines.program_prompt import EMPTY, ProgramContext, program_unit, statement_span, statement_unit
-from recent_plugin.grounding.grounder import GroundedSkill, infill_until_valid, strip_imports, unrecoverable
+from recent_plugin.baselines.program_prompt import EMPTY, ProgramContext, ProgramPrompt, statement_span
+from recent_plugin.grounding.grounder import GroundedSkill, infill_until_valid, unrecoverable
 from recent_plugin.grounding.units import RefactoringUnit, apply_unit
 from recent_plugin.grounding.validation import Verdict, validate_program
 from recent_plugin.infillers.base import Infiller
@@ -33,17 +33,8 @@ def generate_skill(
     """The baseline ``method``'s program for ``skill`` on ``robot`` (validated, or with the reason it is not)."""
     started = time.perf_counter()
     api, apis = onto.api(robot), onto.apis
-    result = GroundedSkill(
-        skill=skill.name,
-        entry=skill.entry,
-        robot=robot,
-        original=skill.code,
-        code=skill.code,
-        diagnosis=Diagnosis(skill.name, robot),  # baselines do not consult the ontology
-        skill_tokens=infiller.count_tokens(strip_imports(skill.code)),
-        backend=infiller.name,
-        model=infiller.model,
-    )
+    result = GroundedSkill.start(skill, robot, Diagnosis(skill.name, robot), infiller)  # no ontology consulted
+    prompt = ProgramPrompt(skill, robot, api, method, context)
     last: dict[str, object] = {"code": None, "verdict": None}  # the previous candidate and why it failed
 
     def make_unit(feedback: str | None, attempt: int) -> RefactoringUnit:
@@ -52,11 +43,9 @@ def generate_skill(
             span = statement_span(last["code"], skill.entry, verdict.line)
             if span[0] < span[1]:  # the error points at a statement of the body: rewrite that one
                 last["base"] = last["code"]
-                return statement_unit(
-                    last["code"], span, skill, robot, api, method, context, feedback=feedback, attempt=attempt
-                )
+                return prompt.statement_unit(last["code"], span, feedback=feedback, attempt=attempt)
         last["base"] = skill.code
-        return program_unit(skill, robot, api, method, context, feedback=feedback, attempt=attempt)
+        return prompt.program_unit(feedback=feedback, attempt=attempt)
 
     def judge(unit: RefactoringUnit, text: str) -> tuple[Verdict, str]:
         candidate = apply_unit(last["base"], unit, text)  # type: ignore[arg-type]

@@ -36,67 +36,74 @@ class ProgramContext:
     objects: tuple[str, ...] = ()  # "name (kind)"
 
 
-def header(skill: Skill, robot: str, api: ApiSpec, method: str, context: ProgramContext) -> str:
-    """Comment lines (and the example program) that precede the skill's signature in every prompt."""
-    described = method == "agentless"
-    example = re.sub(
-        rf"\bdef {re.escape(skill.entry)}\(", f"def {skill.entry}_{skill.source_embodiment.lower()}(", skill.code
-    )
-    lines = [f"# Example: this skill written for the {skill.source_embodiment} robot", example.rstrip("\n"), ""]
-    lines.append(f"# The {robot} robot has other primitives (env and task are always the first two arguments):")
-    for primitive in api.primitives:
-        about = f"  -- {primitive.description}" if described and primitive.description else ""
-        lines.append(f"#   {primitive.signature()}{about}")
-    lines.append("# Scene queries: " + ", ".join(f"task.{q}(...)" for q in TaskContext.QUERIES))
-    if described:
-        half_x, half_y = TABLE_SIZE[0] / 2, TABLE_SIZE[1] / 2
-        lines.append("# Scene objects: " + ", ".join(context.objects))
-        lines.append(
-            f"# Workspace: x in [{-half_x:.2f}, {half_x:.2f}] m, y in [{-half_y:.2f}, {half_y:.2f}] m, "
-            f"table top at z = {TABLE_Z:.2f} m; every target must lie inside it"
+@dataclass(frozen=True)
+class ProgramPrompt:
+    """What one baseline shows the LM for one skill on one robot; it cuts that skill's units."""
+
+    skill: Skill
+    robot: str
+    api: ApiSpec
+    method: str
+    context: ProgramContext
+
+    def header(self) -> str:
+        """Comment lines (and the example program) that precede the skill's signature in every prompt."""
+        described = self.method == "agentless"
+        example = re.sub(
+            rf"\bdef {re.escape(self.skill.entry)}\(",
+            f"def {self.skill.entry}_{self.skill.source_embodiment.lower()}(",
+            self.skill.code,
         )
-    lines.append(f"# Task: {context.instruction}")
-    lines.append(f"# This step: {skill.intent} Write it for {robot}, calling only the {robot} primitives.")
-    return "\n".join(lines) + "\n"
+        lines = [
+            f"# Example: this skill written for the {self.skill.source_embodiment} robot",
+            example.rstrip("\n"),
+            "",
+        ]
+        lines.append(
+            f"# The {self.robot} robot has other primitives (env and task are always the first two arguments):"
+        )
+        for primitive in self.api.primitives:
+            about = f"  -- {primitive.description}" if described and primitive.description else ""
+            lines.append(f"#   {primitive.signature()}{about}")
+        lines.append("# Scene queries: " + ", ".join(f"task.{q}(...)" for q in TaskContext.QUERIES))
+        if described:
+            half_x, half_y = TABLE_SIZE[0] / 2, TABLE_SIZE[1] / 2
+            lines.append("# Scene objects: " + ", ".join(self.context.objects))
+            lines.append(
+                f"# Workspace: x in [{-half_x:.2f}, {half_x:.2f}] m, y in [{-half_y:.2f}, {half_y:.2f}] m, "
+                f"table top at z = {TABLE_Z:.2f} m; every target must lie inside it"
+            )
+        lines.append(f"# Task: {self.context.instruction}")
+        lines.append(
+            f"# This step: {self.skill.intent} Write it for {self.robot}, calling only the {self.robot} primitives."
+        )
+        return "\n".join(lines) + "\n"
 
+    def program_unit(self, *, feedback: str | None = None, attempt: int = 0) -> RefactoringUnit:
+        """The whole entry body of the skill as one span, the header and signature before it."""
+        code = self.skill.code
+        start, end = body_span(code, self.skill.entry)
+        hints = Hints(robot=self.robot, original_call=code[start:end], feedback=feedback, attempt=attempt)
+        return self._headed(cut_unit(code, start, end, PROGRAM, hints))
 
-def program_unit(
-    skill: Skill,
-    robot: str,
-    api: ApiSpec,
-    method: str,
-    context: ProgramContext,
-    *,
-    feedback: str | None = None,
-    attempt: int = 0,
-) -> RefactoringUnit:
-    """The whole entry body of ``skill`` as one span, the header and signature before it."""
-    start, end = body_span(skill.code, skill.entry)
-    hints = Hints(robot=robot, original_call=skill.code[start:end], feedback=feedback, attempt=attempt)
-    unit = cut_unit(skill.code, start, end, PROGRAM, hints)
-    return replace(unit, prefix=header(skill, robot, api, method, context) + unit.prefix)
+    def statement_unit(
+        self,
+        code: str,
+        span: tuple[int, int],
+        *,
+        feedback: str | None = None,
+        observation: str | None = None,
+        attempt: int = 0,
+    ) -> RefactoringUnit:
+        """One statement of ``code`` (its character range ``span``) as the span, the header before the function."""
+        start, end = span
+        hints = Hints(
+            robot=self.robot, original_call=code[start:end], feedback=feedback, attempt=attempt, observation=observation
+        )
+        return self._headed(cut_unit(code, start, end, STATEMENT, hints))
 
-
-def statement_unit(
-    code: str,
-    span: tuple[int, int],
-    skill: Skill,
-    robot: str,
-    api: ApiSpec,
-    method: str,
-    context: ProgramContext,
-    *,
-    feedback: str | None = None,
-    observation: str | None = None,
-    attempt: int = 0,
-) -> RefactoringUnit:
-    """One statement of ``code`` (its character range ``span``) as the span, the header before the function."""
-    start, end = span
-    hints = Hints(
-        robot=robot, original_call=code[start:end], feedback=feedback, attempt=attempt, observation=observation
-    )
-    unit = cut_unit(code, start, end, STATEMENT, hints)
-    return replace(unit, prefix=header(skill, robot, api, method, context) + unit.prefix)
+    def _headed(self, unit: RefactoringUnit) -> RefactoringUnit:
+        return replace(unit, prefix=self.header() + unit.prefix)
 
 
 def statement_span(code: str, entry: str, line: int) -> tuple[int, int]:

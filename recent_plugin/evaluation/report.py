@@ -163,13 +163,28 @@ def failure_table(records: list[dict]) -> str:
     return "\n".join(lines)
 
 
-def plot_sr_vs_go(records: list[dict], path: Path) -> Path:
+def _figure(size: tuple[float, float]):
+    """A headless matplotlib figure (no display on the machines that run benchmarks)."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(6.5, 4.5))
+    return plt.subplots(figsize=size)
+
+
+def _save(fig, path: Path) -> Path:
+    import matplotlib.pyplot as plt
+
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path
+
+
+def plot_sr_vs_go(records: list[dict], path: Path) -> Path:
+    fig, ax = _figure((6.5, 4.5))
     for (method, suite), rs in sorted(group(records, lambda r: (r["method"], r["suite"])).items()):
         s = summarize(rs)
         marker = "o" if suite == "kinematic" else "s"
@@ -184,24 +199,17 @@ def plot_sr_vs_go(records: list[dict], path: Path) -> Path:
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7, loc="best")
     ax.set_title("Success vs. grounding overhead per method")
-    fig.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return path
+    return _save(fig, path)
 
 
 def plot_failures(records: list[dict], path: Path) -> Path:
-    import matplotlib
-
-    matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     import numpy as np
 
     counts = failure_counts(records)
     methods = _ordered(counts) or ["(none)"]
     categories = sorted({k for c in counts.values() for k in c}) or ["(none)"]
-    fig, ax = plt.subplots(figsize=(max(6.5, 0.9 * len(methods) + 3), 4.8))
+    fig, ax = _figure((max(6.5, 0.9 * len(methods) + 3), 4.8))
     bottom = np.zeros(len(methods))
     cmap = plt.get_cmap("tab20")
     for i, category in enumerate(categories):
@@ -212,11 +220,7 @@ def plot_failures(records: list[dict], path: Path) -> Path:
     ax.set_title("Failures per method: failed episodes and rejected LM output, by category")
     ax.tick_params(axis="x", rotation=30)
     ax.legend(fontsize=7, bbox_to_anchor=(1.01, 1), loc="upper left")
-    fig.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return path
+    return _save(fig, path)
 
 
 def render_report(dirs: list[Path], out: Path) -> Path:

@@ -90,6 +90,21 @@ class GroundedSkill:
         line = self.code.count("\n", 0, start) + 1
         return CodeSpan(start, end, line, self.code.count("\n", 0, max(start, end - 1)) + 1)
 
+    @classmethod
+    def start(cls, skill: Skill, robot: str, diagnosis: Diagnosis, infiller: Infiller) -> GroundedSkill:
+        """The record grounding fills in: the skill unchanged so far, its size in the infiller's tokens."""
+        return cls(
+            skill=skill.name,
+            entry=skill.entry,
+            robot=robot,
+            original=skill.code,
+            code=skill.code,
+            diagnosis=diagnosis,
+            skill_tokens=infiller.count_tokens(strip_imports(skill.code)),
+            backend=infiller.name,
+            model=infiller.model,
+        )
+
     @property
     def valid(self) -> bool:
         return self.verdict is not None and self.verdict.ok
@@ -199,17 +214,7 @@ def ground_skill(
     diagnosis = diagnose(onto, skill.name, skill.code, robot, source=skill.source_embodiment)
     if mode == "name-similarity":
         diagnosis = name_similarity_conflicts(diagnosis, onto.api(skill.source_embodiment), onto.api(robot))
-    result = GroundedSkill(
-        skill=skill.name,
-        entry=skill.entry,
-        robot=robot,
-        original=skill.code,
-        code=skill.code,
-        diagnosis=diagnosis,
-        skill_tokens=infiller.count_tokens(strip_imports(skill.code)),
-        backend=infiller.name,
-        model=infiller.model,
-    )
+    result = GroundedSkill.start(skill, robot, diagnosis, infiller)
     api, apis = onto.api(robot), onto.apis
     if mode in WHOLE_SKILL_MODES:
         _regenerate(result, skill, robot, infiller, api, apis, max_retries, mode)
