@@ -53,6 +53,7 @@ class AgentSettings:
     mode: str = "recent"  # recent | name-similarity | full-regen | no-ontology (ablations) | cap | repair | agentless (baselines)
     insitu: bool = True  # run-time checks patch upcoming segments (False: the paper's "w/o in-situ" ablation)
     max_repairs: int = 2  # reactive repairs of failed segments, per skill
+    fast_path: bool = False  # render spans the ontology fully decides without the LM (zero tokens)
 
 
 @dataclass
@@ -218,17 +219,29 @@ class RecentAgent:
 
 
 def infiller_for(s: AgentSettings) -> Infiller:
-    """The LM (or rule renderer) these settings name."""
-    return make_infiller(
-        s.backend,
-        s.model,
-        n_threads=s.n_threads,
-        seed=s.seed,
-        base_url=s.base_url,
-        device=s.lm_device,
-        dtype=s.lm_dtype,
-        quantization=s.lm_quantization,
+    """The LM (or rule renderer) these settings name; behind the fast path if they ask for it."""
+    return behind_fast_path(
+        make_infiller(
+            s.backend,
+            s.model,
+            n_threads=s.n_threads,
+            seed=s.seed,
+            base_url=s.base_url,
+            device=s.lm_device,
+            dtype=s.lm_dtype,
+            quantization=s.lm_quantization,
+        ),
+        s,
     )
+
+
+def behind_fast_path(infiller: Infiller, s: AgentSettings) -> Infiller:
+    """``infiller``, or with ``s.fast_path`` the fast path in front of it (spans the ontology decides: no LM)."""
+    if not s.fast_path or infiller.name == "rule":
+        return infiller
+    from recent_plugin.infillers.fast_path import FastPathInfiller
+
+    return FastPathInfiller(infiller)
 
 
 def program_context(task: TaskSpec | None) -> ProgramContext:

@@ -40,6 +40,7 @@ class RecentConfig(PreTrainedConfig):
     )  # recent | name-similarity | full-regen | no-ontology (ablations) | cap | repair | agentless
     insitu: bool = AgentSettings.insitu  # False: no run-time checks, reactive repair only (ablation)
     max_repairs: int = AgentSettings.max_repairs
+    fast_path: bool = AgentSettings.fast_path  # render fully decided spans without the LM
     log_dir: str | None = "outputs/recent_logs"  # MCAP + Rerun + LeRobotDataset per episode; None: no logs
     log_sinks: str = "mcap,rerun,dataset"  # comma list of the sinks to write
     device: str | None = "cpu"

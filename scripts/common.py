@@ -23,6 +23,9 @@ def add_lm_arguments(parser: argparse.ArgumentParser, *, with_method: bool = Tru
     lm.add_argument(
         "--base-url", default=None, help="completions server for --backend openai, e.g. http://127.0.0.1:8000"
     )
+    lm.add_argument(
+        "--fast-path", action="store_true", help="render spans the ontology fully decides without the LM (0 tokens)"
+    )
     lm.add_argument("--device", default=None, help="transformers backend: cuda or cpu (default: CUDA when available)")
     lm.add_argument("--dtype", default="auto", help="transformers backend: auto, float32, float16, bfloat16")
     lm.add_argument("--quantization", default=None, choices=("8bit", "4bit"), help="transformers backend, CUDA only")
@@ -49,6 +52,7 @@ def settings_from_args(args: argparse.Namespace) -> AgentSettings:
         lm_device=args.device,
         lm_dtype=args.dtype,
         lm_quantization=args.quantization,
+        fast_path=args.fast_path,
         mode=getattr(args, "mode", AgentSettings.mode),
         insitu=not getattr(args, "no_insitu", False),
         offline_validation=not getattr(args, "no_offline_validation", False),

@@ -128,3 +128,16 @@ def test_small_model_runs_the_same_pipeline(ontology, put_in_bin):
 
     grounded = ground_skill(put_in_bin, "UR5e", ontology, make_infiller("llamacpp", "qwen2.5-coder-0.5b"))
     assert grounded.valid or grounded.verdict.category is not None
+
+
+def test_fast_path_renders_decided_spans_and_asks_the_lm_only_for_the_rest(ontology, put_in_bin):
+    from recent_plugin.infillers.fast_path import FastPathInfiller
+
+    lm = ScriptedInfiller(["sawyer_pick(env, task, target_object=obj, target_pos=obj_pos)"])
+    fast = FastPathInfiller(lm)
+    ur5e = ground_skill(put_in_bin, "UR5e", ontology, fast)
+    assert ur5e.valid and ur5e.generated_tokens == 0 and not lm.units  # the ontology decided all three spans
+    sawyer = ground_skill(put_in_bin, "Sawyer", ontology, fast)
+    assert sawyer.valid and [u.span_type for u in lm.units] == ["interface_rewiring"]  # target_object: the LM's
+    assert sawyer.generated_tokens == 7 and fast.rendered == 5
+    assert "sawyer_pick(env, task, target_object=obj, target_pos=obj_pos)" in sawyer.code

@@ -8,6 +8,7 @@ from recent_plugin.agent import AgentSettings
 
 METHODS: dict[str, dict[str, object]] = {
     "recent": {},
+    "recent+fast-path": {"fast_path": True},
     "cap": {"mode": "cap"},
     "repair": {"mode": "repair"},
     "agentless": {"mode": "agentless"},
@@ -18,7 +19,7 @@ METHODS: dict[str, dict[str, object]] = {
     "recent-no-offline-validation": {"offline_validation": False},
 }
 BASELINE_METHODS = ("cap", "repair", "agentless")
-ABLATION_METHODS = tuple(m for m in METHODS if m.startswith("recent-"))
+ABLATION_METHODS = tuple(m for m in METHODS if m.startswith("recent-"))  # "recent+…" are variants, not ablations
 
 # What each ablation is expected to do to RECENT's numbers (the paper's ablation tables):
 # metric -> +1 (goes up) or -1 (goes down).

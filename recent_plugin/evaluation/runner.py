@@ -20,7 +20,7 @@ from dataclasses import asdict, dataclass, field
 from multiprocessing import get_context
 from pathlib import Path
 
-from recent_plugin.agent import AgentSettings, RecentAgent, infiller_for
+from recent_plugin.agent import AgentSettings, RecentAgent, behind_fast_path, infiller_for
 from recent_plugin.evaluation.methods import settings_for
 from robosuite_envs.suites import SEEDS, get_suite
 
@@ -104,9 +104,10 @@ def _agent(method: str) -> RecentAgent:
     if method not in agents:
         config: BenchConfig = _WORKER["config"]  # type: ignore[assignment]
         shared = next(iter(agents.values()), None)
+        settings = settings_for(method, config.agent)
         agents[method] = RecentAgent(
-            settings_for(method, config.agent),
-            infiller=_WORKER["infiller"],  # type: ignore[arg-type]
+            settings,
+            infiller=behind_fast_path(_WORKER["infiller"], settings),  # type: ignore[arg-type]
             ontology=shared.ontology if shared else None,
         )
     return agents[method]
