@@ -141,3 +141,20 @@ def test_fast_path_renders_decided_spans_and_asks_the_lm_only_for_the_rest(ontol
     assert sawyer.valid and [u.span_type for u in lm.units] == ["interface_rewiring"]  # target_object: the LM's
     assert sawyer.generated_tokens == 7 and fast.rendered == 5
     assert "sawyer_pick(env, task, target_object=obj, target_pos=obj_pos)" in sawyer.code
+
+
+def test_a_span_that_changes_a_carried_over_argument_is_rejected(ontology):
+    """The 1.5B once repeated the suffix's approach height where the press height belongs."""
+    from skills.repository import load_skill
+
+    press = load_skill("press_button")
+    lift = "ur5_move_to(env, task, target_pos=[cap_pos[0], cap_pos[1], cap_pos[2] + 0.08], timeout_s=3.0)"
+    press_down = lift.replace("+ 0.08", "+ 0.010")
+    approach = lift.replace("3.0", "6.0")
+    texts = [lift, lift, press_down, approach, "close_ur5_ee(env, task)"]  # last line first
+    infiller = ScriptedInfiller(texts)
+    grounded = ground_skill(press, "UR5e", ontology, infiller)
+    assert grounded.valid
+    assert [c.accepted for c in grounded.calls] == [True, False, True, True, True]
+    assert "keep target_pos=[cap_pos[0], cap_pos[1], cap_pos[2] + 0.01]" in grounded.calls[1].message
+    assert grounded.code.count("+ 0.08]") == 2 and grounded.code.count("+ 0.01") == 1

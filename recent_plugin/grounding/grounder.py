@@ -28,6 +28,7 @@ from recent_plugin.grounding.ablations import (
     whole_skill_unit,
 )
 from recent_plugin.grounding.fim_prompt import build_prompt, hint_lines
+from recent_plugin.grounding.substitution import PLACEHOLDER
 from recent_plugin.grounding.units import RefactoringUnit, apply_unit, unit_from_conflict
 from recent_plugin.grounding.validation import Verdict, validate_program
 from recent_plugin.infillers.base import Infiller
@@ -359,17 +360,48 @@ def _check_span(text: str, unit: RefactoringUnit) -> Verdict | None:
         return Verdict.reject(
             FailureCategory.EMPTY_CONTINUATION, "the span holds no statement (empty or only comments)"
         )
-    called = {
-        n.func.id
-        for n in ast.walk(ast.Module(body=statements, type_ignores=[]))
-        if isinstance(n, ast.Call) and isinstance(n.func, ast.Name)
-    }
+    called = set(_calls(statements))
     if unit.substitute and unit.substitute not in called:
         return Verdict.reject(
             FailureCategory.HALLUCINATED_API,
             f"the ontology substitutes {unit.substitute}() here, but the span calls {sorted(called) or 'nothing'}",
         )
+    return _changed_argument(statements, unit.hints.substitute_call)
+
+
+def _changed_argument(statements: list[ast.stmt], expected: str | None) -> Verdict | None:
+    """Grounding edits bindings only: an argument the ontology carried over from the original call keeps its value.
+
+    (A small model filling the span sometimes repeats a neighbouring line of the suffix instead,
+    e.g. the approach height where the press height belongs; the code stays valid, the skill not.)
+    """
+    undecided = "_undecided"  # a <type> placeholder: that value is the LM's to choose
+    try:
+        wanted = _calls(ast.parse(PLACEHOLDER.sub(undecided, expected or "")).body)
+    except SyntaxError:
+        return None
+    got = _calls(statements)
+    for name, call in wanted.items():
+        given = {k.arg: k.value for k in got[name].keywords} if name in got else {}
+        for keyword in call.keywords:
+            value = given.get(keyword.arg)
+            if isinstance(keyword.value, ast.Name) and keyword.value.id == undecided:
+                continue
+            if value is not None and ast.dump(value) != ast.dump(keyword.value):
+                return Verdict.reject(
+                    FailureCategory.HALLUCINATED_KWARG,
+                    f"{name}({keyword.arg}={ast.unparse(value)}) changes the value the original call passed: "
+                    f"keep {keyword.arg}={ast.unparse(keyword.value)}",
+                )
     return None
+
+
+def _calls(statements: list[ast.stmt]) -> dict[str, ast.Call]:
+    return {
+        n.func.id: n
+        for n in ast.walk(ast.Module(body=statements, type_ignores=[]))
+        if isinstance(n, ast.Call) and isinstance(n.func, ast.Name)
+    }
 
 
 def _blank(code: str, pending: list[Conflict]) -> str:
