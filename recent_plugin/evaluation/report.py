@@ -96,6 +96,8 @@ def _why_not(method: str, ablated: dict, base: dict) -> str:
             "every skill in the repository passed Validate(skill, Panda), so serving unvalidated skills serves "
             "the same code; the ablation only differs with a library that holds unvalidated skills"
         )
+    if ablated["sr"]["mean"] == 0 and ablated["ei"]["mean"] == 0 and "ei" in EXPECTED.get(method, {}):
+        return "no program it produced passed validation, so nothing ran that could be interrupted"
     if method == "recent-no-insitu" and ablated["ei"]["mean"] == base["ei"]["mean"] == 0:
         return "no run-time check fired in these episodes (variations off, or none landed on a guarded statement)"
     return ""
@@ -184,15 +186,17 @@ def _save(fig, path: Path) -> Path:
 
 
 def plot_sr_vs_go(records: list[dict], path: Path) -> Path:
-    fig, ax = _figure((6.5, 4.5))
+    from matplotlib.ticker import FuncFormatter
+
+    fig, ax = _figure((7.5, 5.0))
     for (method, suite), rs in sorted(group(records, lambda r: (r["method"], r["suite"])).items()):
         s = summarize(rs)
         marker = "o" if suite == "kinematic" else "s"
-        ax.errorbar(
-            s["go"]["mean"], s["sr"]["mean"], xerr=s["go"]["std"], yerr=s["sr"]["std"], fmt=marker, capsize=3,
-            label=f"{method} ({suite})",
-        )  # fmt: skip
+        x, y = s["go"]["mean"], s["sr"]["mean"]
+        ax.errorbar(x, y, xerr=s["go"]["std"], yerr=s["sr"]["std"], fmt=marker, capsize=3, label=f"{method} ({suite})")
+        ax.annotate(method, (x, y), textcoords="offset points", xytext=(4, 4), fontsize=7, rotation=20)
     ax.set_xscale("symlog", linthresh=1.0)
+    ax.xaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
     ax.set_xlabel("grounding overhead GO (%, log scale) — lower is better")
     ax.set_ylabel("task success SR (%) — higher is better")
     ax.set_ylim(-5, 105)
