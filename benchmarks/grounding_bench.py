@@ -156,7 +156,7 @@ def main() -> None:
         "model": infiller.model,
         "threads": args.threads,
         "load_s": load_s,
-        "rss_mib_model_loaded": rss_mib(),
+        "rss_mib_end": rss_mib(),  # model loaded, after every episode
         "rss_mib_before_model": rss_before,
         "igt_cold_median_s": statistics.median(cold),
         "igt_cold_max_s": max(cold),

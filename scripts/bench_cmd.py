@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import datetime as dt
+import json
 import os
 import shlex
 import sys
@@ -59,7 +60,7 @@ def _run(args) -> int:
     from tqdm import tqdm
 
     from recent_plugin.evaluation.report import render_report, results_document
-    from recent_plugin.evaluation.runner import BenchConfig, machine, pending, run_bench, write_json
+    from recent_plugin.evaluation.runner import BenchConfig, load_records, machine, pending, run_bench, write_json
     from scripts.common import settings_from_args
 
     suites = _csv(args.suite)
@@ -90,7 +91,7 @@ def _run(args) -> int:
                             f"{'ok' if record['success'] else record.get('failure_category') or 'fail'}")  # fmt: skip
         bar.update(1)
 
-    records = run_bench(config, on_record=on_record)
+    run_bench(config, on_record=on_record)
     bar.close()
     header = {
         "command": command_line(config),
@@ -107,7 +108,10 @@ def _run(args) -> int:
         "tasks": list(config.tasks) or "all",
         "variations": config.variations,
     }
-    write_json(config.out / "results.json", results_document(records, header))
+    results = config.out / "results.json"
+    runs = json.loads(results.read_text()).get("runs", []) if results.exists() else []
+    records = load_records(config.out)  # every episode in DIR: runs with other settings share it
+    write_json(results, {**results_document(records, header), "runs": [*runs, header]})
     report = render_report([config.out], config.out)
     print(f"{len(records)} episodes; results: {config.out / 'results.json'}; report: {report}")
     return 0

@@ -44,7 +44,7 @@ def test_every_episode_has_a_record_and_results_json_aggregates_them(bench_dir):
         assert (bench_dir / "logs" / r["method"] / "UR5e" / f"cube_on_plate__s{r['seed']}" / "mcap").is_dir()
     results = json.loads((bench_dir / "results.json").read_text())
     assert results["backend"] == "rule" and results["seeds"] == [0, 1] and results["machine"]["cores"]
-    assert results["command"].startswith("recent bench")
+    assert results["command"].startswith("recent bench") and results["runs"][-1]["command"] == results["command"]
     setting = results["by_setting"]["recent|kinematic"]
     assert setting["episodes"] == 2 and set(setting) >= {"sr", "gc", "go", "ei", "it", "igt"}
     assert "recent|UR5e|kinematic/cube_on_plate" in results["by_task"]
