@@ -141,11 +141,13 @@ def target_checks(records: list[dict]) -> list[str]:
 
 
 def model_table(records: list[dict]) -> str | None:
-    """RECENT per model (the model-size ablation), when the runs used more than one."""
+    """RECENT per model (the model-size ablation) on the episodes every model ran, when the runs used several."""
     ours = [r for r in records if r["method"] == "recent" and r.get("model")]
     models = sorted({r["model"] for r in ours})
     if len(models) < 2:
         return None
+    common = set.intersection(*({_episode_key(r) for r in ours if r["model"] == m} for m in models))
+    ours = [r for r in ours if _episode_key(r) in common]  # every row on the same episodes
     lines = ["| model | " + " | ".join(LABELS[m] for m in ABLATION_METRICS) + " |", "|---|" + "---:|" * 4]
     for model in models:
         summary = summarize([r for r in ours if r["model"] == model])
