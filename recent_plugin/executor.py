@@ -13,6 +13,7 @@ import ast
 import builtins
 import copy
 import textwrap
+from collections import Counter
 from collections.abc import Callable, Generator
 from dataclasses import dataclass, field
 from typing import Protocol
@@ -49,6 +50,20 @@ class Adapter(Protocol):
     def before_segment(self, executor: SkillExecutor, index: int) -> None: ...
 
     def repair(self, executor: SkillExecutor, failure: SkillFailure) -> bool: ...
+
+
+@dataclass
+class RepairBudget:
+    """At most ``per_skill`` repairs of each skill, and only of the segment that just failed."""
+
+    per_skill: int
+    used: Counter = field(default_factory=Counter)
+
+    def take(self, executor: SkillExecutor, failure: SkillFailure) -> bool:
+        if self.used[failure.skill] >= self.per_skill or failure.segment < executor.cursor:
+            return False
+        self.used[failure.skill] += 1
+        return True
 
 
 @dataclass

@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 from logs.events import Emit, PatchApplied, ignore
 from ontology.specs import ApiSpec
 from recent_plugin.baselines.program_prompt import EMPTY, ProgramContext, ProgramPrompt
-from recent_plugin.executor import Segment, SkillExecutor, SkillFailure
+from recent_plugin.executor import RepairBudget, Segment, SkillExecutor, SkillFailure
 from recent_plugin.grounding.grounder import GroundedSkill, LMCall, call_events, infill_until_valid
 from recent_plugin.grounding.units import RefactoringUnit, apply_unit
 from recent_plugin.grounding.validation import Verdict, validate_program
@@ -38,7 +38,10 @@ class BaselineAdapter:
     calls: list[LMCall] = field(default_factory=list)
     events: list[AdaptationEvent] = field(default_factory=list)
     emit: Emit = ignore
-    _repairs: dict[str, int] = field(default_factory=dict)
+    _budget: RepairBudget = field(init=False)
+
+    def __post_init__(self) -> None:
+        self._budget = RepairBudget(self.max_repairs)
 
     def guard(self, grounded: GroundedSkill, segments: list[Segment]) -> None:
         """Baselines check nothing ahead of time."""
@@ -48,13 +51,12 @@ class BaselineAdapter:
 
     def repair(self, executor: SkillExecutor, failure: SkillFailure) -> bool:
         name = executor.grounded.skill
-        if self._repairs.get(name, 0) >= self.max_repairs or failure.segment < executor.cursor:
+        if not self._budget.take(executor, failure):
             return False
-        self._repairs[name] = self._repairs.get(name, 0) + 1
         skill = self.skills[name]
         error = f"line {failure.line}: {failure.category}: {failure.message}"
         observation = describe_scene(executor.session.obs)
-        whole = self.method == "cap" or (self.method == "agentless" and self._repairs[name] > 1)
+        whole = self.method == "cap" or (self.method == "agentless" and self._budget.used[name] > 1)
         code = executor.source()
         segment = executor.segments[failure.segment]
 
@@ -99,9 +101,8 @@ class BaselineAdapter:
         )  # fmt: skip
         if accepted is None:
             return False
-        previous = executor.source()
         executor.replace_segment(failure.segment, accepted.text)
-        self.emit(PatchApplied(name, "repair", source_diff(previous, executor.source()), executor.source()))
+        self.emit(PatchApplied(name, "repair", source_diff(code, executor.source()), executor.source()))
         return True
 
 

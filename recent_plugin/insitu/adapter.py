@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 from logs.events import CheckVerdict, Emit, PatchApplied, ignore
 from ontology.diagnosis import Warning
 from ontology.specs import ApiSpec
-from recent_plugin.executor import Segment, SkillExecutor, SkillFailure
+from recent_plugin.executor import RepairBudget, Segment, SkillExecutor, SkillFailure
 from recent_plugin.failures import FailureCategory
 from recent_plugin.grounding.grounder import GroundedSkill, LMCall, call_events, infill_until_valid
 from recent_plugin.grounding.units import Hints, RefactoringUnit, apply_unit, cut_unit
@@ -59,7 +59,10 @@ class InSituAdapter:
     calls: list[LMCall] = field(default_factory=list)
     events: list[AdaptationEvent] = field(default_factory=list)
     emit: Emit = ignore  # the loggers' view: check verdicts, infiller calls, patches
-    _repairs: dict[str, int] = field(default_factory=dict)
+    _budget: RepairBudget = field(init=False)
+
+    def __post_init__(self) -> None:
+        self._budget = RepairBudget(self.max_repairs)
 
     # ------------------------------------------------------------------ guards
     def guard(self, grounded: GroundedSkill, segments: list[Segment]) -> None:
@@ -138,10 +141,8 @@ class InSituAdapter:
     # ------------------------------------------------------------------ repair
     def repair(self, executor: SkillExecutor, failure: SkillFailure) -> bool:
         """Replace the failed segment with a repaired one; it then runs again from the current state."""
-        skill = executor.grounded.skill
-        if self._repairs.get(skill, 0) >= self.max_repairs or failure.segment < executor.cursor:
+        if not self._budget.take(executor, failure):
             return False
-        self._repairs[skill] = self._repairs.get(skill, 0) + 1
         segment = executor.segments[failure.segment]
         # The usual cause is a world that moved on: recompute what the statement uses, then retry it.
         statements = recomputation(executor.segments[: failure.segment], segment.node, set(executor.primitives))
