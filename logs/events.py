@@ -194,7 +194,8 @@ class EpisodeEnded(Event):
     wall_seconds: float
     generated_tokens: int
     skill_tokens: int
-    go: float
+    go: float  # repair + revise tokens ÷ skill tokens × 100 (the paper's GO)
+    go_pre: float  # tokens generated before execution ÷ skill tokens × 100
     ei: int
     it: float
     igt: float
@@ -208,7 +209,7 @@ class EpisodeEnded(Event):
     def summary(self) -> str:
         verdict = {True: "success", False: "failure", None: "ended"}[self.success]
         reason = f" ({self.failure_category}: {self.failure_message})" if self.failure_category else ""
-        return f"{verdict}{reason}: {self.steps} steps, GO {self.go:.1f}%, EI {self.ei}, IT {self.it:.2f} s, IGT {self.igt:.2f} s"
+        return f"{verdict}{reason}: {self.steps} steps, GO {self.go:.1f}% (before execution {self.go_pre:.1f}%), EI {self.ei}, IT {self.it:.2f} s, IGT {self.igt:.2f} s"
 
 
 EVENT_TYPES: dict[str, type[Event]] = {

@@ -59,7 +59,9 @@ def _run(args) -> int:
         "igt_seconds": round(result.grounding.igt_seconds, 3),
         "generated_tokens": result.generated_tokens,
         "skill_tokens": result.skill_tokens,
+        "adaptation_tokens": result.adaptation_tokens,
         "go": round(result.go, 2),
+        "go_pre": round(result.go_pre, 2),
         "lm_seconds": round(result.lm_seconds, 3),
         "ei": result.ei,
         "it_seconds": round(result.it, 3),
@@ -98,8 +100,9 @@ def _run(args) -> int:
     print(
         f"{outcome}: {result.task_id} on {result.robot} (seed {result.seed}), {result.gc:.0%} of subtasks, "
         f"{result.steps} steps, {result.wall_seconds:.1f} s; "
-        f"grounding: {result.generated_tokens} tokens generated vs {result.skill_tokens} skill tokens "
-        f"(GO {result.go:.1f}%), LM {result.lm_seconds:.2f} s, first executable code after {result.grounding.igt_seconds:.2f} s; "
+        f"{result.generated_tokens} tokens generated vs {result.skill_tokens} skill tokens "
+        f"(GO {result.go:.1f}% in repair/revise, {result.go_pre:.1f}% before execution), LM {result.lm_seconds:.2f} s, "
+        f"first executable code after {result.grounding.igt_seconds:.2f} s; "
         f"{result.ei} interruptions ({result.it:.2f} s idle)"
     )
     log = _log_record(recorder)

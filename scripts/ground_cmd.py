@@ -53,7 +53,7 @@ def print_grounding(summary: dict) -> None:
     )
     print(
         f"grounding [{summary['backend']}:{summary['model']}]: {verdict}; "
-        f"{summary['generated_tokens']} tokens generated vs {summary['skill_tokens']} skill tokens (GO {summary['go']:.1f}%), "
+        f"{summary['generated_tokens']} tokens generated vs {summary['skill_tokens']} skill tokens (GO {summary['go']:.1f}% before execution), "
         f"LM {summary['lm_seconds']:.2f} s, {summary['retries']} retries"
     )
 

@@ -59,8 +59,9 @@ def test_cap_regenerates_the_whole_program_with_the_error_and_counts_a_repair(on
     assert [c.kind for c in grounded.calls] == ["ground", "repair"]
     assert [c.span_type for c in grounded.calls] == [PROGRAM, PROGRAM]
     assert "# Failed before: open_gripper is a Panda primitive" in build_prompt(infiller.units[1], 0).prefix
-    # the paper's accounting: every token counts for GO, the answer to the error is one interruption
-    assert result.generated_tokens == 14 and result.skill_tokens == 100 and result.go == pytest.approx(14.0)
+    # the paper's accounting: GO counts the repair's tokens (the first program is GO-pre), one interruption
+    assert result.generated_tokens == 14 and result.skill_tokens == 100 and result.adaptation_tokens == 7
+    assert result.go == pytest.approx(7.0) and result.go_pre == pytest.approx(7.0)
     assert result.ei == 1 and result.it == pytest.approx(0.01)
 
 
@@ -109,4 +110,4 @@ def test_real_lm_writes_a_cap_program(ontology, llama_infiller):
     result = run_episode(agent, "cube_in_bin", "UR5e", seed=0)
     grounded = result.grounding.skills[0]
     assert grounded.calls and grounded.calls[0].kind == "ground" and grounded.calls[0].generated_tokens > 0
-    assert result.go > 50.0  # a whole program per attempt: far above RECENT's localized edits
+    assert result.go_pre > 50.0  # a whole program: far above RECENT's localized edits

@@ -40,7 +40,8 @@ def test_every_episode_has_a_record_and_results_json_aggregates_them(bench_dir):
         ("recent-no-insitu", 1),
     ]
     for r in records:
-        assert {"success", "gc", "go", "ei", "it", "igt", "igt_cold", "failure_category", "model"} <= r.keys()
+        assert {"success", "gc", "go", "go_pre", "ei", "it", "igt", "igt_cold", "failure_category", "model"} <= r.keys()
+        assert r["go"] == pytest.approx(100 * r["adaptation_tokens"] / r["skill_tokens"], abs=1e-3)
         assert (bench_dir / "logs" / r["method"] / "UR5e" / f"cube_on_plate__s{r['seed']}" / "mcap").is_dir()
     results = json.loads((bench_dir / "results.json").read_text())
     assert results["backend"] == "rule" and results["seeds"] == [0, 1] and results["machine"]["cores"]

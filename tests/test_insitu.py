@@ -62,8 +62,10 @@ def test_ei_it_and_go_add_up_from_the_recorded_calls(counting_agent):
     assert {c.kind for c in result.runtime_calls} == {"revise"}
     assert result.it == pytest.approx(0.25 * 2)
     tokens = sum(len(c.text.split()) for c in grounding_calls + result.runtime_calls)
-    assert result.generated_tokens == tokens
-    assert result.go == pytest.approx(100 * tokens / result.skill_tokens)
+    revised = sum(len(c.text.split()) for c in result.runtime_calls)
+    assert result.generated_tokens == tokens and result.adaptation_tokens == revised
+    assert result.go == pytest.approx(100 * revised / result.skill_tokens)  # the paper's τ_adapt: revise + repair
+    assert result.go_pre == pytest.approx(100 * (tokens - revised) / result.skill_tokens)
     assert result.skill_tokens == counting_agent.infiller.count_tokens(
         "".join(s.original for s in result.grounding.skills)
     )
