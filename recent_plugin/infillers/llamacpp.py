@@ -1,7 +1,8 @@
 """The ``llamacpp`` backend: a GGUF code model on CPU, prompted with Qwen2.5-Coder FIM tokens.
 
 llama-cpp-python 0.3.36's ``create_completion(suffix=...)`` uses the wrong token ids for FIM, so
-the FIM string is built here; its special markers are tokenized as special tokens.
+the FIM string is built here; its special markers are tokenized as special tokens. Decoding is
+greedy with prompt-lookup drafts (:mod:`~recent_plugin.infillers.lookup_decoding`).
 """
 
 from __future__ import annotations
@@ -13,6 +14,7 @@ from recent_plugin.grounding.fim_prompt import build_prompt
 from recent_plugin.grounding.units import RefactoringUnit
 from recent_plugin.infillers.base import Completion
 from recent_plugin.infillers.fim_formats import FORMATS
+from recent_plugin.infillers.lookup_decoding import LookupDecoder
 
 QWEN = FORMATS["qwen2.5-coder"]  # the GGUFs we provision are Qwen2.5-Coder
 
@@ -30,8 +32,12 @@ class LlamaCppInfiller:
             n_threads=n_threads or min(2, os.cpu_count() or 1),
             seed=seed,
             verbose=False,
+            # llama.cpp repacks the Q4 weights for its CPU kernels; with the file mapped as well, both
+            # copies stay resident (1.76 GB for the 1.5B). Read into memory instead: 1.17 GB, ~1.5 s more load.
+            use_mmap=False,
         )
         self._grammars: dict[str, object] = {}
+        self.decoder = LookupDecoder(self.llm)
 
     def _grammar(self, gbnf: str):
         from llama_cpp import LlamaGrammar
@@ -47,19 +53,16 @@ class LlamaCppInfiller:
         prompt = build_prompt(unit, self.count_tokens(unit.span))
         text = QWEN.render(prompt.prefix, prompt.suffix)
         started = time.perf_counter()
-        out = self.llm.create_completion(
-            text,
+        tokens = self.llm.tokenize(text.encode(), add_bos=False, special=True)
+        out = self.decoder.generate(
+            tokens,
             max_tokens=prompt.max_tokens,
-            temperature=0.0,
-            top_k=1,
-            stop=[*prompt.stop, *QWEN.stops],
+            stops=(*prompt.stop, *QWEN.stops),
             grammar=self._grammar(prompt.grammar),
         )
-        seconds = time.perf_counter() - started
-        usage = out.get("usage", {})
         return Completion(
-            text=out["choices"][0]["text"],
-            generated_tokens=int(usage.get("completion_tokens", 0)),
-            seconds=seconds,
-            prompt_tokens=int(usage.get("prompt_tokens", 0)),
+            text=out.text,
+            generated_tokens=out.generated_tokens,
+            seconds=time.perf_counter() - started,
+            prompt_tokens=out.prompt_tokens,
         )

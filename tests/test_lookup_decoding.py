@@ -1,0 +1,48 @@
+"""Prompt-lookup decoding: drafts come from the prompt, and the output is plain greedy decoding's."""
+
+from __future__ import annotations
+
+import pytest
+
+from ontology.diagnosis import diagnose
+from recent_plugin.grounding.fim_prompt import STATEMENT_LINE, build_prompt
+from recent_plugin.grounding.units import unit_from_conflict
+from recent_plugin.infillers.llamacpp import QWEN
+from recent_plugin.infillers.lookup_decoding import draft_from_context
+
+
+def test_draft_continues_the_latest_match_of_the_longest_ngram():
+    context = [1, 2, 3, 9, 9, 1, 2, 3, 4, 5, 6, 7, 0, 2, 3]
+    assert draft_from_context(context, max_ngram=3, max_draft=3) == [4, 5, 6]  # "2 3" last seen before "4 5 6"
+    assert draft_from_context([5, 6, 7], max_ngram=3) == []  # nothing repeats
+    assert draft_from_context([7, 1, 7], max_ngram=2, max_draft=4) == [1, 7]  # falls back to a 1-gram
+
+
+def _greedy(llm, text: str, max_tokens: int, stops, grammar) -> str:
+    llm.reset()
+    out = llm.create_completion(
+        text, max_tokens=max_tokens, temperature=0.0, top_k=1, stop=list(stops), grammar=grammar
+    )
+    return out["choices"][0]["text"]
+
+
+@pytest.mark.parametrize("robot", ["UR5e", "Suction"])
+def test_lookup_decoding_matches_plain_greedy_decoding(ontology, put_in_bin, llama_infiller, robot):
+    """Same FIM prompt, same grammar: the drafts only change how fast the tokens come."""
+    diagnosis = diagnose(ontology, put_in_bin.name, put_in_bin.code, robot, source=put_in_bin.source_embodiment)
+    infiller = llama_infiller
+    for conflict in diagnosis.conflicts:
+        unit = unit_from_conflict(put_in_bin.code, conflict, robot)
+        prompt = build_prompt(unit, infiller.count_tokens(unit.span))
+        text = QWEN.render(prompt.prefix, prompt.suffix)
+        stops = (*prompt.stop, *QWEN.stops)
+        grammar = infiller._grammar(STATEMENT_LINE)
+        reference = _greedy(infiller.llm, text, prompt.max_tokens, stops, grammar)
+        decoded = infiller.decoder.generate(
+            infiller.llm.tokenize(text.encode(), add_bos=False, special=True),
+            max_tokens=prompt.max_tokens,
+            stops=stops,
+            grammar=grammar,
+        )
+        assert decoded.text == reference
+        assert decoded.evaluated_prompt_tokens < decoded.prompt_tokens  # the KV cache of the reference run was reused
