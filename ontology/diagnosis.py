@@ -190,8 +190,13 @@ def _warnings(onto, site, original, target, source, robot, sites, bindings) -> l
             warn(cond)  # a smaller workspace than the one the skill was validated in
         elif cond == "object_at_target" and _read_before_earlier_motion(site, sites, bindings):
             warn(cond)  # the position was read, then the robot moved: the object may have too
-    if "object_grasped" in target.effects and onto.grippers[robot] != onto.grippers[source]:
-        warn("object_grasped", phase="after")  # another end effector: will the grasp hold?
+    for cond in sorted(target.effects):
+        if vocab[cond].kind != "runtime":
+            continue
+        if vocab[cond].always:
+            warn(cond, phase="after")  # the world decides whether the effect happened: e.g. a push
+        elif cond == "object_grasped" and onto.grippers[robot] != onto.grippers[source]:
+            warn(cond, phase="after")  # another end effector: will the grasp hold?
     return out
 
 

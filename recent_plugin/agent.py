@@ -25,7 +25,7 @@ from recent_plugin.grounding.grounder import GroundedSkill, ground_skill
 from recent_plugin.infillers import Infiller, make_infiller
 from recent_plugin.insitu.adapter import InSituAdapter
 from recent_plugin.insitu.checks import SceneFacts
-from robosuite_envs.embodiments import get_embodiment
+from robosuite_envs.embodiments import ROBOT_BASE_XY, get_embodiment
 from robosuite_envs.observation import Observation
 from robosuite_envs.primitives import api_functions
 from robosuite_envs.tasks import TaskSpec, get_task
@@ -204,6 +204,8 @@ class RecentAgent:
         scene = SceneFacts(
             kinds={o.name: o.kind for o in task.objects},
             sizes={o.name: tuple(o.size) for o in task.objects if o.size is not None},
+            base_xy=ROBOT_BASE_XY,
+            reach=self.ontology.arms[robot].reach,
         )
         return InSituAdapter(
             robot=robot,

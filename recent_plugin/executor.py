@@ -39,6 +39,7 @@ class Segment:
     source: str
     node: ast.stmt
     guards: tuple[Warning, ...] = ()  # run-time checks evaluated before the segment starts
+    effects: tuple[Warning, ...] = ()  # run-time checks of what it did, evaluated once it completes
     checked: bool = False  # guards evaluated (or the segment is itself a patch)
 
 
@@ -48,6 +49,8 @@ class Adapter(Protocol):
     def guard(self, grounded: GroundedSkill, segments: list[Segment]) -> None: ...
 
     def before_segment(self, executor: SkillExecutor, index: int) -> None: ...
+
+    def after_segment(self, executor: SkillExecutor, index: int) -> None: ...
 
     def repair(self, executor: SkillExecutor, failure: SkillFailure) -> bool: ...
 
@@ -177,6 +180,33 @@ class SkillExecutor:
         for i, segment in enumerate(self.segments):
             segment.index = i
 
+    def insert_segments(self, index: int, source: str) -> None:
+        """Put new statements before segment ``index`` (or after the last one); nothing that ran is touched."""
+        if index < self.cursor or (index == self.cursor and self._running is not None):
+            raise ValueError(f"segment {index} has already started; only upcoming segments can be patched")
+        anchor = self.segments[min(index, len(self.segments) - 1)]
+        text = textwrap.dedent(self.indent + source)
+        new = [
+            Segment(0, anchor.line, self._reindent(ast.get_source_segment(text, node)), node, checked=True)
+            for node in ast.parse(text).body
+        ]
+        for segment in new:
+            ast.copy_location(segment.node, anchor.node)
+        self.segments[index:index] = new
+        for i, segment in enumerate(self.segments):
+            segment.index = i
+
+    def insertion_point(self, index: int) -> tuple[str, int]:
+        """The skill's source and the offset where statements inserted before segment ``index`` begin.
+
+        After the last segment the source gets an indented empty line, so that an insertion there
+        sits at the body's indentation like any other.
+        """
+        if index < len(self.segments):
+            return self.source(), self.segment_offsets(index)[0]
+        body = self._head + "".join(self.indent + s.source + "\n" for s in self.segments)
+        return body + self.indent + "\n" + self._tail, len(body) + len(self.indent)
+
     def source(self) -> str:
         """The skill as it stands now: patched segments in place of the ones they replaced."""
         return self._head + "".join(self.indent + s.source + "\n" for s in self.segments) + self._tail
@@ -223,6 +253,8 @@ class SkillExecutor:
             except StopIteration:
                 self._running = None
                 self.emit(SegmentEnded(self.grounded.skill, self.cursor, self.steps - self._segment_start))
+                if self.adapter is not None and self.segments[self.cursor].effects:
+                    self.adapter.after_segment(self, self.cursor)  # may insert statements right after it
                 self.cursor += 1
             except PrimitiveFailure as exc:
                 self._fail(PRIMITIVE_FAILURE_CATEGORY[exc.kind], str(exc))

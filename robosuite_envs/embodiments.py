@@ -12,6 +12,10 @@ from pathlib import Path
 _ASSETS = Path(__file__).parent / "grippers" / "assets"
 
 
+# Where robosuite's table mount puts every arm's base on our 0.8 m table (tests check it against the sim).
+ROBOT_BASE_XY = (-0.56, 0.0)
+
+
 @dataclass(frozen=True)
 class Embodiment:
     name: str

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from robosuite_envs.embodiments import ROBOT_BASE_XY
 from robosuite_envs.gym_env import RecentEnv
 from robosuite_envs.observation import ENV_STATE_DIM
 from robosuite_envs.tasks import parse_task_string
@@ -58,3 +59,11 @@ def test_passes_gymnasium_env_checker():
     frame = env.render()
     assert frame.shape == (64, 64, 3) and frame.dtype == np.uint8
     env.close()
+
+
+def test_robot_base_sits_where_the_reach_check_assumes(env):
+    env.reset(seed=0)
+    sim_env = env._env
+    robot = sim_env.robots[0].robot_model
+    base = sim_env.sim.data.body_xpos[sim_env.sim.model.body_name2id(robot.root_body)]
+    assert np.allclose(base[:2], ROBOT_BASE_XY, atol=1e-6)

@@ -3,14 +3,19 @@
 from __future__ import annotations
 
 import time
+from pathlib import Path
 
+import numpy as np
 import pytest
 
+from ontology.specs import ApiSpec
 from recent_plugin.agent import AgentSettings, RecentAgent
 from recent_plugin.episode import run_episode
 from recent_plugin.grounding.units import RefactoringUnit
 from recent_plugin.infillers.base import Completion
 from recent_plugin.infillers.rule import RuleInfiller
+from recent_plugin.insitu.checks import CheckInput, SceneFacts, pushed_to_goal, within_reach
+from robosuite_envs.observation import ObjectState, Observation
 
 
 class CountingInfiller(RuleInfiller):
@@ -85,3 +90,34 @@ def test_real_lm_writes_the_insitu_patches(ontology, llama_infiller):
     assert result.success, [(c.text, c.message) for c in result.runtime_calls]
     assert [e.checks for e in result.adaptations] == [("object_unmoved",), ("target_clear",)]
     assert all(e.after for e in result.adaptations) and result.it > 0
+
+
+def test_a_push_that_left_the_cube_short_is_done_again_after_it_from_the_current_scene(panda_agent):
+    """The cube is displaced while the push approaches; the after-phase check sees it short of the goal."""
+    result = run_episode(panda_agent, "kinematic/push_cube", "UR5e", seed=0, variations="pose_perturbation")
+    assert result.success
+    (event,) = result.adaptations
+    assert event.kind == "revise" and event.checks == ("pushed_to_goal",) and "cube ended at" in event.observation
+    lines = event.after.splitlines()
+    assert lines[0] == event.before and lines[-1] == event.before  # the push ran, then runs again after it
+    assert "obj_pos = task.get_object_position(obj)" in lines and "if abs(dy) > abs(dx):" in lines
+    assert result.ei == 0 and not result.runtime_calls  # code the skill holds is re-run, not generated
+
+
+def test_effect_and_reach_checks_read_the_observation():
+    def check_input(cube_at, arguments, roles):
+        cube = ObjectState(np.array(cube_at, dtype=float), np.array([0, 0, 0, 1.0]), False, False, 0.05, 0.0)
+        obs = Observation(np.zeros(3), np.array([0, 0, 0, 1.0]), 0.0, {"cube": cube})
+        scene = SceneFacts({"cube": "box"}, {"cube": (0.05, 0.05, 0.05)}, base_xy=(-0.56, 0.0), reach=0.9)
+        return CheckInput(None, obs, arguments, roles, frozenset({"cube"}), {}, scene, ApiSpec("UR5e", "m", Path("m")))
+
+    push = {"contact_pos": "push_start", "goal_pos": "push_goal"}
+    pushed = {"contact_pos": [0.0, -0.1, 0.82], "goal_pos": [0.0, 0.1, 0.82]}
+    assert pushed_to_goal(check_input([0.0, 0.135, 0.82], pushed, push)) is None  # just ahead of the hand
+    short = pushed_to_goal(check_input([0.0, 0.02, 0.82], pushed, push))
+    assert short.rerun and short.check == "pushed_to_goal"
+    far = within_reach(check_input([0, 0, 0], {"place_pos": [0.4, 0.3, 0.82]}, {"place_pos": "release_target"}))
+    assert far is not None and "beyond the arm's 0.90 m reach" in far.observation and not far.statements
+    assert (
+        within_reach(check_input([0, 0, 0], {"place_pos": [0.1, 0.0, 0.82]}, {"place_pos": "release_target"})) is None
+    )

@@ -49,6 +49,9 @@ class BaselineAdapter:
     def before_segment(self, executor: SkillExecutor, index: int) -> None:
         """Baselines check nothing ahead of time."""
 
+    def after_segment(self, executor: SkillExecutor, index: int) -> None:
+        """Baselines check no effects (they react to failures only)."""
+
     def repair(self, executor: SkillExecutor, failure: SkillFailure) -> bool:
         name = executor.grounded.skill
         if not self._budget.take(executor, failure):

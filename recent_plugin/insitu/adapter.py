@@ -3,8 +3,11 @@
 Before a segment starts, the executor asks :meth:`InSituAdapter.before_segment` to evaluate the
 checks instantiated from the warnings that guard it, on the latest observation. A violation
 becomes a refactoring unit whose span is that segment alone and whose hints carry the
-observation; the infiller writes the patch, validation admits it, and only then does it replace
-the segment — the steps already taken stay taken. A primitive that fails at run time is repaired
+observation; the infiller writes the patch, validation admits it, and only then does it go in
+before the segment — the steps already taken stay taken. Once a segment completes,
+:meth:`InSituAdapter.after_segment` checks its effects the same way; an effect that did not
+happen (a push that left the object short) is answered by statements inserted right after it
+that do it again from the current scene. A primitive that fails at run time is repaired
 the same way (:meth:`repair`): the span is the failed segment, the hint its failure. Every
 infiller call is recorded as an :class:`~recent_plugin.grounding.grounder.LMCall` (EI and IT are
 sums over them) and every decision as an :class:`AdaptationEvent` for the loggers.
@@ -66,19 +69,30 @@ class InSituAdapter:
 
     # ------------------------------------------------------------------ guards
     def guard(self, grounded: GroundedSkill, segments: list[Segment]) -> None:
-        """Attach each checkable 'before' warning to the top-level statement that contains it."""
+        """Attach each checkable warning to the top-level statement that contains it (before or after it runs)."""
         if not self.insitu:
             return
-        warnings = [w for w in grounded.warnings() if w.phase == "before" and w.check in CHECKS]
+        warnings = [w for w in grounded.warnings() if w.check in CHECKS]
         for segment in segments:
             first, last = segment.node.lineno, segment.node.end_lineno or segment.node.lineno
-            segment.guards = tuple(w for w in warnings if first <= w.span.line <= last)
+            inside = [w for w in warnings if first <= w.span.line <= last]
+            segment.guards = tuple(w for w in inside if w.phase == "before")
+            if isinstance(segment.node, ast.Expr):  # a bare call: doing it again repeats exactly that call
+                segment.effects = tuple(w for w in inside if w.phase == "after")
 
     def before_segment(self, executor: SkillExecutor, index: int) -> None:
         segment = executor.segments[index]
+        self._answer(executor, segment, self._violations(executor, index, segment.guards), at=index)
+
+    def after_segment(self, executor: SkillExecutor, index: int) -> None:
+        """Check what the completed segment ``index`` did; a missing effect is done again right after it."""
+        segment = executor.segments[index]
+        self._answer(executor, segment, self._violations(executor, index, segment.effects), at=index + 1)
+
+    def _violations(self, executor: SkillExecutor, index: int, warnings: tuple[Warning, ...]) -> list[Violation]:
         violations = []
-        for warning in segment.guards:
-            violation = self._evaluate(executor, segment, warning)
+        for warning in warnings:
+            violation = self._evaluate(executor, executor.segments[index], warning)
             self.emit(
                 CheckVerdict(
                     executor.grounded.skill,
@@ -90,18 +104,25 @@ class InSituAdapter:
             )
             if violation is not None:
                 violations.append(violation)
+        return violations
+
+    def _answer(self, executor: SkillExecutor, segment: Segment, violations: list[Violation], *, at: int) -> None:
+        """Patch in the statements the violations ask for, before segment ``at`` (nothing that ran is touched)."""
         if not violations:
             return
-        statements = tuple(dict.fromkeys(s for v in violations for s in v.statements))
         observation = "; ".join(v.observation for v in violations)
         checks = tuple(v.check for v in violations)
+        if any(v.rerun for v in violations):
+            self._rerun(executor, segment, at, checks, observation)
+            return
+        statements = tuple(dict.fromkeys(s for v in violations for s in v.statements))
         if not statements:  # nothing a patch can change (e.g. the object is not there): run and see
             self.events.append(
-                AdaptationEvent("revise", executor.grounded.skill, index, checks, observation, segment.source, None, 0)
+                AdaptationEvent("revise", executor.grounded.skill, at, checks, observation, segment.source, None, 0)
             )
             return
         instruction = "; and ".join(v.instruction for v in violations if v.statements)
-        self._patch(executor, index, "revise", "in_situ_revision", checks, instruction, observation, statements)
+        self._patch(executor, segment, at, "revise", "in_situ_revision", checks, instruction, observation, statements)
 
     def _evaluate(self, executor: SkillExecutor, segment: Segment, warning: Warning) -> Violation | None:
         call = next(
@@ -138,6 +159,20 @@ class InSituAdapter:
         )
         return CHECKS[warning.check](inp)
 
+    def _rerun(self, executor: SkillExecutor, segment: Segment, at: int, checks, observation: str) -> None:
+        """An effect that did not happen: run the statement again, after what it uses is recomputed.
+
+        The patch is code the skill already holds — copied, not generated — so no LM is asked.
+        """
+        redo = recomputation(executor.segments[: segment.index], segment.node, set(executor.primitives))
+        redo += (segment.source,)
+        before = executor.source()
+        executor.insert_segments(at, ("\n" + executor.indent).join(redo))
+        after = "\n".join(_bare(s, executor) for s in (segment.source, *redo))
+        skill = executor.grounded.skill
+        self.events.append(AdaptationEvent("revise", skill, at, checks, observation, segment.source, after, 0))
+        self.emit(PatchApplied(skill, "revise", source_diff(before, executor.source()), executor.source()))
+
     # ------------------------------------------------------------------ repair
     def repair(self, executor: SkillExecutor, failure: SkillFailure) -> bool:
         """Replace the failed segment with a repaired one; it then runs again from the current state."""
@@ -148,11 +183,12 @@ class InSituAdapter:
         statements = recomputation(executor.segments[: failure.segment], segment.node, set(executor.primitives))
         return self._patch(
             executor,
+            segment,
             failure.segment,
             "repair",
             "reactive_repair",
             (str(failure.category),),
-            f"recompute {', '.join(s.split(' = ')[0] for s in statements)} before retrying",
+            f"recompute {', '.join(_assigned(statements, executor.indent))} before retrying",
             f"{_bare(segment.source, executor).split('(')[0]} failed ({failure.message})",
             statements,
         )
@@ -161,7 +197,8 @@ class InSituAdapter:
     def _patch(
         self,
         executor: SkillExecutor,
-        index: int,
+        segment: Segment,
+        at: int,
         kind: str,
         span_type: str,
         checks: tuple[str, ...],
@@ -169,39 +206,40 @@ class InSituAdapter:
         observation: str,
         statements: tuple[str, ...],
     ) -> bool:
-        """Insert statements before segment ``index`` (an empty FIM span: the segment stays the suffix).
+        """Insert statements before segment ``at`` (an empty FIM span: what follows stays the suffix).
 
-        Without statements a repair simply runs the segment again, with no infiller call.
+        ``segment`` is the statement the check or failure is about: ``at`` is its own index (a
+        precondition, a repair) or the next one (an effect). Without statements a repair simply
+        runs the segment again, with no infiller call.
         """
-        segment = executor.segments[index]
         accepted, attempts = (None, 0) if statements else ("", 0)
         if statements:
             accepted, attempts = self._infill_insertion(
-                executor, index, kind, span_type, reason, observation, statements
+                executor, segment, at, kind, span_type, reason, observation, statements
             )
-        after = None if accepted is None else "\n".join(filter(None, [accepted, _bare(segment.source, executor)]))
+        bare = _bare(segment.source, executor)
+        order = [accepted, bare] if at == segment.index else [bare, accepted]
+        after = None if accepted is None else "\n".join(filter(None, order))
         self.events.append(
-            AdaptationEvent(kind, executor.grounded.skill, index, checks, observation, segment.source, after, attempts)
+            AdaptationEvent(kind, executor.grounded.skill, at, checks, observation, segment.source, after, attempts)
         )
         if accepted is None:
-            log.warning("%s: no valid %s patch for segment %d of %s", self.robot, kind, index, executor.grounded.skill)
+            log.warning("%s: no valid %s patch for segment %d of %s", self.robot, kind, at, executor.grounded.skill)
             return False
         if accepted:
             before = executor.source()
-            executor.replace_segment(index, after.replace("\n", "\n" + executor.indent))
+            executor.insert_segments(at, accepted.replace("\n", "\n" + executor.indent))
             self.emit(
                 PatchApplied(executor.grounded.skill, kind, source_diff(before, executor.source()), executor.source())
             )
         return True
 
     def _infill_insertion(
-        self, executor, index, kind, span_type, reason, observation, statements
+        self, executor, segment, at, kind, span_type, reason, observation, statements
     ) -> tuple[str | None, int]:
-        segment = executor.segments[index]
-        code = executor.source()
-        start, _ = executor.segment_offsets(index)
-        suggestion = "\n".join(statements)
-        wanted = _called(suggestion)
+        code, start = executor.insertion_point(at)
+        suggestion = "\n".join(statements)  # nested lines at the body's indentation, as segments keep them
+        wanted = _called(_body(suggestion, executor.indent))
 
         def make_unit(feedback: str | None, attempt: int) -> RefactoringUnit:
             hints = Hints(
@@ -219,8 +257,9 @@ class InSituAdapter:
             candidate = apply_unit(code, unit, text + "\n" + unit.indent if text else "")
             if not text:
                 return Verdict.reject(FailureCategory.EMPTY_CONTINUATION, "the patch is empty"), candidate
-            if _called(text) != wanted:
-                message = f"the patch must call {sorted(wanted)}, it calls {sorted(_called(text))}"
+            called = _called(_body(text, unit.indent))
+            if called != wanted:
+                message = f"the patch must call {sorted(wanted)}, it calls {sorted(called)}"
                 return Verdict.reject(FailureCategory.HALLUCINATED_API, message), candidate
             return validate_program(candidate, self.api, executor.grounded.entry, self.apis), candidate
 
@@ -251,6 +290,24 @@ def _bare(source: str, executor: SkillExecutor) -> str:
     return source.replace("\n" + executor.indent, "\n")
 
 
+def _body(text: str, indent: str) -> str:
+    """Statements as they sit in the body: top-level lines at ``indent``; nested lines, written deeper, kept."""
+    first, *rest = text.splitlines() or [""]
+    return "\n".join(
+        [indent + first.lstrip(), *(line if line.startswith(indent) else indent + line.lstrip() for line in rest)]
+    )
+
+
+def _assigned(statements: tuple[str, ...], indent: str) -> list[str]:
+    """The variables ``statements`` assign, in order."""
+    try:
+        tree = ast.parse(textwrap.dedent(_body("\n".join(statements), indent)))
+    except SyntaxError:
+        return []
+    names = [n.id for n in ast.walk(tree) if isinstance(n, ast.Name) and isinstance(n.ctx, ast.Store)]
+    return list(dict.fromkeys(names))
+
+
 def _called(code: str) -> set[str]:
     """Names of the functions and task queries ``code`` calls."""
     try:
@@ -275,12 +332,12 @@ def _value(node: ast.expr, executor: SkillExecutor) -> object | None:
 
 
 def recomputation(earlier: list[Segment], node: ast.stmt, primitives: set[str]) -> tuple[str, ...]:
-    """Earlier assignments (no primitive calls) that the statement depends on, in order, to run again."""
+    """Earlier assignments and branches of them (no primitive calls) that the statement depends on, in order."""
     needed = {n.id for n in ast.walk(node) if isinstance(n, ast.Name) and isinstance(n.ctx, ast.Load)}
     chosen = []
     for segment in reversed(earlier):
         stmt = segment.node
-        if not isinstance(stmt, ast.Assign | ast.AugAssign | ast.AnnAssign):
+        if not isinstance(stmt, ast.Assign | ast.AugAssign | ast.AnnAssign | ast.If):
             continue
         calls = {n.func.id for n in ast.walk(stmt) if isinstance(n, ast.Call) and isinstance(n.func, ast.Name)}
         targets = {n.id for n in ast.walk(stmt) if isinstance(n, ast.Name) and isinstance(n.ctx, ast.Store)}

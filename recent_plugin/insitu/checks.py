@@ -1,10 +1,14 @@
 """Run-time unit tests instantiated from the diagnosis' undetermined warnings.
 
-Each check reads the latest observation and the values the guarded call is about to receive,
-and either passes or returns a :class:`Violation`: what was observed (rendered into the in-situ
-hints) and the statements that would make the upcoming segment valid again, written with the
-target robot's own primitives. The rule backend applies those statements as they are; an LM is
-shown them as the cue and writes the patch itself.
+Each check reads the latest observation and the values the guarded call receives, and either
+passes or returns a :class:`Violation`: what was observed (rendered into the in-situ hints) and
+the statements that would make the upcoming code valid again, written with the target robot's own
+primitives. The rule backend applies those statements as they are; an LM is shown them as the cue
+and writes the patch itself.
+
+Preconditions are checked before the guarded statement starts; effects (``phase: after``) once it
+has completed, and a violated effect asks for the statement to be done again from the current
+scene (``rerun``), inserted right after it — what already ran is never repeated in place.
 """
 
 from __future__ import annotations
@@ -23,6 +27,8 @@ LOOSE_KINDS = frozenset({"box", "sphere", "slab", "lid", "rake"})  # what can la
 CLEARANCE = 0.03  # metres around a release target that must be free
 SHIFT = CLEARANCE + 0.075  # metres a swept obstacle's centre moves: past a 10 cm slab's reach of the target
 TABLE_LIMIT = 0.3  # |x|, |y| a swept obstacle may end at (stays on the table)
+FINGER = 0.01  # metres from the hand's centre to the face that pushes
+PUSH_TOLERANCE = 0.03  # metres a pushed object may end from where the push should leave it
 
 
 @dataclass(frozen=True)
@@ -31,6 +37,8 @@ class SceneFacts:
 
     kinds: dict[str, str]
     sizes: dict[str, tuple[float, float, float]]
+    base_xy: tuple[float, float] = (0.0, 0.0)  # the robot's base on the table plane
+    reach: float = float("inf")  # metres: the arm's reach (the ontology's upper bound)
 
 
 @dataclass(frozen=True)
@@ -51,6 +59,7 @@ class Violation:
     observation: str  # what was seen, for the hints and the log
     statements: tuple[str, ...] = ()  # to run before the segment; empty: nothing a patch can do
     instruction: str = ""  # the edit in words, as the LM's cue ("read obj_pos again")
+    rerun: bool = False  # an effect that did not happen: do the statement again from the current scene
 
 
 Check = Callable[[CheckInput], Violation | None]
@@ -165,8 +174,73 @@ def _push_calls(api: ApiSpec, start: np.ndarray, goal: np.ndarray) -> tuple[str,
     return tuple(f"{move.name}(env, task, {target.name}={_fmt(p)})" for p in (start + lift, start, goal, goal + lift))
 
 
+POSITION_ROLES = ("grasp_target", "release_target", "motion_target", "push_start", "push_goal", "handle_target")
+
+
+def within_reach(inp: CheckInput) -> Violation | None:
+    """A target farther from the base (on the table plane) than the arm reaches cannot be attained."""
+    base = np.asarray(inp.scene.base_xy, dtype=float)
+    for role in POSITION_ROLES:
+        target = _by_role(inp, role)
+        if target is None:
+            continue
+        distance = float(np.linalg.norm(target[:2] - base))
+        if distance > inp.scene.reach:
+            return Violation(
+                "within_reach",
+                f"{role.replace('_', ' ')} {_fmt(target)} lies {distance:.2f} m from the base, beyond the arm's "
+                f"{inp.scene.reach:.2f} m reach",
+            )
+    return None
+
+
+def _moved_objects(inp: CheckInput) -> list[str]:
+    """The loose objects the skill names: what its grasps and pushes act on."""
+    return sorted(n for n in inp.named if inp.scene.kinds.get(n) in LOOSE_KINDS and n in inp.obs.objects)
+
+
+def object_held(inp: CheckInput) -> Violation | None:
+    """After a grasp: one of the objects the skill names is held."""
+    candidates = _moved_objects(inp)
+    if not candidates or any(inp.obs.objects[n].grasped for n in candidates):
+        return None
+    where = "; ".join(f"{n} at {_fmt(inp.obs.objects[n].pos)}" for n in candidates)
+    return Violation("object_held", f"nothing held after the grasp ({where})", rerun=True)
+
+
+def pushed_to_goal(inp: CheckInput) -> Violation | None:
+    """After a push: the object ended just ahead of where the hand stopped, on the push line."""
+    start, goal = _by_role(inp, "push_start"), _by_role(inp, "push_goal")
+    candidates = _moved_objects(inp)
+    if start is None or goal is None or not candidates:
+        return None
+    direction = goal[:2] - start[:2]
+    if np.linalg.norm(direction) < 1e-6:
+        return None
+    direction /= np.linalg.norm(direction)
+
+    def miss(name: str) -> tuple[float, np.ndarray]:
+        half = inp.scene.sizes.get(name, (0.05, 0.05, 0.05))[0] / 2
+        expected = goal[:2] + direction * (half + FINGER)
+        return float(np.linalg.norm(inp.obs.objects[name].pos[:2] - expected)), expected
+
+    name = min(candidates, key=lambda n: miss(n)[0])
+    distance, expected = miss(name)
+    if distance <= PUSH_TOLERANCE:
+        return None
+    return Violation(
+        "pushed_to_goal",
+        f"{name} ended at {_fmt(inp.obs.objects[name].pos)}, {100 * distance:.1f} cm from where the push should "
+        f"leave it ([{expected[0]:.3f}, {expected[1]:.3f}])",
+        rerun=True,
+    )
+
+
 CHECKS: dict[str, Check] = {
     "object_unmoved": object_unmoved,
     "object_present": object_present,
     "target_clear": target_clear,
+    "within_reach": within_reach,
+    "object_held": object_held,
+    "pushed_to_goal": pushed_to_goal,
 }
