@@ -42,6 +42,23 @@ def test_prompt_renders_hints_as_comments_before_the_span(ontology, put_in_bin):
     assert "pick(env, task" not in prompt.suffix  # the span itself is not in the prompt's code
 
 
+def test_a_retry_is_held_to_the_ontology_call_with_only_the_placeholders_free(ontology, put_in_bin):
+    from llama_cpp import LlamaGrammar
+
+    def prompts(robot: str, index: int):
+        conflict = diagnose(ontology, put_in_bin.name, put_in_bin.code, robot).conflicts[index]
+        first = build_prompt(unit_from_conflict(put_in_bin.code, conflict, robot), 20)
+        retry = build_prompt(unit_from_conflict(put_in_bin.code, conflict, robot, feedback="no", attempt=1), 20)
+        return first, retry
+
+    first, retry = prompts("UR5e", 1)
+    assert first.grammar.startswith("root ::= [a-zA-Z_]")  # the first attempt is free FIM
+    assert retry.grammar.splitlines()[0] == 'root ::= "ur5_grasp_at(env, task, grasp_pos=obj_pos)" "\\n"'
+    _, retry = prompts("Sawyer", 1)  # Sawyer's pick leaves target_object to the LM
+    assert 'root ::= "sawyer_pick(env, task, target_object=" expr ", target_pos=obj_pos)"' in retry.grammar
+    LlamaGrammar.from_string(retry.grammar, verbose=False)  # valid GBNF
+
+
 def test_rule_backend_grounds_with_zero_tokens(ontology, put_in_bin, rule_infiller):
     grounded = ground_skill(put_in_bin, "UR5e", ontology, rule_infiller)
     assert grounded.valid

@@ -6,9 +6,11 @@ arguments, the substitute), so the LM sees the cues for this one edit and nothin
 
 from __future__ import annotations
 
+import json
 from dataclasses import dataclass
 
 from ontology.diagnosis import ParameterMapping
+from recent_plugin.grounding.substitution import PLACEHOLDER
 from recent_plugin.grounding.units import Hints, RefactoringUnit
 from recent_plugin.infillers.base import approximate_tokens
 
@@ -20,6 +22,24 @@ STATEMENT_LINES = r"root ::= line+" + "\n" + r'line ::= [ ]* [a-zA-Z_] [^\n]* "\
 
 RUNTIME_SPAN_TYPES = ("in_situ_revision", "reactive_repair")  # spans patched while the skill runs
 BASELINE_SPAN_TYPES = ("program_synthesis", "localized_repair")  # the baselines' (recent_plugin/baselines)
+NOT_CONFLICT_SPAN_TYPES = (*RUNTIME_SPAN_TYPES, *BASELINE_SPAN_TYPES, "full_regeneration")
+
+
+def call_grammar(call: str) -> str:
+    """GBNF holding a retry to the ontology's call: its text verbatim, each ``<type>`` placeholder free.
+
+    A first attempt is free FIM. After a rejection, a small model tends to copy the same
+    neighbouring line again; constraining the retry keeps what the ontology decided (the
+    substitute, the keywords, the carried-over values) and leaves the LM only what it did not.
+    """
+    parts = PLACEHOLDER.split(call)
+    items = []
+    for i, part in enumerate(parts):
+        if part:
+            items.append(json.dumps(part, ensure_ascii=False))
+        if i < len(parts) - 1:
+            items.append("expr")
+    return f'root ::= {" ".join(items)} "\\n"\nexpr ::= [^\\n]+'
 
 
 @dataclass(frozen=True)
@@ -82,10 +102,14 @@ def _render_mapping(mapping: ParameterMapping) -> str:
 def build_prompt(unit: RefactoringUnit, span_tokens: int) -> FimPrompt:
     comments = "".join(f"{unit.indent}# {line}\n" for line in hint_lines(unit.span_type, unit.hints))
     single_line = "\n" not in unit.span and "\n" not in (unit.hints.substitute_call or "")
+    grammar = STATEMENT_LINE if single_line else STATEMENT_LINES
+    if unit.hints.attempt > 0 and unit.hints.substitute_call and single_line:
+        if unit.span_type not in NOT_CONFLICT_SPAN_TYPES:  # a retry of a determined conflict
+            grammar = call_grammar(unit.hints.substitute_call)
     return FimPrompt(
         prefix=unit.prefix + comments + unit.indent,
         suffix=unit.suffix,
         stop=("\n", "  #") if single_line else ("\n\n",),
         max_tokens=max(24, 2 * max(span_tokens, approximate_tokens(unit.hints.substitute_call or "")) + 16),
-        grammar=STATEMENT_LINE if single_line else STATEMENT_LINES,
+        grammar=grammar,
     )

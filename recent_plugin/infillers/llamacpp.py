@@ -10,7 +10,7 @@ from __future__ import annotations
 import os
 import time
 
-from recent_plugin.grounding.fim_prompt import build_prompt
+from recent_plugin.grounding.fim_prompt import STATEMENT_LINE, STATEMENT_LINES, build_prompt
 from recent_plugin.grounding.units import RefactoringUnit
 from recent_plugin.infillers.base import Completion
 from recent_plugin.infillers.fim_formats import FORMATS
@@ -42,9 +42,12 @@ class LlamaCppInfiller:
     def _grammar(self, gbnf: str):
         from llama_cpp import LlamaGrammar
 
-        if gbnf not in self._grammars:
-            self._grammars[gbnf] = LlamaGrammar.from_string(gbnf, verbose=False)
-        return self._grammars[gbnf]
+        if gbnf in self._grammars:
+            return self._grammars[gbnf]
+        grammar = LlamaGrammar.from_string(gbnf, verbose=False)
+        if gbnf in (STATEMENT_LINE, STATEMENT_LINES):  # per-retry call grammars are not kept
+            self._grammars[gbnf] = grammar
+        return grammar
 
     def count_tokens(self, text: str) -> int:
         return len(self.llm.tokenize(text.encode(), add_bos=False, special=False))
