@@ -7,6 +7,8 @@ seconds; the slow test grounds a skill with the real 1.5B GGUF, dequantized by t
 
 from __future__ import annotations
 
+import importlib.util
+
 import pytest
 
 from ontology.diagnosis import diagnose
@@ -80,6 +82,35 @@ def test_bad_options_are_named(tiny_model_dir):
         make_infiller("transformers", str(tiny_model_dir), device="cpu", quantization="4bit")
     with pytest.raises(FileNotFoundError, match="no GGUF file"):
         make_infiller("transformers", "/nowhere/model.gguf")
+
+
+def _cuda() -> bool:
+    import torch
+
+    return torch.cuda.is_available()
+
+
+@pytest.mark.skipif(not _cuda(), reason="needs a CUDA GPU (runs on the lent GPU machine, not in CI)")
+@pytest.mark.parametrize("dtype", ["auto", "float16", "bfloat16", "float32"])
+def test_cuda_is_chosen_and_every_dtype_infills_the_same_span_each_time(tiny_model_dir, put_in_bin, dtype):
+    from recent_plugin.grounding.units import Hints, cut_unit
+
+    infiller = make_infiller("transformers", str(tiny_model_dir), dtype=dtype)  # device=None: CUDA when present
+    weights = next(infiller.lm.parameters())
+    assert infiller.device == "cuda" and weights.device.type == "cuda"
+    assert str(weights.dtype) == f"torch.{'float16' if dtype == 'auto' else dtype}"
+    code = put_in_bin.code
+    start = code.index("pick(")
+    end = code.index("\n", start)
+    hints = Hints(
+        robot="UR5e", original_call=code[start:end], substitute_call="ur5_grasp_at(env, task, grasp_pos=obj_pos)"
+    )
+    unit = cut_unit(code, start, end, "api_substitution", hints, substitute="ur5_grasp_at")
+    completions = [infiller.infill(unit) for _ in range(3)]
+    assert completions[0].generated_tokens > 0 and len({c.text for c in completions}) == 1
+    if importlib.util.find_spec("bitsandbytes") is None:  # the error says what to install
+        with pytest.raises(RuntimeError, match="needs bitsandbytes"):
+            make_infiller("transformers", str(tiny_model_dir), quantization="8bit")
 
 
 @pytest.mark.slow
