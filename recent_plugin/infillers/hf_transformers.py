@@ -18,6 +18,7 @@ from recent_plugin.infillers.base import Completion
 from recent_plugin.infillers.fim_formats import FimFormat, fim_format
 
 DTYPES = ("auto", "float32", "float16", "bfloat16")
+PROMPT_LOOKUP_TOKENS = 8  # a span mostly copies its prompt (see infillers/lookup_decoding.py)
 QUANTIZATIONS = (None, "8bit", "4bit")  # bitsandbytes, CUDA only
 
 
@@ -95,6 +96,7 @@ class TransformersInfiller:
                 pad_token_id=self._stop_ids[0] if self._stop_ids else None,
                 stop_strings=list(prompt.stop),
                 tokenizer=self.tokenizer,
+                prompt_lookup_num_tokens=PROMPT_LOOKUP_TOKENS,  # drafts from the prompt: same greedy output, fewer passes
             )
         seconds = time.perf_counter() - started
         new = out[0, encoded["input_ids"].shape[1] :].tolist()
