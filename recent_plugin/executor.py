@@ -196,17 +196,6 @@ class SkillExecutor:
         for i, segment in enumerate(self.segments):
             segment.index = i
 
-    def insertion_point(self, index: int) -> tuple[str, int]:
-        """The skill's source and the offset where statements inserted before segment ``index`` begin.
-
-        After the last segment the source gets an indented empty line, so that an insertion there
-        sits at the body's indentation like any other.
-        """
-        if index < len(self.segments):
-            return self.source(), self.segment_offsets(index)[0]
-        body = self._head + "".join(self.indent + s.source + "\n" for s in self.segments)
-        return body + self.indent + "\n" + self._tail, len(body) + len(self.indent)
-
     def source(self) -> str:
         """The skill as it stands now: patched segments in place of the ones they replaced."""
         return self._head + "".join(self.indent + s.source + "\n" for s in self.segments) + self._tail

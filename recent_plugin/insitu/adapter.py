@@ -237,7 +237,7 @@ class InSituAdapter:
     def _infill_insertion(
         self, executor, segment, at, kind, span_type, reason, observation, statements
     ) -> tuple[str | None, int]:
-        code, start = executor.insertion_point(at)
+        code, start = executor.source(), executor.segment_offsets(at)[0]
         suggestion = "\n".join(statements)  # nested lines at the body's indentation, as segments keep them
         wanted = _called(_body(suggestion, executor.indent))
 
