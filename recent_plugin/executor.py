@@ -166,25 +166,17 @@ class SkillExecutor:
 
     def replace_segment(self, index: int, source: str) -> None:
         """Swap a segment that has not started for one or more statements (never rewrites the past)."""
-        if index < self.cursor or (index == self.cursor and self._running is not None):
-            raise ValueError(f"segment {index} has already started; only upcoming segments can be patched")
-        old = self.segments[index]
-        text = textwrap.dedent(self.indent + source)  # later lines carry the body's indentation
-        new = [
-            Segment(index + i, old.line, self._reindent(ast.get_source_segment(text, node)), node, checked=True)
-            for i, node in enumerate(ast.parse(text).body)
-        ]
-        for node in new:
-            ast.copy_location(node.node, old.node)
-        self.segments[index : index + 1] = new
-        for i, segment in enumerate(self.segments):
-            segment.index = i
+        self._splice(index, index + 1, source)
 
     def insert_segments(self, index: int, source: str) -> None:
         """Put new statements before segment ``index`` (or after the last one); nothing that ran is touched."""
-        if index < self.cursor or (index == self.cursor and self._running is not None):
-            raise ValueError(f"segment {index} has already started; only upcoming segments can be patched")
-        anchor = self.segments[min(index, len(self.segments) - 1)]
+        self._splice(index, index, source)
+
+    def _splice(self, start: int, end: int, source: str) -> None:
+        """Put the statements of ``source`` (later lines at the body's indentation) in place of segments[start:end]."""
+        if start < self.cursor or (start == self.cursor and self._running is not None):
+            raise ValueError(f"segment {start} has already started; only upcoming segments can be patched")
+        anchor = self.segments[min(start, len(self.segments) - 1)]  # where tracebacks and logs place them
         text = textwrap.dedent(self.indent + source)
         new = [
             Segment(0, anchor.line, self._reindent(ast.get_source_segment(text, node)), node, checked=True)
@@ -192,7 +184,7 @@ class SkillExecutor:
         ]
         for segment in new:
             ast.copy_location(segment.node, anchor.node)
-        self.segments[index:index] = new
+        self.segments[start:end] = new
         for i, segment in enumerate(self.segments):
             segment.index = i
 

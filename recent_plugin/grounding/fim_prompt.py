@@ -57,9 +57,9 @@ def hint_lines(span_type: str, hints: Hints) -> list[str]:
     A retry narrows the cues to the original call, the rejection and the call to write: a small
     model that copied a hint line instead of writing code gets less to copy the second time.
     """
-    if span_type in RUNTIME_SPAN_TYPES:  # an insertion: what was observed and the edit (in words, or lines to redo)
+    if span_type in RUNTIME_SPAN_TYPES:  # an insertion: what was observed and the edit in words
         rejected = [f"Rejected before: {hints.feedback}"] if hints.feedback else []
-        return [*rejected, *f"{hints.observation}: {hints.reason}".splitlines()]
+        return [*rejected, f"{hints.observation}: {hints.reason}"]
     if span_type in BASELINE_SPAN_TYPES:  # the prompt header holds the API; hints carry only the error
         failed = [f"Failed before: {hints.feedback}"] if hints.feedback else []
         observed = [f"Observed: {hints.observation}"] if hints.observation else []

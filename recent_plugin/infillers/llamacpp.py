@@ -33,7 +33,7 @@ class LlamaCppInfiller:
             seed=seed,
             verbose=False,
             # llama.cpp repacks the Q4 weights for its CPU kernels; with the file mapped as well, both
-            # copies stay resident (1.76 GB for the 1.5B). Read into memory instead: 1.17 GB, ~1.5 s more load.
+            # copies stay resident (1.76 GB for the 1.5B). Read into memory instead: 1.17 GB, ~1 s more load.
             use_mmap=False,
         )
         self._grammars: dict[str, object] = {}
