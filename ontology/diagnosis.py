@@ -188,7 +188,7 @@ def _warnings(onto, site, original, target, source, robot, sites, bindings) -> l
             warn(cond)  # new on this robot: e.g. a suction cup needs a flat, sealable top face
         elif cond in {"target_reachable", "handle_reachable"} and onto.arms[robot].reach < onto.arms[source].reach:
             warn(cond)  # a smaller workspace than the one the skill was validated in
-        elif cond == "object_at_target" and _read_before_earlier_motion(site, sites, bindings):
+        elif cond in {"object_at_target", "support_unmoved"} and _read_before_earlier_motion(site, sites, bindings):
             warn(cond)  # the position was read, then the robot moved: the object may have too
     for cond in sorted(target.effects):
         if vocab[cond].kind != "runtime":

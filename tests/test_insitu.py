@@ -52,6 +52,17 @@ def test_a_moved_object_is_read_again_before_the_grasp(panda_agent):
     assert event.after.splitlines() == ["obj_pos = task.get_object_position('cube')", event.before]
 
 
+def test_a_moved_tower_base_is_read_again_before_the_block_is_placed_on_it(panda_agent):
+    """``support_unmoved`` guards a place whose target was computed from a position read before the
+    robot moved: the perturbed base block is read again, and the place goes where it is now."""
+    result = run_episode(panda_agent, "end_effector/build_tower", "Robotiq85", seed=0, variations="pose_perturbation")
+    assert result.success
+    (event,) = result.adaptations
+    assert event.kind == "revise" and event.checks == ("object_unmoved",) and "red moved" in event.observation
+    assert event.after.splitlines() == ["base_pos = task.get_object_position('red')", event.before]
+    assert event.before.startswith("place_robotiq85(env, task, target_pos=[base_pos[0]")
+
+
 def test_without_insitu_the_moved_object_is_repaired_after_the_grasp_fails(ontology):
     agent = RecentAgent(AgentSettings(backend="rule", insitu=False), infiller=RuleInfiller(), ontology=ontology)
     result = run_episode(agent, "kinematic/cube_on_plate", "UR5e", seed=0, variations="pose_perturbation")

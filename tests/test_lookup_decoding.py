@@ -6,7 +6,7 @@ import pytest
 
 from ontology.diagnosis import diagnose
 from recent_plugin.grounding.fim_prompt import STATEMENT_LINE, build_prompt
-from recent_plugin.grounding.units import unit_from_conflict
+from recent_plugin.grounding.units import Hints, cut_unit, unit_from_conflict
 from recent_plugin.infillers.llamacpp import QWEN
 from recent_plugin.infillers.lookup_decoding import draft_from_context
 
@@ -46,3 +46,31 @@ def test_lookup_decoding_matches_plain_greedy_decoding(ontology, put_in_bin, lla
         )
         assert decoded.text == reference
         assert decoded.evaluated_prompt_tokens < decoded.prompt_tokens  # the KV cache of the reference run was reused
+
+
+GROUNDED = '''def place_on_plate(env, task, obj="cube", target="plate"):
+    """Pick `obj` and set it down on the middle of the plate `target`."""
+    obj_pos = task.get_object_position(obj)
+    plate_pos = task.get_object_position(target)
+    open_ur5_ee(env, task)
+    ur5_grasp_at(env, task, grasp_pos=obj_pos)
+    drop_pos = [plate_pos[0], plate_pos[1], plate_pos[2] + 0.035]
+    ur5_release_at(env, task, place_pos=drop_pos)
+'''
+
+
+def test_a_span_ends_where_the_model_ends_it(llama_infiller):
+    """The statement grammar admits the model's end token: an in-situ sweep is the call and nothing
+    more (a grammar that demanded the newline ran on with ' # <the call again>' to the length cap)."""
+    sweep = "ur5_push_to(env, task, contact_pos=[0.178, 0.069, 0.854], goal_pos=[0.178, -0.056, 0.854])"
+    start = GROUNDED.index("ur5_release_at")
+    hints = Hints(
+        robot="UR5e",
+        original_call="ur5_release_at(env, task, place_pos=drop_pos)",
+        substitute_call=sweep,
+        reason=f"push it off first: {sweep}",
+        observation="obstacle (slab, 0.10 m wide) lies at [0.178, -0.024, 0.834] on the release target",
+    )
+    completion = llama_infiller.infill(cut_unit(GROUNDED, start, start, "in_situ_revision", hints))
+    assert completion.text == sweep
+    assert completion.generated_tokens <= llama_infiller.count_tokens(sweep) + 1

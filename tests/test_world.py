@@ -169,6 +169,24 @@ def test_suction_holds_a_flat_box_but_not_a_ball_or_a_porous_box(variation, pand
     env.close()
 
 
+def test_suction_stacks_a_tower_the_held_block_going_where_the_skill_places_it(panda_agent):
+    """``detach_vacuum_handle(release_pos)`` puts the object, not the cup, at ``release_pos``: the
+    cup stops above by how far the block hangs below it, once the block hangs still."""
+    from recent_plugin.episode import run_episode
+
+    result = run_episode(panda_agent, "end_effector/build_tower", "Suction", seed=0)
+    assert result.success and not result.failures and not result.adaptations
+
+
+def test_suction_cup_lowered_onto_a_knob_stops_on_it_and_pulls_the_drawer(panda_agent):
+    """``move_to_position`` to a knob's centre stops where the cup rests on the knob (it cannot go
+    inside), so the Panda skill's move-then-grip grounds to move-then-suck."""
+    from recent_plugin.episode import run_episode
+
+    result = run_episode(panda_agent, "end_effector/open_drawer", "Suction", seed=0)
+    assert result.success and not result.failures
+
+
 @pytest.mark.parametrize("robot", ["Panda", "UR5e", "Sawyer", "Robotiq85", "Suction"])
 def test_every_embodiment_builds_a_suite_scene_and_steps(robot):
     env = RecentEnv(task="end_effector/cabinet_routine", robot=robot, render_mode="none")

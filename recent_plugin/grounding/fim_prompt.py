@@ -16,8 +16,11 @@ from recent_plugin.infillers.base import approximate_tokens
 
 # GBNF grammars for the span: code statements, never comments (a small model otherwise sometimes
 # copies a hint line instead of writing the call). Backends without grammar support ignore them.
-STATEMENT_LINE = r'root ::= [a-zA-Z_] [^\n]* "\n"'
-STATEMENT_LINES = r"root ::= line+" + "\n" + r'line ::= [ ]* [a-zA-Z_] [^\n]* "\n"'
+# The span may end where the model ends it (end of the FIM middle) or at a line break: a grammar
+# that demanded the newline would refuse the model's end token, and the next-best admitted tokens
+# ran on (" # <the call again>") to the length cap.
+STATEMENT_LINE = r'root ::= [a-zA-Z_] [^\n]* "\n"?'
+STATEMENT_LINES = r'root ::= line ("\n" line)* "\n"?' + "\n" + r"line ::= [ ]* [a-zA-Z_] [^\n]*"
 
 
 RUNTIME_SPAN_TYPES = ("in_situ_revision", "reactive_repair")  # spans patched while the skill runs

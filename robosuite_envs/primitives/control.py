@@ -47,20 +47,38 @@ def as_position(value: Sequence[float], what: str) -> np.ndarray:
     return arr
 
 
-def move_to(session: RobotSession, target: Sequence[float], *, timeout_s: float = 6.0, tol: float = POS_TOL) -> Steps:
-    """Servo the grip site to ``target`` (world frame, metres); fail with ``timeout`` if it does not settle."""
+def move_to(
+    session: RobotSession,
+    target: Sequence[float],
+    *,
+    timeout_s: float = 6.0,
+    tol: float = POS_TOL,
+    stop_on_contact: bool = False,
+) -> Steps:
+    """Servo the grip site to ``target`` (world frame, metres); fail with ``timeout`` if it does not settle.
+
+    ``stop_on_contact``: a compliant tool (a vacuum cup) arrives once it rests on a surface right
+    above the target — it cannot go through what it would seal on.
+    """
     goal = as_position(target, "target position")
     if goal[2] < TABLE_CLEARANCE:
         raise PrimitiveFailure("out_of_workspace", f"target z={goal[2]:.3f} m is below the table surface")
     max_steps = max(1, int(timeout_s * CONTROL_FREQ))
     for _ in range(max_steps):
-        if np.linalg.norm(goal - session.obs.eef_pos) < tol:
+        if np.linalg.norm(goal - session.obs.eef_pos) < tol or (stop_on_contact and resting_above(session, goal, tol)):
             return
         yield servo_action(session, goal)
     err = np.linalg.norm(goal - session.obs.eef_pos)
     raise PrimitiveFailure(
         "timeout", f"did not reach {np.round(goal, 3).tolist()} within {timeout_s:.1f} s (error {err * 100:.1f} cm)"
     )
+
+
+def resting_above(session: RobotSession, goal: np.ndarray, tol: float = POS_TOL) -> bool:
+    """The tool touches an object it does not hold, right above ``goal``: it cannot get any lower."""
+    error = goal - session.obs.eef_pos
+    touching = any(s.touching and not s.grasped for s in session.obs.objects.values())
+    return touching and error[2] < 0 and float(np.linalg.norm(error[:2])) < tol
 
 
 def actuate_gripper(
@@ -129,13 +147,17 @@ def suction_grasp_at(session: RobotSession, position: Sequence[float], *, timeou
 
 
 def descend_until_contact(
-    session: RobotSession, target: np.ndarray, *, timeout_s: float = 5.0, overshoot: float = 0.01
+    session: RobotSession, target: np.ndarray, *, timeout_s: float = 5.0, overshoot: float = 0.01, press_steps: int = 3
 ) -> Steps:
-    """Lower towards ``target`` (and ``overshoot`` below it) until the end effector touches an object."""
+    """Lower towards ``target`` (and ``overshoot`` below it) until the end effector touches an object,
+    then press on for ``press_steps`` so a cup's whole face comes down on the surface."""
     goal = np.array(target) - np.array([0.0, 0.0, overshoot])
+    pressed = 0
     for _ in range(max(1, int(timeout_s * CONTROL_FREQ))):
         if any(state.touching for state in session.obs.objects.values()):
-            return
+            if pressed >= press_steps:
+                return
+            pressed += 1
         yield servo_action(session, goal)
     raise PrimitiveFailure("unreachable", f"no contact while descending to {np.round(target, 3).tolist()}")
 
@@ -197,13 +219,50 @@ def orientation_error(session: RobotSession) -> float:
     return float(np.linalg.norm(rotation_error(session)))
 
 
-def release_at(session: RobotSession, position: Sequence[float], *, timeout_s: float = 10.0) -> Steps:
-    """Carry the held object above ``position``, lower to it, open, and retreat upwards."""
+def held_offset(session: RobotSession) -> np.ndarray:
+    """Where the held object's centre sits relative to the grip site (zero when nothing is held)."""
+    held = [state.pos for state in session.obs.objects.values() if state.grasped]
+    return np.asarray(held[0], dtype=np.float64) - session.obs.eef_pos if held else np.zeros(3)
+
+
+def hold_until_still(session: RobotSession, hold: np.ndarray, *, max_duration_s: float = 2.0) -> Steps:
+    """Hold the arm at ``hold`` until the held object stops moving (3 steps under 1 mm each)."""
+
+    def load() -> np.ndarray | None:
+        held = [state.pos for state in session.obs.objects.values() if state.grasped]
+        return np.asarray(held[0], dtype=np.float64) if held else None
+
+    previous, still = load(), 0
+    for _ in range(int(max_duration_s * CONTROL_FREQ)):
+        if previous is None or still >= 3:
+            return
+        yield servo_action(session, hold)
+        current = load()
+        still = still + 1 if current is not None and np.linalg.norm(current - previous) < 0.001 else 0
+        previous = current
+
+
+def release_at(
+    session: RobotSession, position: Sequence[float], *, timeout_s: float = 10.0, hanging_load: bool = False
+) -> Steps:
+    """Carry the held object above ``position``, lower to it, open, and retreat upwards.
+
+    ``hanging_load``: the object, not the grip site, goes to ``position`` — for a cup, which holds
+    an object by its top face and lets it sway: wait above the target until it hangs still, then
+    lower by where it hangs.
+    """
     target = as_position(position, "release position")
+    if hanging_load:
+        target = target - np.array([0.0, 0.0, held_offset(session)[2]])
     above = target + np.array([0.0, 0.0, APPROACH_HEIGHT / 2])
     lift = np.array([session.obs.eef_pos[0], session.obs.eef_pos[1], max(session.obs.eef_pos[2], above[2])])
     yield from move_to(session, lift, timeout_s=timeout_s / 2, tol=0.02)
     yield from move_to(session, above, timeout_s=timeout_s)
+    if hanging_load:
+        yield from hold_until_still(session, above)
+        offset = held_offset(session)
+        target = target - np.array([offset[0], offset[1], 0.0])
+        above = target + np.array([0.0, 0.0, APPROACH_HEIGHT / 2])
     yield from move_to(session, target, timeout_s=timeout_s / 2)
     yield from actuate_gripper(session, -1.0)
     yield from move_to(session, above, timeout_s=timeout_s / 2, tol=0.02)

@@ -20,13 +20,13 @@ def move_to_position(
     env: RobotSession, task: TaskContext, pos: Sequence[float], pointing_to: str = "down"
 ) -> control.Steps:
     """Move the end effector to ``pos`` pointing ``pointing_to`` (only 'down' is supported)."""
-    _check_pointing(pointing_to)
+    check_pointing(pointing_to)
     yield from control.move_to(env, pos)
 
 
 def move_gripper_to(env: RobotSession, task: TaskContext, obj_name: str, pointing_to: str = "down") -> control.Steps:
     """Move the end effector above the object called ``obj_name``."""
-    _check_pointing(pointing_to)
+    check_pointing(pointing_to)
     above = np.array(task.get_object_position(obj_name)) + np.array([0.0, 0.0, control.APPROACH_HEIGHT])
     yield from control.move_to(env, above)
 
@@ -43,6 +43,6 @@ def rotate_gripper(env: RobotSession, task: TaskContext, angle: float, steps: in
     yield from control.rotate_about_z(env, float(angle), timeout_s=max(1, int(steps)) / control.CONTROL_FREQ)
 
 
-def _check_pointing(pointing_to: str) -> None:
+def check_pointing(pointing_to: str) -> None:
     if pointing_to != "down":
         raise control.PrimitiveFailure("misaligned", f"pointing_to={pointing_to!r}: only 'down' is supported")

@@ -6,9 +6,9 @@ from collections.abc import Sequence
 
 from robosuite_envs.primitives import control
 from robosuite_envs.primitives.end_effector_moves import (
+    check_pointing,
     move_gripper_to,
     move_parallel,
-    move_to_position,
     rotate_gripper,
 )
 from robosuite_envs.primitives.session import RobotSession, TaskContext
@@ -25,14 +25,27 @@ __all__ = [
 ]
 
 
+def move_to_position(
+    env: RobotSession, task: TaskContext, pos: Sequence[float], pointing_to: str = "down"
+) -> control.Steps:
+    """Move the cup to ``pos``; lowered onto a surface, it stops where the cup rests on it (it cannot
+    reach a point inside what it would seal on, e.g. a knob's centre)."""
+    check_pointing(pointing_to)
+    yield from control.move_to(env, pos, stop_on_contact=True)
+
+
 def attach_vacuum_handle(env: RobotSession, task: TaskContext, handle_pos: Sequence[float]) -> control.Steps:
     """Seal the cup on the flat top face at ``handle_pos``, switch suction on and lift."""
     yield from control.suction_grasp_at(env, handle_pos)
 
 
 def detach_vacuum_handle(env: RobotSession, task: TaskContext, release_pos: Sequence[float]) -> control.Steps:
-    """Carry the attached object to ``release_pos``, switch suction off and back away."""
-    yield from control.release_at(env, release_pos)
+    """Carry the attached object to ``release_pos``, switch suction off and back away.
+
+    ``release_pos`` is where the object goes, as for a parallel gripper: the cup holds it by its
+    top face and it hangs below, so the cup stops that far above and beside.
+    """
+    yield from control.release_at(env, release_pos, hanging_load=True)
 
 
 def activate_vacuum(env: RobotSession, task: TaskContext) -> control.Steps:
