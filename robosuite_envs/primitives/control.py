@@ -219,25 +219,26 @@ def orientation_error(session: RobotSession) -> float:
     return float(np.linalg.norm(rotation_error(session)))
 
 
+def held_position(session: RobotSession) -> np.ndarray | None:
+    """The held object's centre (None when nothing is held)."""
+    held = [state.pos for state in session.obs.objects.values() if state.grasped]
+    return np.asarray(held[0], dtype=np.float64) if held else None
+
+
 def held_offset(session: RobotSession) -> np.ndarray:
     """Where the held object's centre sits relative to the grip site (zero when nothing is held)."""
-    held = [state.pos for state in session.obs.objects.values() if state.grasped]
-    return np.asarray(held[0], dtype=np.float64) - session.obs.eef_pos if held else np.zeros(3)
+    position = held_position(session)
+    return np.zeros(3) if position is None else position - session.obs.eef_pos
 
 
 def hold_until_still(session: RobotSession, hold: np.ndarray, *, max_duration_s: float = 2.0) -> Steps:
     """Hold the arm at ``hold`` until the held object stops moving (3 steps under 1 mm each)."""
-
-    def load() -> np.ndarray | None:
-        held = [state.pos for state in session.obs.objects.values() if state.grasped]
-        return np.asarray(held[0], dtype=np.float64) if held else None
-
-    previous, still = load(), 0
+    previous, still = held_position(session), 0
     for _ in range(int(max_duration_s * CONTROL_FREQ)):
         if previous is None or still >= 3:
             return
         yield servo_action(session, hold)
-        current = load()
+        current = held_position(session)
         still = still + 1 if current is not None and np.linalg.norm(current - previous) < 0.001 else 0
         previous = current
 
