@@ -35,7 +35,11 @@ def register(sub) -> None:
     )
     parser.add_argument("--out", default="outputs/bench", help="run directory (default: outputs/bench)")
     parser.add_argument(
-        "--workers", type=int, default=1, help="parallel episode processes, each with its own LM (default: 1)"
+        "--workers",
+        type=int,
+        default=1,
+        help="parallel episode processes, each with its own LM and a share of the cores (default: 1; "
+        "timings such as IT and IGT are the targets' only with 1 worker on 2 threads: workers compete for the CPU)",
     )
     parser.add_argument("--no-log", action="store_true", help="no per-episode MCAP/Rerun/dataset logs")
     parser.add_argument("--log-sinks", default="mcap,rerun,dataset", help="sinks of the per-episode logs")
