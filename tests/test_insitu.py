@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import re
 import time
 from pathlib import Path
 
@@ -20,7 +19,6 @@ from recent_plugin.insitu.checks import (
     SceneFacts,
     object_unmoved,
     pushed_to_goal,
-    target_clear,
     within_reach,
 )
 from robosuite_envs.observation import ObjectState, Observation
@@ -142,33 +140,19 @@ def test_effect_and_reach_checks_read_the_observation():
     )
 
 
-def test_a_drift_within_sensing_noise_is_not_a_move_and_a_sweep_is_written_to_the_centimetre():
-    """Two noisy reads (sigma 4 mm) of a still object must not cost a patch; a perturbation (4-6 cm) must.
-    The sweep around an obstacle is written with two decimals: no digit the LM need not generate."""
-    ur5e = load_api_spec(Path("robosuite_envs/primitives/ur5e.yaml"))
+def test_a_drift_within_sensing_noise_is_not_a_move():
+    """Two noisy reads (sigma 4 mm) of a still object must not cost an LM call; a perturbation (4-6 cm) must."""
     read = [0.10, -0.05, 0.845]
-    scene = SceneFacts({"cube": "box", "obstacle": "slab"}, {"cube": (0.05, 0.05, 0.05), "obstacle": (0.1, 0.1, 0.03)})
+    scene = SceneFacts({"cube": "box"}, {"cube": (0.05, 0.05, 0.05)})
+    ur5e = load_api_spec(Path("robosuite_envs/primitives/ur5e.yaml"))
 
-    def check_input(objects, arguments, roles):
-        states = {
-            n: ObjectState(np.array(p, dtype=float), np.array([0, 0, 0, 1.0]), False, False, 0.05, 0.0)
-            for n, p in objects.items()
-        }
-        obs = Observation(np.zeros(3), np.array([0, 0, 0, 1.0]), 0.0, states)
-        return CheckInput(None, obs, arguments, roles, frozenset({"cube"}), {"obj_pos": ("cube", read)}, scene, ur5e)
+    def now_at(pos):
+        cube = ObjectState(np.array(pos, dtype=float), np.array([0, 0, 0, 1.0]), False, False, 0.05, 0.0)
+        obs = Observation(np.zeros(3), np.array([0, 0, 0, 1.0]), 0.0, {"cube": cube})
+        return CheckInput(None, obs, {}, {}, frozenset({"cube"}), {"obj_pos": ("cube", read)}, scene, ur5e)
 
-    assert object_unmoved(check_input({"cube": [0.11, -0.04, 0.85]}, {}, {})) is None  # 1.5 cm: noise
-    moved = object_unmoved(check_input({"cube": [0.14, -0.05, 0.845]}, {}, {}))
-    assert moved.statements == ("obj_pos = task.get_object_position('cube')",)
-
-    blocked = target_clear(
-        check_input(
-            {"obstacle": [0.178, -0.024, 0.834]}, {"place_pos": [0.173, -0.015, 0.846]}, {"place_pos": "release_target"}
-        )
+    assert object_unmoved(now_at([0.11, -0.04, 0.85])) is None  # 1.5 cm: within the noise
+    moved = object_unmoved(now_at([0.14, -0.05, 0.845]))
+    assert (
+        moved.statements == ("obj_pos = task.get_object_position('cube')",) and "cube moved 4.0 cm" in moved.observation
     )
-    (sweep,) = blocked.statements
-    assert sweep.startswith("ur5_push_to(env, task, contact_pos=[")
-    numbers = re.findall(r"-?\d+\.\d+", sweep)
-    assert len(numbers) == 6 and all(len(n.split(".")[1]) == 2 for n in numbers)
-    height = float(numbers[2])  # the fingertips (~2 cm below the hand) 5-15 mm above the slab's underside
-    assert 0.819 + 0.025 <= height <= 0.819 + 0.035 and numbers[2] == numbers[5]

@@ -13,7 +13,6 @@ scene (``rerun``), inserted right after it — what already ran is never repeate
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -80,12 +79,8 @@ def _by_role(inp: CheckInput, *roles: str) -> np.ndarray | None:
     return None
 
 
-def _fmt(v, decimals: int = 3) -> str:
-    return "[" + ", ".join(f"{float(x) + 0.0:.{decimals}f}" for x in v) + "]"
-
-
-def _fmt_cm(v) -> str:
-    return _fmt(np.round(v, 2), 2)
+def _fmt(v) -> str:
+    return "[" + ", ".join(f"{float(x):.3f}" for x in v) + "]"
 
 
 def object_unmoved(inp: CheckInput) -> Violation | None:
@@ -147,9 +142,8 @@ def sweep_statements(inp: CheckInput, obstacle: str, held: set[str]) -> tuple[st
     centre, half = np.asarray(state.pos, dtype=float), max(size[:2]) / 2
     carried = max((inp.scene.sizes.get(n, (0, 0, 0)) for n in held), key=lambda s: s[2], default=None)
     bottom = centre[2] - size[2] / 2
-    # the held object's lower face 10-20 mm (or the closed fingertips, ~2 cm below the grip site, 5-15 mm)
-    # above the surface: the centimetre above the lowest safe height, so the patch writes two decimals
-    height = math.ceil(100 * (bottom + (0.010 + carried[2] / 2 if carried else 0.025)) - 1e-6) / 100
+    # the held object's lower face (or the closed fingertips, ~2 cm below the grip site) just above the surface
+    height = bottom + (0.012 + carried[2] / 2 if carried else 0.025)
     lead = carried[0] / 2 if carried else 0.01  # grip site to the face that touches the obstacle
     others = [
         (s.pos[:2], np.asarray(inp.scene.sizes.get(n, (0.05, 0.05, 0.05))[:2]) / 2)
@@ -171,22 +165,16 @@ def sweep_statements(inp: CheckInput, obstacle: str, held: set[str]) -> tuple[st
 
 
 def _push_calls(api: ApiSpec, start: np.ndarray, goal: np.ndarray) -> tuple[str, ...]:
-    """The robot's own push primitive when it has one, else four Cartesian moves.
-
-    Coordinates are written to the centimetre: a sweep needs no more (the sensing noise alone is
-    4 mm), and every digit is a token the LM generates (GO, IT).
-    """
+    """The robot's own push primitive when it has one, else four Cartesian moves."""
     push = next((p for p in api.primitives if "push_object" in p.capabilities), None)
     if push is not None:
         begin, end = push.by_role("push_start"), push.by_role("push_goal")
         if begin is not None and end is not None:
-            return (f"{push.name}(env, task, {begin.name}={_fmt_cm(start)}, {end.name}={_fmt_cm(goal)})",)
+            return (f"{push.name}(env, task, {begin.name}={_fmt(start)}, {end.name}={_fmt(goal)})",)
     move = next(p for p in api.primitives if "cartesian_motion" in p.capabilities)
     target = move.by_role("motion_target")
     lift = np.array([0.0, 0.0, 0.08])
-    return tuple(
-        f"{move.name}(env, task, {target.name}={_fmt_cm(p)})" for p in (start + lift, start, goal, goal + lift)
-    )
+    return tuple(f"{move.name}(env, task, {target.name}={_fmt(p)})" for p in (start + lift, start, goal, goal + lift))
 
 
 POSITION_ROLES = ("grasp_target", "release_target", "motion_target", "push_start", "push_goal", "handle_target")
