@@ -7,7 +7,8 @@ from collections.abc import Sequence
 from robosuite_envs.primitives import control
 from robosuite_envs.primitives.session import RobotSession, TaskContext
 
-# Sawyer's OSC tracking settles ~1-2 cm off target (measured); its motions accept a looser tolerance.
+# Sawyer's OSC tracking settles ~1-2 cm off target (measured); its motions accept a looser tolerance
+# once the arm has stopped.
 SAWYER_TOL = 0.02
 
 
@@ -24,7 +25,7 @@ def sawyer_place(env: RobotSession, task: TaskContext, place_pos: Sequence[float
 
 def sawyer_move_to(env: RobotSession, task: TaskContext, target_pos: Sequence[float]) -> control.Steps:
     """Move the gripper to ``target_pos``."""
-    yield from control.move_to(env, target_pos, tol=SAWYER_TOL)
+    yield from control.move_to(env, target_pos, tol=SAWYER_TOL, settle=True)
 
 
 def sawyer_push(
