@@ -19,6 +19,7 @@ from recent_plugin.insitu.checks import (
     SceneFacts,
     object_unmoved,
     pushed_to_goal,
+    target_clear,
     within_reach,
 )
 from robosuite_envs.observation import ObjectState, Observation
@@ -156,3 +157,18 @@ def test_a_drift_within_sensing_noise_is_not_a_move():
     assert (
         moved.statements == ("obj_pos = task.get_object_position('cube')",) and "cube moved 4.0 cm" in moved.observation
     )
+
+
+def test_the_lm_sees_only_the_sweeps_coordinates_the_log_keeps_the_slabs():
+    """Shown the slab's and the target's positions as well, the 1.5B sometimes pushed from the slab's centre."""
+    ur5e = load_api_spec(Path("robosuite_envs/primitives/ur5e.yaml"))
+    slab = ObjectState(np.array([0.178, -0.024, 0.834]), np.array([0, 0, 0, 1.0]), False, False, 0.05, 0.0)
+    obs = Observation(np.zeros(3), np.array([0, 0, 0, 1.0]), 0.0, {"obstacle": slab})
+    scene = SceneFacts({"obstacle": "slab"}, {"obstacle": (0.1, 0.1, 0.03)})
+    target = {"place_pos": [0.173, -0.015, 0.846]}
+    inp = CheckInput(None, obs, target, {"place_pos": "release_target"}, frozenset(), {}, scene, ur5e)
+    blocked = target_clear(inp)
+    (sweep,) = blocked.statements
+    assert "[0.178, -0.024, 0.834]" in blocked.observation and "[" not in blocked.cue
+    assert blocked.cue == "obstacle (slab, 0.10 m wide) lies on the release target"
+    assert sweep.startswith("ur5_push_to(env, task, contact_pos=[0.178, ") and "0.834]" not in sweep

@@ -122,7 +122,10 @@ class InSituAdapter:
             )
             return
         instruction = "; and ".join(v.instruction for v in violations if v.statements)
-        self._patch(executor, segment, at, "revise", "in_situ_revision", checks, instruction, observation, statements)
+        cue = "; ".join(v.cue or v.observation for v in violations)
+        self._patch(
+            executor, segment, at, "revise", "in_situ_revision", checks, instruction, observation, statements, cue=cue
+        )
 
     def _evaluate(self, executor: SkillExecutor, segment: Segment, warning: Warning) -> Violation | None:
         call = next(
@@ -205,17 +208,20 @@ class InSituAdapter:
         reason: str,
         observation: str,
         statements: tuple[str, ...],
+        *,
+        cue: str | None = None,
     ) -> bool:
         """Insert statements before segment ``at`` (an empty FIM span: what follows stays the suffix).
 
         ``segment`` is the statement the check or failure is about: ``at`` is its own index (a
         precondition, a repair) or the next one (an effect). Without statements a repair simply
-        runs the segment again, with no infiller call.
+        runs the segment again, with no infiller call. ``cue``: the observation as the LM's hint
+        shows it (default: as the log records it).
         """
         accepted, attempts = (None, 0) if statements else ("", 0)
         if statements:
             accepted, attempts = self._infill_insertion(
-                executor, segment, at, kind, span_type, reason, observation, statements
+                executor, segment, at, kind, span_type, reason, cue or observation, statements
             )
         bare = _bare(segment.source, executor)
         order = [accepted, bare] if at == segment.index else [bare, accepted]

@@ -63,6 +63,7 @@ class Violation:
     statements: tuple[str, ...] = ()  # to run before the segment; empty: nothing a patch can do
     instruction: str = ""  # the edit in words, as the LM's cue ("read obj_pos again")
     rerun: bool = False  # an effect that did not happen: do the statement again from the current scene
+    cue: str = ""  # the observation as the LM's hint shows it; empty: ``observation`` itself
 
 
 Check = Callable[[CheckInput], Violation | None]
@@ -121,11 +122,15 @@ def target_clear(inp: CheckInput) -> Violation | None:
         reaches_up = state.pos[2] + size[2] / 2 > target[2] - carried - 0.01
         if np.linalg.norm(state.pos[:2] - target[:2]) < half + CLEARANCE and reaches_up:
             statements = sweep_statements(inp, name, held)
+            what = f"{name} ({inp.scene.kinds[name]}, {2 * half:.2f} m wide) lies"
             return Violation(
                 "target_clear",
-                f"{name} ({inp.scene.kinds[name]}, {2 * half:.2f} m wide) lies at {_fmt(state.pos)} on the release target {_fmt(target)}",
+                f"{what} at {_fmt(state.pos)} on the release target {_fmt(target)}",
                 statements,
                 "push it off first: " + "; then ".join(statements),
+                # the sweep's own coordinates are the only ones the LM sees: shown the slab's and the
+                # target's too, the 1.5B sometimes copied those into the push (into the slab, which timed out)
+                cue=f"{what} on the release target",
             )
     return None
 
