@@ -3,12 +3,11 @@
 from __future__ import annotations
 
 import time
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-from ontology.specs import ApiSpec, load_api_spec
+from ontology.specs import load_api_spec
 from recent_plugin.agent import AgentSettings, RecentAgent
 from recent_plugin.episode import run_episode
 from recent_plugin.grounding.units import RefactoringUnit
@@ -23,6 +22,7 @@ from recent_plugin.insitu.checks import (
     within_reach,
 )
 from robosuite_envs.observation import ObjectState, Observation
+from robosuite_envs.primitives import api_spec_path
 
 
 class CountingInfiller(RuleInfiller):
@@ -122,12 +122,22 @@ def test_a_push_that_left_the_cube_short_is_done_again_after_it_from_the_current
     assert result.ei == 0 and not result.runtime_calls  # code the skill holds is re-run, not generated
 
 
+def observed(**positions) -> Observation:
+    """An observation of still, ungrasped objects at ``positions`` (name -> [x, y, z])."""
+    states = {
+        name: ObjectState(np.array(pos, dtype=float), np.array([0, 0, 0, 1.0]), False, False, 0.05, 0.0)
+        for name, pos in positions.items()
+    }
+    return Observation(np.zeros(3), np.array([0, 0, 0, 1.0]), 0.0, states)
+
+
+UR5E = load_api_spec(api_spec_path("ur5e"))
+
+
 def test_effect_and_reach_checks_read_the_observation():
     def check_input(cube_at, arguments, roles):
-        cube = ObjectState(np.array(cube_at, dtype=float), np.array([0, 0, 0, 1.0]), False, False, 0.05, 0.0)
-        obs = Observation(np.zeros(3), np.array([0, 0, 0, 1.0]), 0.0, {"cube": cube})
         scene = SceneFacts({"cube": "box"}, {"cube": (0.05, 0.05, 0.05)}, base_xy=(-0.56, 0.0), reach=0.9)
-        return CheckInput(None, obs, arguments, roles, frozenset({"cube"}), {}, scene, ApiSpec("UR5e", "m", Path("m")))
+        return CheckInput(None, observed(cube=cube_at), arguments, roles, frozenset({"cube"}), {}, scene, UR5E)
 
     push = {"contact_pos": "push_start", "goal_pos": "push_goal"}
     pushed = {"contact_pos": [0.0, -0.1, 0.82], "goal_pos": [0.0, 0.1, 0.82]}
@@ -145,29 +155,24 @@ def test_a_drift_within_sensing_noise_is_not_a_move():
     """Two noisy reads (sigma 4 mm) of a still object must not cost an LM call; a perturbation (4-6 cm) must."""
     read = [0.10, -0.05, 0.845]
     scene = SceneFacts({"cube": "box"}, {"cube": (0.05, 0.05, 0.05)})
-    ur5e = load_api_spec(Path("robosuite_envs/primitives/ur5e.yaml"))
 
     def now_at(pos):
-        cube = ObjectState(np.array(pos, dtype=float), np.array([0, 0, 0, 1.0]), False, False, 0.05, 0.0)
-        obs = Observation(np.zeros(3), np.array([0, 0, 0, 1.0]), 0.0, {"cube": cube})
-        return CheckInput(None, obs, {}, {}, frozenset({"cube"}), {"obj_pos": ("cube", read)}, scene, ur5e)
+        return CheckInput(
+            None, observed(cube=pos), {}, {}, frozenset({"cube"}), {"obj_pos": ("cube", read)}, scene, UR5E
+        )
 
     assert object_unmoved(now_at([0.11, -0.04, 0.85])) is None  # 1.5 cm: within the noise
     moved = object_unmoved(now_at([0.14, -0.05, 0.845]))
-    assert (
-        moved.statements == ("obj_pos = task.get_object_position('cube')",) and "cube moved 4.0 cm" in moved.observation
-    )
+    assert moved.statements == ("obj_pos = task.get_object_position('cube')",)
+    assert "cube moved 4.0 cm" in moved.observation
 
 
 def test_the_lm_sees_only_the_sweeps_coordinates_the_log_keeps_the_slabs():
     """Shown the slab's and the target's positions as well, the 1.5B sometimes pushed from the slab's centre."""
-    ur5e = load_api_spec(Path("robosuite_envs/primitives/ur5e.yaml"))
-    slab = ObjectState(np.array([0.178, -0.024, 0.834]), np.array([0, 0, 0, 1.0]), False, False, 0.05, 0.0)
-    obs = Observation(np.zeros(3), np.array([0, 0, 0, 1.0]), 0.0, {"obstacle": slab})
     scene = SceneFacts({"obstacle": "slab"}, {"obstacle": (0.1, 0.1, 0.03)})
     target = {"place_pos": [0.173, -0.015, 0.846]}
-    inp = CheckInput(None, obs, target, {"place_pos": "release_target"}, frozenset(), {}, scene, ur5e)
-    blocked = target_clear(inp)
+    obs = observed(obstacle=[0.178, -0.024, 0.834])
+    blocked = target_clear(CheckInput(None, obs, target, {"place_pos": "release_target"}, frozenset(), {}, scene, UR5E))
     (sweep,) = blocked.statements
     assert "[0.178, -0.024, 0.834]" in blocked.observation and "[" not in blocked.cue
     assert blocked.cue == "obstacle (slab, 0.10 m wide) lies on the release target"
