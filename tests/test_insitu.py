@@ -10,9 +10,11 @@ import pytest
 from ontology.specs import load_api_spec
 from recent_plugin.agent import AgentSettings, RecentAgent
 from recent_plugin.episode import run_episode
+from recent_plugin.executor import split_segments
 from recent_plugin.grounding.units import RefactoringUnit
 from recent_plugin.infillers.base import Completion
 from recent_plugin.infillers.rule import RuleInfiller
+from recent_plugin.insitu.adapter import recomputation
 from recent_plugin.insitu.checks import (
     CheckInput,
     SceneFacts,
@@ -177,3 +179,32 @@ def test_the_lm_sees_only_the_sweeps_coordinates_the_log_keeps_the_slabs():
     assert "[0.178, -0.024, 0.834]" in blocked.observation and "[" not in blocked.cue
     assert blocked.cue == "obstacle (slab, 0.10 m wide) lies on the release target"
     assert sweep.startswith("ur5_push_to(env, task, contact_pos=[0.178, ") and "0.834]" not in sweep
+
+
+def test_a_second_recomputation_copies_only_the_latest_definitions():
+    """After one repair the skill holds its path computation twice; the next repair copies it once."""
+    block = """    obj_pos = task.get_object_position(obj)
+    dx = 0.3 - obj_pos[0]
+    if dx > 0:
+        start = [obj_pos[0] - 0.06, obj_pos[1], obj_pos[2]]
+    else:
+        start = [obj_pos[0] + 0.06, obj_pos[1], obj_pos[2]]
+    lift = 0.02
+    lift += 0.01
+"""
+    code = (
+        'def push(env, task, obj="cube"):\n'
+        + block
+        + block
+        + "    ur5_push_to(env, task, contact_pos=start, goal_pos=[0, 0, lift])\n"
+    )
+    segments = split_segments(code, "push")
+    redo = recomputation(segments[:-1], segments[-1].node, {"ur5_push_to"})
+    # once each, from the second copy; `lift += 0.01` reads the `lift = 0.02` before it, so both come
+    assert [s.splitlines()[0] for s in redo] == [
+        "obj_pos = task.get_object_position(obj)",
+        "dx = 0.3 - obj_pos[0]",
+        "if dx > 0:",
+        "lift = 0.02",
+        "lift += 0.01",
+    ]

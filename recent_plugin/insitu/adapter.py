@@ -338,8 +338,13 @@ def _value(node: ast.expr, executor: SkillExecutor) -> object | None:
 
 
 def recomputation(earlier: list[Segment], node: ast.stmt, primitives: set[str]) -> tuple[str, ...]:
-    """Earlier assignments and branches of them (no primitive calls) that the statement depends on, in order."""
-    needed = {n.id for n in ast.walk(node) if isinstance(n, ast.Name) and isinstance(n.ctx, ast.Load)}
+    """Earlier assignments and branches of them (no primitive calls) that the statement depends on, in order.
+
+    Only the latest definition of a value is taken: once a statement is chosen, what it assigns on
+    every path is no longer needed from further back (a second repair copies the first one's
+    recomputation, not the original's as well).
+    """
+    needed = _loads(node)
     chosen = []
     for segment in reversed(earlier):
         stmt = segment.node
@@ -350,5 +355,21 @@ def recomputation(earlier: list[Segment], node: ast.stmt, primitives: set[str]) 
         if calls & primitives or not targets & needed:
             continue
         chosen.append(segment.source)
-        needed |= {n.id for n in ast.walk(stmt) if isinstance(n, ast.Name) and isinstance(n.ctx, ast.Load)}
+        needed = (needed - _always_assigned([stmt])) | _loads(stmt)
     return tuple(reversed(chosen))
+
+
+def _loads(node: ast.AST) -> set[str]:
+    return {n.id for n in ast.walk(node) if isinstance(n, ast.Name) and isinstance(n.ctx, ast.Load)}
+
+
+def _always_assigned(body: list[ast.stmt]) -> set[str]:
+    """Names a block assigns on every path through it (an augmented assignment reads its old value)."""
+    names: set[str] = set()
+    for stmt in body:
+        if isinstance(stmt, ast.Assign | ast.AnnAssign):
+            targets = stmt.targets if isinstance(stmt, ast.Assign) else [stmt.target]
+            names |= {n.id for t in targets for n in ast.walk(t) if isinstance(n, ast.Name)}
+        elif isinstance(stmt, ast.If) and stmt.orelse:
+            names |= _always_assigned(stmt.body) & _always_assigned(stmt.orelse)
+    return names
