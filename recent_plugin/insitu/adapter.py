@@ -355,12 +355,24 @@ def recomputation(earlier: list[Segment], node: ast.stmt, primitives: set[str]) 
         if calls & primitives or not targets & needed:
             continue
         chosen.append(segment.source)
-        needed = (needed - _always_assigned([stmt])) | _loads(stmt)
+        needed = (needed - _always_assigned([stmt])) | _reads([stmt])
     return tuple(reversed(chosen))
 
 
 def _loads(node: ast.AST) -> set[str]:
     return {n.id for n in ast.walk(node) if isinstance(n, ast.Name) and isinstance(n.ctx, ast.Load)}
+
+
+def _reads(body: list[ast.stmt], assigned: frozenset[str] = frozenset()) -> set[str]:
+    """Names a block reads before it assigns them itself (a branch's ``sign`` set and then used is not)."""
+    out: set[str] = set()
+    for stmt in body:
+        if isinstance(stmt, ast.If):
+            out |= (_loads(stmt.test) - assigned) | _reads(stmt.body, assigned) | _reads(stmt.orelse, assigned)
+        else:
+            out |= _loads(stmt) - assigned
+        assigned = assigned | _always_assigned([stmt])
+    return out
 
 
 def _always_assigned(body: list[ast.stmt]) -> set[str]:
