@@ -45,9 +45,15 @@ def grounding_summary(grounded) -> dict:
 
 
 def print_grounding(summary: dict) -> None:
-    print(summary["diff"] or "(no change: the skill is directly compatible)")
+    if summary["diff"]:
+        print(summary["diff"])
+    elif summary["conflicts"]:
+        print("(no change: no grounding of its conflicts passed validation)")
+    else:
+        print("(no change: the skill is directly compatible)")
     for c in summary["conflicts"]:
-        print(f"  line {c['line']}: {c['original']} -> {c['substitute']} ({c['span_type']})")
+        substitute = c["substitute"] or f"(no primitive of {summary['robot']} has its effects)"
+        print(f"  line {c['line']}: {c['original']} -> {substitute} ({c['span_type']})")
     verdict = (
         "valid" if summary["valid"] else f"REJECTED ({summary['failure']['category']}: {summary['failure']['message']})"
     )
