@@ -175,3 +175,21 @@ def test_a_span_that_changes_a_carried_over_argument_is_rejected(ontology):
     assert [c.accepted for c in grounded.calls] == [True, False, True, True, True]
     assert "keep target_pos=[cap_pos[0], cap_pos[1], cap_pos[2] + 0.01]" in grounded.calls[1].message
     assert grounded.code.count("+ 0.08]") == 2 and grounded.code.count("+ 0.01") == 1
+
+
+def test_a_multiline_span_without_the_substitute_is_rejected(ontology):
+    """In a loop body a span's later lines are indented; it is still parsed and held to the substitute."""
+    from skills.repository import load_skill
+
+    wipe = load_skill("wipe_area")
+    moves_instead = (  # valid code in place, but no push: the span alone did not parse, so went unchecked
+        "start = [area_pos[0] - 0.09, area_pos[1] + dy, area_pos[2] + 0.012]\n"
+        "        sawyer_move_to(env, task, target_pos=start)"
+    )
+    push = (
+        "sawyer_push(env, task, from_pos=[area_pos[0] - 0.09, area_pos[1] + dy, area_pos[2] + 0.012], "
+        "to_pos=[area_pos[0] + 0.09, area_pos[1] + dy, area_pos[2] + 0.012])"
+    )
+    grounded = ground_skill(wipe, "Sawyer", ontology, ScriptedInfiller([moves_instead, push]))
+    assert grounded.valid and [c.accepted for c in grounded.calls] == [False, True]
+    assert "substitutes sawyer_push() here, but the span calls ['sawyer_move_to']" in grounded.calls[0].message

@@ -53,6 +53,12 @@ HOSTILE = [
     (_body("def inner():", "    pass"), F.NON_EXECUTABLE),
     (_body("g = ur5_grasp_at", "g(env, task, grasp_pos=[0, 0, 1])"), F.NON_EXECUTABLE),
     (_body("try:", "    pass", "except Exception:", "    pass"), F.NON_EXECUTABLE),
+    # what the 1.5B once wrote in place of Sawyer's push: valid Python that rebinds the robot handles
+    (
+        _body("for dy in [0.0, 0.1]:", "    env, task, start_pos = [0, dy, 1],", "    return env, task"),
+        F.NON_EXECUTABLE,
+    ),
+    (_body("task = None"), F.NON_EXECUTABLE),
     ("", F.EMPTY_CONTINUATION),
     ("def other(env, task):\n    pass\n", F.HALLUCINATED_NAME),
 ]

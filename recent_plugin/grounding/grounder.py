@@ -11,6 +11,7 @@ from __future__ import annotations
 import ast
 import difflib
 import io
+import textwrap
 import time
 import tokenize
 from collections.abc import Callable
@@ -352,8 +353,8 @@ def _resolve(result, conflict: Conflict, pending, robot, infiller, api, apis, ma
 
 def _check_span(text: str, unit: RefactoringUnit) -> Verdict | None:
     """The span must hold code, and a determined substitution must call the substitute it names."""
-    try:
-        statements = ast.parse(text).body if text else []
+    try:  # later lines sit at the body's indentation: parse the span as the block it forms
+        statements = ast.parse(textwrap.dedent(unit.indent + text)).body if text else []
     except SyntaxError:
         return None  # reported with its position by the whole-program validation
     if not statements:

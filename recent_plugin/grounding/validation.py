@@ -64,6 +64,8 @@ FORBIDDEN_CALLS = frozenset(
 )
 MAX_CONSTANT = 1e4  # no literal this large belongs in a skill (it is how huge allocations start)
 MAX_RANGE = 1000
+ROBOT_HANDLES = {"env": "session", "task": "task context"}  # every primitive call passes them on
+
 FORBIDDEN_NODES = (
     ast.Import, ast.ImportFrom, ast.While, ast.Lambda, ast.ClassDef, ast.AsyncFunctionDef, ast.Await,
     ast.Global, ast.Nonlocal, ast.Try, ast.With, ast.AsyncWith, ast.AsyncFor, ast.Yield, ast.YieldFrom,
@@ -166,6 +168,12 @@ class _Checker(ast.NodeVisitor):
         """A name used as a value: a parameter or assigned variable (callables only in call position)."""
         if node.id.startswith("_"):
             self.fail(FailureCategory.NON_EXECUTABLE, f"private or dunder name {node.id!r}", node)
+        if node.id in ROBOT_HANDLES and not isinstance(node.ctx, ast.Load):
+            self.fail(
+                FailureCategory.NON_EXECUTABLE,
+                f"{node.id!r} is the robot's {ROBOT_HANDLES[node.id]}; skill code may not assign it",
+                node,
+            )
         if isinstance(node.ctx, ast.Load) and node.id not in self.defined | {"True", "False", "None"}:
             self._unknown_name(node.id, node)
 
