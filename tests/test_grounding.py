@@ -42,6 +42,22 @@ def test_prompt_renders_hints_as_comments_before_the_span(ontology, put_in_bin):
     assert "pick(env, task" not in prompt.suffix  # the span itself is not in the prompt's code
 
 
+def test_a_call_written_over_several_lines_is_one_comment_line_and_a_one_line_span(ontology):
+    """wipe_area's push spans seven lines: its "Was:" hint once left six of them as bare code in the prompt."""
+    from skills.repository import load_skill
+
+    wipe = load_skill("wipe_area")
+    conflict = diagnose(ontology, wipe.name, wipe.code, "Sawyer").conflicts[0]
+    prompt = build_prompt(unit_from_conflict(wipe.code, conflict, "Sawyer"), span_tokens=60)
+    hints = prompt.prefix.splitlines()[4:-1]
+    assert hints and all(line.startswith("        # ") for line in hints)
+    assert hints[1] == (
+        "        # Was: push(env, task, start_pos=[area_pos[0] - 0.09, area_pos[1] + dy, area_pos[2] + 0.012], "
+        'target_pos=[area_pos[0] + 0.09, area_pos[1] + dy, area_pos[2] + 0.012], approach_axis="z")'
+    )
+    assert prompt.stop[0] == "\n"  # the substitute is one call, however the original was written
+
+
 def test_a_retry_is_held_to_the_ontology_call_with_only_the_placeholders_free(ontology, put_in_bin):
     from llama_cpp import LlamaGrammar
 

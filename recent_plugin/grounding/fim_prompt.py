@@ -7,6 +7,7 @@ arguments, the substitute), so the LM sees the cues for this one edit and nothin
 from __future__ import annotations
 
 import json
+import re
 from dataclasses import dataclass
 
 from ontology.diagnosis import ParameterMapping
@@ -74,8 +75,8 @@ def hint_lines(span_type: str, hints: Hints) -> list[str]:
         return [*rejected, f"{hints.robot}: {hints.reason}"]
     if hints.attempt > 0:
         call = [f"Call exactly: {_one_line(hints.substitute_call)}"] if hints.substitute_call else []
-        return [f"Was: {hints.original_call}", f"Rejected before: {hints.feedback}", *call]
-    lines = [f"{hints.robot} ({span_type.replace('_', ' ')}): {hints.reason}", f"Was: {hints.original_call}"]
+        return [f"Was: {_one_line(hints.original_call)}", f"Rejected before: {hints.feedback}", *call]
+    lines = [f"{hints.robot} ({span_type.replace('_', ' ')}): {hints.reason}", f"Was: {_one_line(hints.original_call)}"]
     edits = []
     if hints.mapping:
         edits.append("map " + ", ".join(_render_mapping(m) for m in hints.mapping))
@@ -93,8 +94,31 @@ def hint_lines(span_type: str, hints: Hints) -> list[str]:
     return lines
 
 
-def _one_line(call: str | None) -> str:
-    return "; then ".join((call or "").splitlines())
+def _one_line(code: str | None) -> str:
+    """Statements on one comment line, joined by "; then ".
+
+    A call written over several lines becomes one statement: its later lines, put into the
+    comment as they were, stood in the prompt as uncommented code, and the 1.5B copied them.
+    """
+    statements, current, depth = [], [], 0
+    for line in (code or "").splitlines():
+        if not line.strip():
+            continue
+        current.append(line.strip())
+        depth += sum(line.count(c) for c in "([{") - sum(line.count(c) for c in ")]}")
+        if depth <= 0:
+            statements.append(_joined(current))
+            current, depth = [], 0
+    if current:
+        statements.append(_joined(current))
+    return "; then ".join(statements)
+
+
+def _joined(lines: list[str]) -> str:
+    if len(lines) == 1:
+        return lines[0]
+    text = re.sub(r"([(\[{]) ", r"\1", " ".join(lines))
+    return re.sub(r",? ([)\]}])", r"\1", text)
 
 
 def _render_mapping(mapping: ParameterMapping) -> str:
@@ -104,7 +128,11 @@ def _render_mapping(mapping: ParameterMapping) -> str:
 
 def build_prompt(unit: RefactoringUnit, span_tokens: int) -> FimPrompt:
     comments = "".join(f"{unit.indent}# {line}\n" for line in hint_lines(unit.span_type, unit.hints))
-    single_line = "\n" not in unit.span and "\n" not in (unit.hints.substitute_call or "")
+    call = unit.hints.substitute_call
+    if call and unit.span_type not in NOT_CONFLICT_SPAN_TYPES:  # what replaces the span, however the call was written
+        single_line = "\n" not in call
+    else:
+        single_line = "\n" not in unit.span and "\n" not in (call or "")
     grammar = STATEMENT_LINE if single_line else STATEMENT_LINES
     if unit.hints.attempt > 0 and unit.hints.substitute_call and single_line:
         if unit.span_type not in NOT_CONFLICT_SPAN_TYPES:  # a retry of a determined conflict
