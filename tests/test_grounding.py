@@ -70,8 +70,9 @@ def test_a_retry_is_held_to_the_ontology_call_with_only_the_placeholders_free(on
     first, retry = prompts("UR5e", 1)
     assert first.grammar.startswith("root ::= [a-zA-Z_]")  # the first attempt is free FIM
     assert retry.grammar.splitlines()[0] == 'root ::= "ur5_grasp_at(env, task, grasp_pos=obj_pos)" "\\n"'
-    _, retry = prompts("Sawyer", 1)  # Sawyer's pick leaves target_object to the LM
-    assert 'root ::= "sawyer_pick(env, task, target_object=" expr ", target_pos=obj_pos)"' in retry.grammar
+    _, retry = prompts("Sawyer", 1)  # Sawyer's pick leaves target_object to the LM: a name, not a position
+    assert 'root ::= "sawyer_pick(env, task, target_object=" name ", target_pos=obj_pos)"' in retry.grammar
+    assert 'name ::= "obj" | "receptacle" | "\\"" [a-zA-Z0-9_]+ "\\""' in retry.grammar
     LlamaGrammar.from_string(retry.grammar, verbose=False)  # valid GBNF
 
 

@@ -74,3 +74,14 @@ def test_hostile_or_broken_code_is_rejected_before_execution(ontology, code, cat
     verdict = validate_program(code, ontology.api("UR5e"), "put_in_bin", ontology.apis)
     assert not verdict.ok
     assert verdict.category == category, verdict.message
+
+
+def test_a_position_where_an_object_name_belongs_names_the_candidates(ontology):
+    """The rejection is the retry's cue: it lists the variables that hold object names."""
+    code = GOOD.replace("open_ur5_ee(env, task)", "sawyer_open_gripper(env, task)").replace(
+        "ur5_grasp_at(env, task, grasp_pos=obj_pos, timeout_s=5.0)",
+        "sawyer_pick(env, task, target_object=obj_pos, target_pos=obj_pos)",
+    )
+    verdict = validate_program(code.split("    drop_pos")[0], ontology.api("Sawyer"), "put_in_bin", ontology.apis)
+    assert verdict.category == F.HALLUCINATED_KWARG
+    assert verdict.message.endswith("expects an object name, but obj_pos holds a position; names here: obj, receptacle")

@@ -6,6 +6,7 @@ arguments, the substitute), so the LM sees the cues for this one edit and nothin
 
 from __future__ import annotations
 
+import ast
 import json
 import re
 from dataclasses import dataclass
@@ -13,6 +14,7 @@ from dataclasses import dataclass
 from ontology.diagnosis import ParameterMapping
 from recent_plugin.grounding.substitution import PLACEHOLDER
 from recent_plugin.grounding.units import Hints, RefactoringUnit
+from recent_plugin.grounding.validation import variable_kinds
 from recent_plugin.infillers.base import approximate_tokens
 
 # GBNF grammars for the span: code statements, never comments (a small model otherwise sometimes
@@ -29,21 +31,37 @@ BASELINE_SPAN_TYPES = ("program_synthesis", "localized_repair")  # the baselines
 NOT_CONFLICT_SPAN_TYPES = (*RUNTIME_SPAN_TYPES, *BASELINE_SPAN_TYPES, "full_regeneration")
 
 
-def call_grammar(call: str) -> str:
+def call_grammar(call: str, names: tuple[str, ...] = ()) -> str:
     """GBNF holding a retry to the ontology's call: its text verbatim, each ``<type>`` placeholder free.
 
     A first attempt is free FIM. After a rejection, a small model tends to copy the same
     neighbouring line again; constraining the retry keeps what the ontology decided (the
     substitute, the keywords, the carried-over values) and leaves the LM only what it did not.
+    An ``<object_name>`` is one of the skill's ``names`` (variables holding an object name) or a
+    quoted name: left free, the 1.5B wrote the object's position variable there on every retry.
     """
-    parts = PLACEHOLDER.split(call)
+    parts, holes = PLACEHOLDER.split(call), PLACEHOLDER.findall(call)
     items = []
     for i, part in enumerate(parts):
         if part:
             items.append(json.dumps(part, ensure_ascii=False))
         if i < len(parts) - 1:
-            items.append("expr")
-    return f'root ::= {" ".join(items)} "\\n"\nexpr ::= [^\\n]+'
+            items.append("name" if holes[i] == "<object_name>" and names else "expr")
+    rules = [f'root ::= {" ".join(items)} "\\n"', "expr ::= [^\\n]+"]
+    if names:
+        rules.append("name ::= " + " | ".join(json.dumps(n) for n in names) + ' | "\\"" [a-zA-Z0-9_]+ "\\""')
+    return "\n".join(rules)
+
+
+def name_variables(unit: RefactoringUnit) -> tuple[str, ...]:
+    """Variables of the unit's function that hold an object name (``obj="cube"``, ``peg="peg"``)."""
+    try:
+        func = ast.parse(unit.prefix + unit.indent + unit.span + unit.suffix).body[0]
+    except (SyntaxError, IndexError):
+        return ()
+    if not isinstance(func, ast.FunctionDef):
+        return ()
+    return tuple(sorted(n for n, kind in variable_kinds(func).items() if kind == "name"))
 
 
 @dataclass(frozen=True)
@@ -136,7 +154,7 @@ def build_prompt(unit: RefactoringUnit, span_tokens: int) -> FimPrompt:
     grammar = STATEMENT_LINE if single_line else STATEMENT_LINES
     if unit.hints.attempt > 0 and unit.hints.substitute_call and single_line:
         if unit.span_type not in NOT_CONFLICT_SPAN_TYPES:  # a retry of a determined conflict
-            grammar = call_grammar(unit.hints.substitute_call)
+            grammar = call_grammar(unit.hints.substitute_call, name_variables(unit))
     return FimPrompt(
         prefix=unit.prefix + comments + unit.indent,
         suffix=unit.suffix,

@@ -143,7 +143,7 @@ class _Checker(ast.NodeVisitor):
         if params[:2] != ["env", "task"]:
             self.fail(FailureCategory.NON_EXECUTABLE, "a skill takes (env, task, ...) as its first parameters", func)
         self.defined = set(params) | self._assigned_names(func)
-        self.kinds = _variable_kinds(func)
+        self.kinds = variable_kinds(func)
         for default in args.defaults:
             self.visit(default)
         for stmt in func.body:
@@ -298,7 +298,7 @@ class _Checker(ast.NodeVisitor):
             )
 
 
-def _variable_kinds(func: ast.FunctionDef) -> dict[str, str]:
+def variable_kinds(func: ast.FunctionDef) -> dict[str, str]:
     """What simple variables hold: ``"position"`` (an object position or a 3-list), ``"name"`` (a string).
 
     A variable assigned more than once with different kinds is left out (nothing is claimed about it).
@@ -332,8 +332,12 @@ def _expression_kind(value: ast.expr) -> str | None:
 def _variable_kind_problem(value: ast.expr, spec: ParameterSpec, kinds: dict[str, str]) -> str | None:
     kind = kinds.get(value.id) if isinstance(value, ast.Name) else None
     if kind == "position" and spec.type in {"object_name", "str"}:
+        names = sorted(n for n, k in kinds.items() if k == "name")
+        # the retry's cue: the 1.5B otherwise wrote the position again on every attempt (peg_pos for peg)
+        candidates = f"; names here: {', '.join(names)}" if names else ""
         return (
             f"expects {'an object name' if spec.type == 'object_name' else 'a string'}, but {value.id} holds a position"
+            + candidates
         )
     if kind == "name" and spec.type in {"position", "quaternion", "float", "int"}:
         return f"expects a {spec.type}, but {value.id} holds a name"
