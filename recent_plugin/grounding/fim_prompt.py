@@ -152,13 +152,12 @@ def build_prompt(unit: RefactoringUnit, span_tokens: int) -> FimPrompt:
     else:
         single_line = "\n" not in unit.span and "\n" not in (call or "")
     grammar = STATEMENT_LINE if single_line else STATEMENT_LINES
-    if unit.hints.attempt > 0 and unit.hints.substitute_call and single_line:
-        if unit.span_type not in NOT_CONFLICT_SPAN_TYPES:  # a retry of a determined conflict
-            grammar = call_grammar(unit.hints.substitute_call, name_variables(unit))
+    if unit.hints.attempt > 0 and call and single_line and unit.span_type not in NOT_CONFLICT_SPAN_TYPES:
+        grammar = call_grammar(call, name_variables(unit))  # a retry of a determined conflict
     return FimPrompt(
         prefix=unit.prefix + comments + unit.indent,
         suffix=unit.suffix,
         stop=("\n", "  #") if single_line else ("\n\n",),
-        max_tokens=max(24, 2 * max(span_tokens, approximate_tokens(unit.hints.substitute_call or "")) + 16),
+        max_tokens=max(24, 2 * max(span_tokens, approximate_tokens(call or "")) + 16),
         grammar=grammar,
     )
