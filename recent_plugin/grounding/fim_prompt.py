@@ -14,7 +14,7 @@ from dataclasses import dataclass
 from ontology.diagnosis import ParameterMapping
 from recent_plugin.grounding.substitution import PLACEHOLDER
 from recent_plugin.grounding.units import Hints, RefactoringUnit
-from recent_plugin.grounding.validation import variable_kinds
+from recent_plugin.grounding.validation import name_variables, variable_kinds
 from recent_plugin.infillers.base import approximate_tokens
 
 # GBNF grammars for the span: code statements, never comments (a small model otherwise sometimes
@@ -53,15 +53,13 @@ def call_grammar(call: str, names: tuple[str, ...] = ()) -> str:
     return "\n".join(rules)
 
 
-def name_variables(unit: RefactoringUnit) -> tuple[str, ...]:
+def unit_name_variables(unit: RefactoringUnit) -> tuple[str, ...]:
     """Variables of the unit's function that hold an object name (``obj="cube"``, ``peg="peg"``)."""
     try:
         func = ast.parse(unit.prefix + unit.indent + unit.span + unit.suffix).body[0]
     except (SyntaxError, IndexError):
         return ()
-    if not isinstance(func, ast.FunctionDef):
-        return ()
-    return tuple(sorted(n for n, kind in variable_kinds(func).items() if kind == "name"))
+    return name_variables(variable_kinds(func)) if isinstance(func, ast.FunctionDef) else ()
 
 
 @dataclass(frozen=True)
@@ -153,7 +151,7 @@ def build_prompt(unit: RefactoringUnit, span_tokens: int) -> FimPrompt:
         single_line = "\n" not in unit.span and "\n" not in (call or "")
     grammar = STATEMENT_LINE if single_line else STATEMENT_LINES
     if unit.hints.attempt > 0 and call and single_line and unit.span_type not in NOT_CONFLICT_SPAN_TYPES:
-        grammar = call_grammar(call, name_variables(unit))  # a retry of a determined conflict
+        grammar = call_grammar(call, unit_name_variables(unit))  # a retry of a determined conflict
     return FimPrompt(
         prefix=unit.prefix + comments + unit.indent,
         suffix=unit.suffix,

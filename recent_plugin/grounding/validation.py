@@ -315,6 +315,11 @@ def variable_kinds(func: ast.FunctionDef) -> dict[str, str]:
     return {name: next(iter(k)) for name, k in kinds.items() if len(k) == 1 and "unknown" not in k}
 
 
+def name_variables(kinds: dict[str, str]) -> tuple[str, ...]:
+    """The variables of :func:`variable_kinds` that hold an object name, sorted."""
+    return tuple(sorted(n for n, kind in kinds.items() if kind == "name"))
+
+
 def _expression_kind(value: ast.expr) -> str | None:
     if (
         isinstance(value, ast.Call)
@@ -332,7 +337,7 @@ def _expression_kind(value: ast.expr) -> str | None:
 def _variable_kind_problem(value: ast.expr, spec: ParameterSpec, kinds: dict[str, str]) -> str | None:
     kind = kinds.get(value.id) if isinstance(value, ast.Name) else None
     if kind == "position" and spec.type in {"object_name", "str"}:
-        names = sorted(n for n, k in kinds.items() if k == "name")
+        names = name_variables(kinds)
         # the retry's cue: the 1.5B otherwise wrote the position again on every attempt (peg_pos for peg)
         candidates = f"; names here: {', '.join(names)}" if names else ""
         return (
