@@ -104,16 +104,22 @@ class Ontology:
 
     def substitutes(self, source: str, primitive: str, target: str) -> list[PrimitiveSpec]:
         """Primitives of ``target`` that ``source.primitive`` is ``substitutableBy`` (SPARQL over the graph)."""
+        return self._related(source, primitive, "substitutableBy", target)
+
+    def path_tracers(self, source: str, primitive: str, target: str) -> list[PrimitiveSpec]:
+        """Moves of ``target`` that can trace ``source.primitive``'s end-effector path (``tracedBy``)."""
+        return self._related(source, primitive, "tracedBy", target)
+
+    def _related(self, source: str, primitive: str, relation: str, target: str) -> list[PrimitiveSpec]:
         query = f"""
             PREFIX rc: <{RC}>
             SELECT ?name WHERE {{
-                <{inst(source, primitive).value}> rc:substitutableBy ?q .
+                <{inst(source, primitive).value}> rc:{relation} ?q .
                 <{inst(target).value}> rc:hasPrimitive ?q .
                 ?q rc:name ?name .
             }} ORDER BY ?name"""
-        names = [solution["name"].value for solution in self.store.query(query)]
         api = self.api(target)
-        return [p for n in names if (p := api.get(n)) is not None]
+        return [p for s in self.store.query(query) if (p := api.get(s["name"].value)) is not None]
 
     def to_turtle(self) -> str:
         prefixes = {
@@ -223,6 +229,14 @@ def build_ontology(
                 add(node, rc("hasEffect"), inst("condition", cond))
             for cap in prim.capabilities:
                 add(node, rc("provides"), inst("capability", cap))
+            for k, waypoint in enumerate(prim.path):
+                wnode = inst(src.name, prim.name, f"waypoint{k}")
+                add(node, rc("hasWaypoint"), wnode)
+                add(wnode, RDF_TYPE, rc("Waypoint"))
+                add(wnode, rc("order"), k)
+                add(wnode, rc("paramRole"), waypoint.role)
+                for axis, value in zip(("dx", "dy", "dz"), waypoint.offset, strict=True):
+                    add(wnode, rc(axis), value)
             inferred |= prim.capabilities
             conditions |= prim.preconditions | prim.effects
         for cap in sorted(inferred):
@@ -256,6 +270,9 @@ def build_ontology(
                     continue  # target↔target pairs are not needed to ground source skills (keeps the build linear)
                 add(inst(emb_a, a.name), rc(relation), inst(emb_b, b.name))
                 relations += 1
+    for emb, prim, move in _path_tracers(apis, sources):
+        add(inst(emb, prim.name), rc("tracedBy"), inst(move.embodiment, move.name))
+        relations += 1
 
     for skill in skills:
         node = inst("skill", skill.name)
@@ -307,6 +324,27 @@ def _by_function(prims: list[tuple[str, PrimitiveSpec]]) -> dict[frozenset[str],
         if prim.effects:
             groups.setdefault(prim.effects, []).append((emb, prim))
     return groups
+
+
+PATH_CAPABILITY, PATH_ROLE = "cartesian_motion", "motion_target"  # what tracing a path takes: moves to a point
+
+
+def _path_tracers(apis: dict[str, ApiSpec], sources: set[str]) -> list[tuple[str, PrimitiveSpec, PrimitiveSpec]]:
+    """(source robot, primitive with a path, target move) where the target has nothing with the
+    primitive's effects but can move its end effector to a point: it can trace the path instead."""
+    out = []
+    for emb in sorted(sources & apis.keys()):
+        for prim in apis[emb].primitives:
+            if not prim.path:
+                continue
+            for target, api in apis.items():
+                if target == emb or any(p.effects == prim.effects for p in api.primitives):
+                    continue
+                for move in api.primitives:
+                    point = move.by_role(PATH_ROLE)
+                    if PATH_CAPABILITY in move.capabilities and point is not None and point.type == "position":
+                        out.append((emb, prim, move))
+    return out
 
 
 def _literal(value: str | int | float | bool) -> ox.Literal:

@@ -14,7 +14,7 @@ from ontology.builder import Ontology
 from ontology.skill_code import CallSite, CodeSpan, call_sites, position_bindings
 from ontology.specs import PrimitiveSpec
 
-SPAN_TYPES = ("api_substitution", "parameter_binding", "interface_rewiring", "preparatory_step")
+SPAN_TYPES = ("api_substitution", "parameter_binding", "interface_rewiring", "preparatory_step", "path_tracing")
 
 
 @dataclass(frozen=True)
@@ -29,6 +29,20 @@ class ParameterMapping:
 
 
 @dataclass(frozen=True)
+class PathStep:
+    """One move of a traced path: to the value of ``source`` (a position argument of the original call) plus ``offset``."""
+
+    source: str
+    offset: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+    def render(self) -> str:
+        """``start_pos + 0.1z``: how diagnoses show a step."""
+        return self.source + "".join(
+            f" {'+' if v > 0 else '-'} {abs(v):g}{axis}" for axis, v in zip("xyz", self.offset, strict=True) if v
+        )
+
+
+@dataclass(frozen=True)
 class Conflict:
     """A determined conflict: an exact code span, what it calls, and how to rewrite it."""
 
@@ -40,6 +54,7 @@ class Conflict:
     dropped: tuple[str, ...] = ()  # source parameters the substitute has no role for
     unfilled: tuple[str, ...] = ()  # required substitute parameters nothing maps to
     preparatory: tuple[str, ...] = ()  # target primitives to call first (they establish a missing state)
+    path: tuple[PathStep, ...] = ()  # path tracing: one call of the substitute (a move) per step
     reason: str = ""
 
 
@@ -79,6 +94,8 @@ class Diagnosis:
                     "mapping": {m.source: m.target for m in c.mapping},
                     "dropped": list(c.dropped),
                     "unfilled": list(c.unfilled),
+                    **({"preparatory": list(c.preparatory)} if c.preparatory else {}),
+                    **({"path": [p.render() for p in c.path]} if c.path else {}),
                 }
                 for c in self.conflicts
             ],
@@ -113,6 +130,9 @@ def diagnose(onto: Ontology, skill_name: str, code: str, robot: str, source: str
 
 def _conflict(onto: Ontology, site: CallSite, original: PrimitiveSpec, source: str, robot: str) -> Conflict:
     candidates = onto.substitutes(source, site.name, robot)
+    tracers = onto.path_tracers(source, site.name, robot) if not candidates else []
+    if tracers:
+        return _path_conflict(onto, site, original, tracers[0], robot)
     if not candidates:
         return Conflict(
             span=site.span,
@@ -153,6 +173,37 @@ def _conflict(onto: Ontology, site: CallSite, original: PrimitiveSpec, source: s
         unfilled=unfilled,
         preparatory=preparatory,
         reason=f"no {site.name}; use {substitute.name} (same effects)"
+        + (f", after {', '.join(preparatory)}" if preparatory else ""),
+    )
+
+
+def _path_conflict(
+    onto: Ontology, site: CallSite, original: PrimitiveSpec, move: PrimitiveSpec, robot: str
+) -> Conflict:
+    """No primitive does what the call does, but the robot can move its end effector along the
+    call's path: one move per waypoint, after the steps that establish the call's other robot-state
+    effects (a closed hand for a push) where those are decidable before execution."""
+    steps = tuple(PathStep(original.by_role(w.role).name, w.offset) for w in original.path)
+    decidable = [
+        p
+        for p in onto.api(robot).primitives
+        if not any(q.required for q in p.parameters)
+        and all(onto.conditions[c].kind == "robot" for c in p.preconditions)
+    ]
+    missing = sorted(c for c in original.effects - move.effects if onto.conditions[c].kind == "robot")
+    preparatory = tuple(
+        dict.fromkeys(p.name for c in missing if (p := next((q for q in decidable if c in q.effects), None)))
+    )
+    used = {s.source for s in steps}
+    return Conflict(
+        span=site.span,
+        span_type="path_tracing",
+        original=site.name,
+        substitute=move,
+        dropped=tuple(p.name for p in original.parameters if p.name not in used),
+        preparatory=preparatory,
+        path=steps,
+        reason=f"no primitive with the effects of {site.name}; trace its path with {move.name}"
         + (f", after {', '.join(preparatory)}" if preparatory else ""),
     )
 

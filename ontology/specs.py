@@ -41,6 +41,15 @@ class ParameterSpec:
 
 
 @dataclass(frozen=True)
+class Waypoint:
+    """One point of the path a primitive moves the end effector along: a position parameter's value
+    (named by role) plus a fixed offset in metres, world frame."""
+
+    role: str
+    offset: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+
+@dataclass(frozen=True)
 class PrimitiveSpec:
     name: str
     embodiment: str
@@ -49,6 +58,9 @@ class PrimitiveSpec:
     capabilities: frozenset[str]
     preconditions: frozenset[str]
     effects: frozenset[str]
+    # where the end effector goes, in order: a robot without a primitive of the same effects can
+    # trace it with its Cartesian moves (a push is a path, whatever hand pushes)
+    path: tuple[Waypoint, ...] = ()
 
     def parameter(self, name: str) -> ParameterSpec | None:
         return next((p for p in self.parameters if p.name == name), None)
@@ -196,7 +208,34 @@ def _parse_primitive(item: Any, embodiment: str, path: Path, where: str) -> Prim
         capabilities=frozenset(_str_list(item, "capabilities", path, where)),
         preconditions=frozenset(_str_list(item, "preconditions", path, where)),
         effects=frozenset(_str_list(item, "effects", path, where)),
+        path=_parse_path(item, params, path, where),
     )
+
+
+def _parse_path(item: dict, params: list[ParameterSpec], path: Path, where: str) -> tuple[Waypoint, ...]:
+    """``path: [{role: push_start, offset: [0, 0, 0.1]}, ...]``: each role a position parameter of this primitive."""
+    if "path" not in item:
+        return ()
+    positions = {p.role for p in params if p.type == "position"}
+    waypoints = []
+    for k, raw in enumerate(_require(item, "path", list, path, where)):
+        at = f"{where}.path[{k}]"
+        if not isinstance(raw, dict):
+            raise SpecError(path, at, "must be a mapping with 'role' (and an optional 'offset')")
+        role = _require(raw, "role", str, path, at)
+        if role not in positions:
+            raise SpecError(
+                path, f"{at}.role", f"{role!r} is not the role of a position parameter (those are: {sorted(positions)})"
+            )
+        offset = raw.get("offset", [0.0, 0.0, 0.0])
+        if not (
+            isinstance(offset, list)
+            and len(offset) == 3
+            and all(isinstance(v, int | float) and not isinstance(v, bool) for v in offset)
+        ):
+            raise SpecError(path, f"{at}.offset", f"must be three numbers [dx, dy, dz] in metres, got {offset!r}")
+        waypoints.append(Waypoint(role, tuple(float(v) for v in offset)))
+    return tuple(waypoints)
 
 
 def _parse_parameter(raw: Any, path: Path, where: str) -> ParameterSpec:

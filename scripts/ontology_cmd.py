@@ -97,6 +97,8 @@ def _diagnose(args) -> int:
             "substitute": c.substitute.signature() if c.substitute else None,
             "mapping": {m.source: m.target for m in c.mapping},
             "dropped": list(c.dropped),
+            "preparatory": list(c.preparatory),
+            "path": [step.render() for step in c.path],
             "reason": c.reason,
         }
         for c in result.conflicts
@@ -124,6 +126,8 @@ def _diagnose(args) -> int:
         print(f"  line {row['line']}: {row['span']}")
         print(f"      {row['span_type']}: {row['reason']}")
         print(f"      use {row['substitute']}  map {row['mapping']}  drop {row['dropped']}")
+        if row["path"]:
+            print(f"      path: {' -> '.join(row['path'])}")
     for w in warnings:
         print(f"  line {w['line']} ({w['phase']} {w['primitive']}): {w['kind']}: {w['message']}")
         print(f"      check {w['check']} on {w['observation']}")

@@ -36,6 +36,15 @@ def test_suction_gripper_really_holds_and_releases(ontology, rule_infiller):
     assert "attach_vacuum_handle(env, task, handle_pos=obj_pos)" in result.grounding.skills[0].code
 
 
+@pytest.mark.parametrize("robot", ["Robotiq85", "Suction"])
+def test_end_effector_targets_open_and_close_the_drawer_and_box(panda_agent, robot):
+    """The pull drags against the drawer's damping and the closes are pushes these APIs lack: traced moves."""
+    result = run_episode(panda_agent, "end_effector/drawer_and_box", robot, seed=0)
+    assert result.success, result.failures
+    close = next(s for s in result.grounding.skills if s.skill == "close_drawer")
+    assert close.valid and close.diagnosis.conflicts[0].span_type == "path_tracing"
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("robot", ["Sawyer", "Robotiq85", "Suction"])
 def test_grounded_episode_on_end_effector_targets_with_the_real_lm(ontology, llama_infiller, robot):

@@ -76,6 +76,39 @@ def test_a_retry_is_held_to_the_ontology_call_with_only_the_placeholders_free(on
     LlamaGrammar.from_string(retry.grammar, verbose=False)  # valid GBNF
 
 
+def test_a_traced_push_is_one_move_per_waypoint_and_its_retry_is_held_to_all_of_them(ontology, rule_infiller):
+    from llama_cpp import LlamaGrammar
+
+    from skills.repository import load_skill
+
+    wipe, close = load_skill("wipe_area"), load_skill("close_drawer")
+    grounded = ground_skill(wipe, "Suction", ontology, rule_infiller)  # the push's positions are list literals
+    assert grounded.valid and grounded.generated_tokens == 0
+    moves = [line.strip() for line in grounded.code.splitlines() if "move_to_position" in line]
+    assert moves == [
+        "move_to_position(env, task, pos=[area_pos[0] - 0.09, area_pos[1] + dy, area_pos[2] + 0.012 + 0.1])",
+        "move_to_position(env, task, pos=[area_pos[0] - 0.09, area_pos[1] + dy, area_pos[2] + 0.012])",
+        "move_to_position(env, task, pos=[area_pos[0] + 0.09, area_pos[1] + dy, area_pos[2] + 0.012])",
+        "move_to_position(env, task, pos=[area_pos[0] + 0.09, area_pos[1] + dy, area_pos[2] + 0.012 + 0.1])",
+    ]
+    conflict = diagnose(ontology, close.name, close.code, "Robotiq85").conflicts[0]
+    unit = unit_from_conflict(close.code, conflict, "Robotiq85")  # names: indexed, closed hand first
+    assert unit.hints.substitute_call.splitlines() == [
+        "close_robotiq85(env, task)",
+        "move_to_position(env, task, pos=[start[0], start[1], start[2] + 0.1])",
+        "move_to_position(env, task, pos=start)",
+        "move_to_position(env, task, pos=goal)",
+        "move_to_position(env, task, pos=[goal[0], goal[1], goal[2] + 0.1])",
+    ]
+    first = build_prompt(unit, span_tokens=30)
+    assert (
+        first.stop == ("\n\n",) and "# Call exactly: close_robotiq85(env, task); then move_to_position(" in first.prefix
+    )
+    retry = build_prompt(unit_from_conflict(close.code, conflict, "Robotiq85", feedback="no", attempt=1), 30)
+    assert retry.grammar.splitlines()[0].startswith('root ::= "close_robotiq85(env, task)\\nmove_to_position(')
+    LlamaGrammar.from_string(retry.grammar, verbose=False)
+
+
 def test_rule_backend_grounds_with_zero_tokens(ontology, put_in_bin, rule_infiller):
     grounded = ground_skill(put_in_bin, "UR5e", ontology, rule_infiller)
     assert grounded.valid

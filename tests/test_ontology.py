@@ -65,6 +65,26 @@ def test_substitution_relations_come_from_effects(ontology):
     assert ontology.substitutes("Panda", "pick", "Panda") == []
 
 
+def test_a_push_on_a_robot_without_one_is_traced_with_its_cartesian_moves(ontology):
+    """The end-effector APIs only move and grip: a push becomes the Panda push's path, one move per waypoint."""
+    from skills.repository import load_skill
+
+    close = load_skill("close_drawer")
+    assert [p.name for p in ontology.path_tracers("Panda", "push", "Robotiq85")] == ["move_to_position"]
+    assert ontology.path_tracers("Panda", "push", "UR5e") == []  # it has a push of its own
+    robotiq = diagnose(ontology, close.name, close.code, "Robotiq85").conflicts[0]
+    assert robotiq.span_type == "path_tracing" and robotiq.substitute.name == "move_to_position"
+    assert [(s.source, s.offset) for s in robotiq.path] == [
+        ("start_pos", (0.0, 0.0, 0.1)),
+        ("start_pos", (0.0, 0.0, 0.0)),
+        ("target_pos", (0.0, 0.0, 0.0)),
+        ("target_pos", (0.0, 0.0, 0.1)),
+    ]
+    assert robotiq.preparatory == ("close_robotiq85",)  # the push's closed hand, decidable before execution
+    suction = diagnose(ontology, close.name, close.code, "Suction").conflicts[0]
+    assert suction.span_type == "path_tracing" and suction.preparatory == ()  # a vacuum needs a flat face to engage
+
+
 def test_gripper_mechanism_is_inferred_from_mjcf(ontology, tmp_path):
     assert {robot: g.mechanism for robot, g in ontology.grippers.items()} == {
         "Panda": "parallel_jaw",
@@ -188,6 +208,16 @@ def test_malformed_spec_names_file_and_field(tmp_path):
     assert str(bad) in str(err.value) and "primitives[0] (grab).parameters[0].type" in str(err.value)
     bad.write_text("embodiment: X\nmodule: m\nprimitives:\n  - name: grab\n    parameters: []\n")
     with pytest.raises(SpecError, match=r"primitives\[0\] \(grab\)\.description: missing required field"):
+        load_api_spec(bad)
+    path = "    path:\n      - {role: %s, offset: %s}\n"
+    grab = "embodiment: X\nmodule: m\nprimitives:\n  - name: grab\n    description: d\n    parameters:\n      - {name: p, type: position, role: r, required: true}\n    capabilities: []\n    preconditions: []\n    effects: []\n"
+    bad.write_text(grab + path % ("elsewhere", "[0, 0, 0.1]"))
+    with pytest.raises(
+        SpecError, match=r"primitives\[0\] \(grab\)\.path\[0\]\.role: 'elsewhere' is not the role of a position"
+    ):
+        load_api_spec(bad)
+    bad.write_text(grab + path % ("r", "[0, 0.1]"))
+    with pytest.raises(SpecError, match=r"primitives\[0\] \(grab\)\.path\[0\]\.offset: must be three numbers"):
         load_api_spec(bad)
     bad.write_text("embodiment: [unclosed\n")
     with pytest.raises(SpecError, match="not valid YAML"):

@@ -150,7 +150,7 @@ def build_prompt(unit: RefactoringUnit, span_tokens: int) -> FimPrompt:
     else:
         single_line = "\n" not in unit.span and "\n" not in (call or "")
     grammar = STATEMENT_LINE if single_line else STATEMENT_LINES
-    if unit.hints.attempt > 0 and call and single_line and unit.span_type not in NOT_CONFLICT_SPAN_TYPES:
+    if unit.hints.attempt > 0 and call and unit.span_type not in NOT_CONFLICT_SPAN_TYPES:
         grammar = call_grammar(call, unit_name_variables(unit))  # a retry of a determined conflict
     return FimPrompt(
         prefix=unit.prefix + comments + unit.indent,

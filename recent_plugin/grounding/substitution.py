@@ -22,6 +22,9 @@ def render_substitute_call(span: str, conflict: Conflict) -> str | None:
     statement = ast.parse(span).body[0]
     call = statement.value  # the diagnosis flags only `f(...)` and `x = f(...)` statements
     given = {k.arg: k.value for k in call.keywords if k.arg}
+    targets = "".join(f"{ast.unparse(t)} = " for t in getattr(statement, "targets", []))
+    if conflict.path:
+        return "\n".join([*(f"{name}(env, task)" for name in conflict.preparatory), *_traced(conflict, given, targets)])
     by_target = {m.target: m for m in conflict.mapping}
     arguments = ["env", "task"]
     for param in substitute.parameters:
@@ -30,7 +33,6 @@ def render_substitute_call(span: str, conflict: Conflict) -> str | None:
             arguments.append(f"{param.name}={ast.unparse(_translate(given[mapping.source], mapping))}")
         elif param.required:
             arguments.append(f"{param.name}=<{param.type}>")
-    targets = "".join(f"{ast.unparse(t)} = " for t in getattr(statement, "targets", []))
     # Preparatory primitives first (one per line), then the substitute itself.
     return "\n".join(
         [
@@ -38,6 +40,36 @@ def render_substitute_call(span: str, conflict: Conflict) -> str | None:
             f"{targets}{substitute.name}({', '.join(arguments)})",
         ]
     )
+
+
+def _traced(conflict: Conflict, given: dict[str, ast.expr], targets: str) -> list[str]:
+    """One move per path step, to the original argument's position plus the step's offset."""
+    point = conflict.substitute.by_role("motion_target")
+    moves = []
+    for step in conflict.path:
+        value = given.get(step.source)
+        where = "<position>" if value is None else _offset(value, step.offset)
+        moves.append(f"{conflict.substitute.name}(env, task, {point.name}={where})")
+    moves[-1] = targets + moves[-1]
+    return moves
+
+
+def _offset(value: ast.expr, offset: tuple[float, float, float]) -> str:
+    """``value + offset`` as plain Python: element-wise on a literal, else indexed (no numpy in skills)."""
+    if not any(offset):
+        return ast.unparse(value)
+    if isinstance(value, ast.List | ast.Tuple) and len(value.elts) == 3:
+        items = [ast.unparse(e) for e in value.elts]
+    else:
+        base = ast.unparse(value)
+        if not isinstance(value, ast.Name | ast.Attribute | ast.Subscript | ast.Call):
+            base = f"({base})"
+        items = [f"{base}[{i}]" for i in range(3)]
+    return "[" + ", ".join(_plus(item, d) for item, d in zip(items, offset, strict=True)) + "]"
+
+
+def _plus(expression: str, delta: float) -> str:
+    return expression if not delta else f"{expression} {'+' if delta > 0 else '-'} {abs(delta):g}"
 
 
 def has_placeholders(text: str) -> bool:

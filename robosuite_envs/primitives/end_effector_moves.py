@@ -13,6 +13,9 @@ import numpy as np
 from robosuite_envs.primitives import control
 from robosuite_envs.primitives.session import RobotSession, TaskContext
 
+# A drag (a drawer pulled against its damping) stalls 1-2 cm short of its goal. A move that has
+# stopped within DRAG_TOL has arrived; one still moving keeps going for POS_TOL.
+DRAG_TOL = 0.025
 _DIRECTIONS = {"x": (1, 0, 0), "-x": (-1, 0, 0), "y": (0, 1, 0), "-y": (0, -1, 0), "z": (0, 0, 1), "-z": (0, 0, -1)}
 
 
@@ -21,7 +24,7 @@ def move_to_position(
 ) -> control.Steps:
     """Move the end effector to ``pos`` pointing ``pointing_to`` (only 'down' is supported)."""
     check_pointing(pointing_to)
-    yield from control.move_to(env, pos)
+    yield from control.move_to(env, pos, tol=DRAG_TOL, settle=True)
 
 
 def move_gripper_to(env: RobotSession, task: TaskContext, obj_name: str, pointing_to: str = "down") -> control.Steps:

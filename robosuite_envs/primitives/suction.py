@@ -6,6 +6,7 @@ from collections.abc import Sequence
 
 from robosuite_envs.primitives import control
 from robosuite_envs.primitives.end_effector_moves import (
+    DRAG_TOL,
     check_pointing,
     move_gripper_to,
     move_parallel,
@@ -31,7 +32,7 @@ def move_to_position(
     """Move the cup to ``pos``; lowered onto a surface, it stops where the cup rests on it (it cannot
     reach a point inside what it would seal on, e.g. a knob's centre)."""
     check_pointing(pointing_to)
-    yield from control.move_to(env, pos, stop_on_contact=True)
+    yield from control.move_to(env, pos, tol=DRAG_TOL, settle=True, stop_on_contact=True)
 
 
 def attach_vacuum_handle(env: RobotSession, task: TaskContext, handle_pos: Sequence[float]) -> control.Steps:
