@@ -10,6 +10,7 @@ from __future__ import annotations
 import ast
 import re
 
+from ontology.builder import PATH_ROLE
 from ontology.diagnosis import Conflict, ParameterMapping
 
 PLACEHOLDER = re.compile(r"<[a-z_]+>")
@@ -44,7 +45,7 @@ def render_substitute_call(span: str, conflict: Conflict) -> str | None:
 
 def _traced(conflict: Conflict, given: dict[str, ast.expr], targets: str) -> list[str]:
     """One move per path step, to the original argument's position plus the step's offset."""
-    point = conflict.substitute.by_role("motion_target")
+    point = conflict.substitute.by_role(PATH_ROLE)
     moves = []
     for step in conflict.path:
         value = given.get(step.source)

@@ -30,7 +30,8 @@ def move_to_position(
     env: RobotSession, task: TaskContext, pos: Sequence[float], pointing_to: str = "down"
 ) -> control.Steps:
     """Move the cup to ``pos``; lowered onto a surface, it stops where the cup rests on it (it cannot
-    reach a point inside what it would seal on, e.g. a knob's centre)."""
+    reach a point inside what it would seal on, e.g. a knob's centre). A drag that stalls within
+    ``DRAG_TOL`` has arrived, as for the other end-effector moves."""
     check_pointing(pointing_to)
     yield from control.move_to(env, pos, tol=DRAG_TOL, settle=True, stop_on_contact=True)
 
