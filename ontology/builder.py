@@ -20,6 +20,7 @@ from ontology.specs import (
     ConditionSpec,
     PrimitiveSpec,
     SpecError,
+    Waypoint,
     check_against_vocabulary,
     load_api_spec,
     load_conditions,
@@ -109,6 +110,13 @@ class Ontology:
     def path_tracers(self, source: str, primitive: str, target: str) -> list[PrimitiveSpec]:
         """Moves of ``target`` that can trace ``source.primitive``'s end-effector path (``tracedBy``)."""
         return self._related(source, primitive, "tracedBy", target)
+
+    def path_of(self, capability: str) -> tuple[Waypoint, ...]:
+        """The end-effector path a primitive providing ``capability`` declares (a push's), or none."""
+        return next(
+            (p.path for api in self.apis.values() for p in api.primitives if capability in p.capabilities and p.path),
+            (),
+        )
 
     def _related(self, source: str, primitive: str, relation: str, target: str) -> list[PrimitiveSpec]:
         query = f"""

@@ -206,6 +206,7 @@ class RecentAgent:
             sizes={o.name: tuple(o.size) for o in task.objects if o.size is not None},
             base_xy=ROBOT_BASE_XY,
             reach=self.ontology.arms[robot].reach,
+            push_path=self.ontology.path_of("push_object"),
         )
         return InSituAdapter(
             robot=robot,

@@ -181,6 +181,20 @@ def test_the_lm_sees_only_the_sweeps_coordinates_the_log_keeps_the_slabs():
     assert sweep.startswith("ur5_push_to(env, task, contact_pos=[0.178, ") and "0.834]" not in sweep
 
 
+def test_a_robot_without_a_push_sweeps_along_the_ontologys_push_path(ontology):
+    """The 2F-85's API only moves and grips: the sweep is the Panda push's declared path, traced with its moves."""
+    scene = SceneFacts({"obstacle": "slab"}, {"obstacle": (0.1, 0.1, 0.03)}, push_path=ontology.path_of("push_object"))
+    target = {"target_pos": [0.173, -0.015, 0.846]}
+    obs = observed(obstacle=[0.178, -0.024, 0.834])
+    robotiq = ontology.api("Robotiq85")
+    inp = CheckInput(None, obs, target, {"target_pos": "release_target"}, frozenset(), {}, scene, robotiq)
+    sweep = target_clear(inp).statements
+    assert len(sweep) == 4 and all(s.startswith("move_to_position(env, task, pos=[") for s in sweep)
+    heights = [float(s.rsplit(", ", 1)[1].rstrip("])")) for s in sweep]
+    assert heights[0] == heights[3] == pytest.approx(heights[1] + 0.1)  # down to the start, along, up again
+    assert heights[1] == heights[2]
+
+
 def test_a_second_recomputation_copies_only_the_latest_definitions():
     """After one repair the skill holds its path computation twice; the next repair copies it once."""
     block = """    obj_pos = task.get_object_position(obj)

@@ -18,8 +18,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ontology.builder import PATH_CAPABILITY, PATH_ROLE
 from ontology.diagnosis import Warning
-from ontology.specs import ApiSpec
+from ontology.specs import ApiSpec, Waypoint
 from robosuite_envs.observation import Observation
 
 # metres an object may drift from where the skill read it before it counts as moved: above the sensing
@@ -42,6 +43,7 @@ class SceneFacts:
     sizes: dict[str, tuple[float, float, float]]
     base_xy: tuple[float, float] = (0.0, 0.0)  # the robot's base on the table plane
     reach: float = float("inf")  # metres: the arm's reach (the ontology's upper bound)
+    push_path: tuple[Waypoint, ...] = ()  # a push as its hand's path, for robots without one (the ontology's)
 
 
 @dataclass(frozen=True)
@@ -166,20 +168,26 @@ def sweep_statements(inp: CheckInput, obstacle: str, held: set[str]) -> tuple[st
     direction = max(directions, key=lambda d: (gap(d) > 0.0 and d[0] == 0, gap(d) > 0.0, gap(d)))
     start = np.array([*(centre[:2] - direction * (half + lead + 0.02)), height])
     goal = np.array([*(centre[:2] + direction * (SHIFT - half - lead)), height])
-    return _push_calls(inp.api, start, goal)
+    return _push_calls(inp, start, goal)
 
 
-def _push_calls(api: ApiSpec, start: np.ndarray, goal: np.ndarray) -> tuple[str, ...]:
-    """The robot's own push primitive when it has one, else four Cartesian moves."""
-    push = next((p for p in api.primitives if "push_object" in p.capabilities), None)
+def _push_calls(inp: CheckInput, start: np.ndarray, goal: np.ndarray) -> tuple[str, ...]:
+    """The robot's own push primitive when it has one, else its Cartesian moves along a push's path."""
+    push = next((p for p in inp.api.primitives if "push_object" in p.capabilities), None)
     if push is not None:
         begin, end = push.by_role("push_start"), push.by_role("push_goal")
         if begin is not None and end is not None:
             return (f"{push.name}(env, task, {begin.name}={_fmt(start)}, {end.name}={_fmt(goal)})",)
-    move = next(p for p in api.primitives if "cartesian_motion" in p.capabilities)
-    target = move.by_role("motion_target")
-    lift = np.array([0.0, 0.0, 0.08])
-    return tuple(f"{move.name}(env, task, {target.name}={_fmt(p)})" for p in (start + lift, start, goal, goal + lift))
+    move = next((p for p in inp.api.primitives if PATH_CAPABILITY in p.capabilities and p.by_role(PATH_ROLE)), None)
+    if move is None:
+        return ()  # nothing to sweep with: the check reports what it saw, and the skill runs on
+    at = {"push_start": start, "push_goal": goal}
+    point = move.by_role(PATH_ROLE).name
+    return tuple(
+        f"{move.name}(env, task, {point}={_fmt(at[w.role] + np.asarray(w.offset))})"
+        for w in inp.scene.push_path
+        if w.role in at
+    )
 
 
 POSITION_ROLES = ("grasp_target", "release_target", "motion_target", "push_start", "push_goal", "handle_target")
