@@ -52,8 +52,8 @@ def test_a_call_written_over_several_lines_is_one_comment_line_and_a_one_line_sp
     hints = prompt.prefix.splitlines()[4:-1]
     assert hints and all(line.startswith("        # ") for line in hints)
     assert hints[1] == (
-        "        # Was: push(env, task, start_pos=[area_pos[0] - 0.09, area_pos[1] + dy, area_pos[2] + 0.012], "
-        'target_pos=[area_pos[0] + 0.09, area_pos[1] + dy, area_pos[2] + 0.012], approach_axis="z")'
+        "        # Was: push(env, task, start_pos=[area_pos[0] - 0.09, area_pos[1] + dy, area_pos[2] + 0.02], "
+        'target_pos=[area_pos[0] + 0.09, area_pos[1] + dy, area_pos[2] + 0.02], approach_axis="z")'
     )
     assert prompt.stop[0] == "\n"  # the substitute is one call, however the original was written
 
@@ -86,10 +86,10 @@ def test_a_traced_push_is_one_move_per_waypoint_and_its_retry_is_held_to_all_of_
     assert grounded.valid and grounded.generated_tokens == 0
     moves = [line.strip() for line in grounded.code.splitlines() if "move_to_position" in line]
     assert moves == [
-        "move_to_position(env, task, pos=[area_pos[0] - 0.09, area_pos[1] + dy, area_pos[2] + 0.012 + 0.1])",
-        "move_to_position(env, task, pos=[area_pos[0] - 0.09, area_pos[1] + dy, area_pos[2] + 0.012])",
-        "move_to_position(env, task, pos=[area_pos[0] + 0.09, area_pos[1] + dy, area_pos[2] + 0.012])",
-        "move_to_position(env, task, pos=[area_pos[0] + 0.09, area_pos[1] + dy, area_pos[2] + 0.012 + 0.1])",
+        "move_to_position(env, task, pos=[area_pos[0] - 0.09, area_pos[1] + dy, area_pos[2] + 0.02 + 0.1])",
+        "move_to_position(env, task, pos=[area_pos[0] - 0.09, area_pos[1] + dy, area_pos[2] + 0.02])",
+        "move_to_position(env, task, pos=[area_pos[0] + 0.09, area_pos[1] + dy, area_pos[2] + 0.02])",
+        "move_to_position(env, task, pos=[area_pos[0] + 0.09, area_pos[1] + dy, area_pos[2] + 0.02 + 0.1])",
     ]
     conflict = diagnose(ontology, close.name, close.code, "Robotiq85").conflicts[0]
     unit = unit_from_conflict(close.code, conflict, "Robotiq85")  # names: indexed, closed hand first
@@ -233,12 +233,12 @@ def test_a_multiline_span_without_the_substitute_is_rejected(ontology):
 
     wipe = load_skill("wipe_area")
     moves_instead = (  # valid code in place, but no push: the span alone did not parse, so went unchecked
-        "start = [area_pos[0] - 0.09, area_pos[1] + dy, area_pos[2] + 0.012]\n"
+        "start = [area_pos[0] - 0.09, area_pos[1] + dy, area_pos[2] + 0.02]\n"
         "        sawyer_move_to(env, task, target_pos=start)"
     )
     push = (
-        "sawyer_push(env, task, from_pos=[area_pos[0] - 0.09, area_pos[1] + dy, area_pos[2] + 0.012], "
-        "to_pos=[area_pos[0] + 0.09, area_pos[1] + dy, area_pos[2] + 0.012])"
+        "sawyer_push(env, task, from_pos=[area_pos[0] - 0.09, area_pos[1] + dy, area_pos[2] + 0.02], "
+        "to_pos=[area_pos[0] + 0.09, area_pos[1] + dy, area_pos[2] + 0.02])"
     )
     grounded = ground_skill(wipe, "Sawyer", ontology, ScriptedInfiller([moves_instead, push]))
     assert grounded.valid and [c.accepted for c in grounded.calls] == [False, True]
