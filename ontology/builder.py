@@ -334,9 +334,6 @@ def _by_function(prims: list[tuple[str, PrimitiveSpec]]) -> dict[frozenset[str],
     return groups
 
 
-PATH_CAPABILITY, PATH_ROLE = "cartesian_motion", "motion_target"  # what tracing a path takes: moves to a point
-
-
 def _path_tracers(apis: dict[str, ApiSpec], sources: set[str]) -> list[tuple[str, PrimitiveSpec, PrimitiveSpec]]:
     """(source robot, primitive with a path, target move) where the target has nothing with the
     primitive's effects but can move its end effector to a point: it can trace the path instead."""
@@ -348,10 +345,7 @@ def _path_tracers(apis: dict[str, ApiSpec], sources: set[str]) -> list[tuple[str
             for target, api in apis.items():
                 if target == emb or any(p.effects == prim.effects for p in api.primitives):
                     continue
-                for move in api.primitives:
-                    point = move.by_role(PATH_ROLE)
-                    if PATH_CAPABILITY in move.capabilities and point is not None and point.type == "position":
-                        out.append((emb, prim, move))
+                out += [(emb, prim, move) for move in api.point_moves()]
     return out
 
 

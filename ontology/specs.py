@@ -9,6 +9,7 @@ from typing import Any
 import yaml
 
 _LOADER = getattr(yaml, "CSafeLoader", yaml.SafeLoader)  # libyaml when available: 10x faster
+PATH_CAPABILITY, PATH_ROLE = "cartesian_motion", "motion_target"  # a move to a point, and that point
 PARAM_TYPES = ("position", "quaternion", "float", "int", "str", "bool", "object_name")
 
 
@@ -86,6 +87,10 @@ class ApiSpec:
 
     def get(self, name: str) -> PrimitiveSpec | None:
         return next((p for p in self.primitives if p.name == name), None)
+
+    def point_moves(self) -> list[PrimitiveSpec]:
+        """Primitives that move the end effector to a given point: what can trace a declared path."""
+        return [p for p in self.primitives if PATH_CAPABILITY in p.capabilities and _point(p) is not None]
 
 
 @dataclass(frozen=True)
@@ -210,6 +215,11 @@ def _parse_primitive(item: Any, embodiment: str, path: Path, where: str) -> Prim
         effects=frozenset(_str_list(item, "effects", path, where)),
         path=_parse_path(item, params, path, where),
     )
+
+
+def _point(prim: PrimitiveSpec) -> ParameterSpec | None:
+    point = prim.by_role(PATH_ROLE)
+    return point if point is not None and point.type == "position" else None
 
 
 def _parse_path(item: dict, params: list[ParameterSpec], path: Path, where: str) -> tuple[Waypoint, ...]:

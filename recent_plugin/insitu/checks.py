@@ -18,9 +18,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ontology.builder import PATH_CAPABILITY, PATH_ROLE
 from ontology.diagnosis import Warning
-from ontology.specs import ApiSpec, Waypoint
+from ontology.specs import PATH_ROLE, ApiSpec, Waypoint
 from robosuite_envs.observation import Observation
 
 # metres an object may drift from where the skill read it before it counts as moved: above the sensing
@@ -178,7 +177,7 @@ def _push_calls(inp: CheckInput, start: np.ndarray, goal: np.ndarray) -> tuple[s
         begin, end = push.by_role("push_start"), push.by_role("push_goal")
         if begin is not None and end is not None:
             return (f"{push.name}(env, task, {begin.name}={_fmt(start)}, {end.name}={_fmt(goal)})",)
-    move = next((p for p in inp.api.primitives if PATH_CAPABILITY in p.capabilities and p.by_role(PATH_ROLE)), None)
+    move = next(iter(inp.api.point_moves()), None)
     if move is None:
         return ()  # nothing to sweep with: the check reports what it saw, and the skill runs on
     at = {"push_start": start, "push_goal": goal}
