@@ -69,6 +69,7 @@ class Warning:
     observation: str  # what the check reads
     message: str
     phase: str = "before"  # "before" for preconditions, "after" for effects
+    through: int | None = None  # a span rendered one statement per line: the check guards its first through+1
 
 
 @dataclass(frozen=True)
@@ -99,7 +100,11 @@ class Diagnosis:
                 }
                 for c in self.conflicts
             ],
-            "warnings": sorted(f"{w.span.line}:{w.primitive}:{w.kind}:{w.phase}" for w in self.warnings),
+            "warnings": sorted(
+                f"{w.span.line}:{w.primitive}:{w.kind}:{w.phase}"
+                + (f":through {w.through}" if w.through is not None else "")
+                for w in self.warnings
+            ),
         }
 
 
@@ -118,13 +123,15 @@ def diagnose(onto: Ontology, skill_name: str, code: str, robot: str, source: str
     conflicts, warnings = [], []
     for site in sites:
         original = source_api.get(site.name)
-        target = target_api.get(site.name)
+        target, conflict = target_api.get(site.name), None
         if target is None:
             conflict = _conflict(onto, site, original, source, robot)
             conflicts.append(conflict)
             target = conflict.substitute
         if target is not None:
             warnings += _warnings(onto, site, original, target, source, robot, sites, bindings)
+        if conflict is not None and conflict.path:
+            warnings.append(_approach_warning(onto, site, conflict))
     return Diagnosis(skill=skill_name, robot=robot, conflicts=tuple(conflicts), warnings=tuple(warnings))
 
 
@@ -205,6 +212,18 @@ def _path_conflict(
         path=steps,
         reason=f"no primitive with the effects of {site.name}; trace its path with {move.name}"
         + (f", after {', '.join(preparatory)}" if preparatory else ""),
+    )
+
+
+def _approach_warning(onto: Ontology, site: CallSite, conflict: Conflict) -> Warning:
+    """A traced path is several statements: the object may move while the hand approaches it, and
+    between those statements that can be checked — before each one up to the contact point."""
+    contact = next((i for i, step in enumerate(conflict.path) if not any(step.offset)), 0)
+    spec = onto.conditions["object_at_target"]
+    message = "the object may move while the hand approaches it along the traced path"
+    through = len(conflict.preparatory) + contact
+    return Warning(
+        "object_at_target", site.span, conflict.substitute.name, spec.check, spec.observation, message, through=through
     )
 
 

@@ -94,7 +94,12 @@ def entry_function(code: str, entry: str) -> ast.FunctionDef:
 
 
 def split_segments(code: str, entry: str | ast.FunctionDef) -> list[Segment]:
-    """Top-level statements of the entry function (its docstring excluded), in order."""
+    """Top-level statements of the entry function (its docstring excluded), in order.
+
+    A loop over a literal list is unrolled (:func:`unroll`): each iteration's statements are
+    segments of their own, so the checks that guard a call inside the loop run before every
+    iteration's call, on what the world looks like then, and a patch touches one iteration only.
+    """
     func = entry if isinstance(entry, ast.FunctionDef) else entry_function(code, entry)
     body = (
         func.body[1:]
@@ -103,10 +108,44 @@ def split_segments(code: str, entry: str | ast.FunctionDef) -> list[Segment]:
         and isinstance(getattr(func.body[0], "value", None), ast.Constant)
         else func.body
     )
-    return [
-        Segment(i, stmt.lineno, ast.get_source_segment(code, stmt) or ast.unparse(stmt), stmt)
-        for i, stmt in enumerate(body)
-    ]
+    indent = " " * body[0].col_offset if body else ""
+    statements = []
+    for stmt in body:
+        iterations = unroll(stmt)
+        if iterations is None:
+            statements.append((stmt, ast.get_source_segment(code, stmt) or ast.unparse(stmt)))
+        else:
+            for bind, nodes in iterations:
+                statements += [(bind, ast.unparse(bind)), *((n, _nested_source(code, n, indent)) for n in nodes)]
+    return [Segment(i, stmt.lineno, source, stmt) for i, (stmt, source) in enumerate(statements)]
+
+
+def unroll(stmt: ast.stmt) -> list[tuple[ast.Assign, list[ast.stmt]]] | None:
+    """``for x in [a, b]: body`` as iterations ``(x = a, body)``, ``(x = b, body)``; None for any other statement.
+
+    Only loops whose iterations are fixed before they start: a literal list or tuple of
+    expressions without calls (evaluating them one iteration later gives the same values), no
+    ``else`` and no ``break``/``continue``. Unrolled statements keep the loop's line numbers.
+    """
+    if not (isinstance(stmt, ast.For) and isinstance(stmt.iter, ast.List | ast.Tuple)) or stmt.orelse:
+        return None
+    if any(isinstance(n, ast.Starred | ast.Call) for e in stmt.iter.elts for n in ast.walk(e)):
+        return None
+    if any(isinstance(n, ast.Break | ast.Continue) for s in stmt.body for n in ast.walk(s)):
+        return None
+    iterations = []
+    for element in stmt.iter.elts:
+        bind = ast.Assign(targets=[copy.deepcopy(stmt.target)], value=copy.deepcopy(element))
+        bind.lineno, bind.end_lineno = stmt.lineno, stmt.lineno  # the ``for`` line, not the whole loop
+        bind.col_offset, bind.end_col_offset = stmt.col_offset, stmt.iter.end_col_offset
+        iterations.append((ast.fix_missing_locations(bind), [copy.deepcopy(s) for s in stmt.body]))
+    return iterations
+
+
+def _nested_source(code: str, node: ast.stmt, indent: str) -> str:
+    """A statement from inside a loop as segments keep it: first line bare, later lines at ``indent``."""
+    text = textwrap.dedent(ast.get_source_segment(code, node, padded=True) or ast.unparse(node))
+    return text.replace("\n", "\n" + indent)
 
 
 class SkillExecutor:

@@ -110,6 +110,7 @@ def _diagnose(args) -> int:
             "kind": w.kind,
             "primitive": w.primitive,
             "phase": w.phase,
+            "through": w.through,
             "check": w.check,
             "observation": w.observation,
             "message": w.message,
@@ -129,6 +130,7 @@ def _diagnose(args) -> int:
         if row["path"]:
             print(f"      path: {' -> '.join(row['path'])}")
     for w in warnings:
-        print(f"  line {w['line']} ({w['phase']} {w['primitive']}): {w['kind']}: {w['message']}")
+        where = f", statements 1-{w['through'] + 1} of its rewrite" if w["through"] is not None else ""
+        print(f"  line {w['line']} ({w['phase']} {w['primitive']}{where}): {w['kind']}: {w['message']}")
         print(f"      check {w['check']} on {w['observation']}")
     return 0

@@ -77,3 +77,45 @@ def test_primitive_failure_is_categorised(grounded):
         pass
     assert executor.failed and str(executor.failure.category) == "workspace"
     assert executor.failure.line == 6
+
+
+SWEEP = '''def sweep(env, task, first="red", second="blue"):
+    """Two pushes."""
+    for name, dy in [[first, -0.1], [second, 0.1]]:
+        obj_pos = task.get_object_position(name)
+        if dy > 0:
+            obj_pos = [obj_pos[0],
+                       obj_pos[1] + dy, obj_pos[2]]
+        push(env, task, start_pos=obj_pos, target_pos=[0.2, 0.0, 0.82])
+'''
+
+
+def test_a_loop_over_a_literal_list_is_unrolled_into_one_segment_per_statement_and_iteration():
+    segments = split_segments(SWEEP, "sweep")
+    assert [s.source.splitlines()[0] for s in segments] == [
+        "name, dy = [first, -0.1]",
+        "obj_pos = task.get_object_position(name)",
+        "if dy > 0:",
+        "push(env, task, start_pos=obj_pos, target_pos=[0.2, 0.0, 0.82])",
+        "name, dy = [second, 0.1]",
+        "obj_pos = task.get_object_position(name)",
+        "if dy > 0:",
+        "push(env, task, start_pos=obj_pos, target_pos=[0.2, 0.0, 0.82])",
+    ]
+    # nested lines sit at the function body's indentation, as top-level segments keep them
+    assert (
+        segments[2].source
+        == "if dy > 0:\n        obj_pos = [obj_pos[0],\n                   obj_pos[1] + dy, obj_pos[2]]"
+    )
+    assert [s.line for s in segments[:4]] == [3, 4, 5, 8]  # the loop's own lines, for guards and logs
+
+
+@pytest.mark.parametrize(
+    "loop",
+    [
+        "    for name in range(len(first)):\n        open_gripper(env, task)\n",  # values known only when it runs
+        "    for name in [first, second]:\n        if name == 'x':\n            break\n        open_gripper(env, task)\n",
+    ],
+)
+def test_a_loop_whose_iterations_are_not_fixed_stays_one_segment(loop):
+    assert len(split_segments(f"def f(env, task, first='a', second='b'):\n{loop}", "f")) == 1

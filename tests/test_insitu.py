@@ -14,9 +14,10 @@ from recent_plugin.executor import split_segments
 from recent_plugin.grounding.units import RefactoringUnit
 from recent_plugin.infillers.base import Completion
 from recent_plugin.infillers.rule import RuleInfiller
-from recent_plugin.insitu.adapter import recomputation
+from recent_plugin.insitu.adapter import latest_definitions, recomputation
 from recent_plugin.insitu.checks import (
     CheckInput,
+    Derivation,
     SceneFacts,
     object_unmoved,
     pushed_to_goal,
@@ -225,3 +226,74 @@ def test_a_second_recomputation_copies_only_the_latest_definitions():
         "lift = 0.02",
         "lift += 0.01",
     ]
+
+
+def test_a_moved_object_is_read_again_with_everything_derived_from_it():
+    """The call uses `start`, computed from `obj_pos`: the re-read recomputes `start` and `goal`, not `pen_pos`."""
+    read = [0.10, -0.05, 0.845]
+    scene = SceneFacts({"cube": "box"}, {"cube": (0.05, 0.05, 0.05)})
+    derived = (
+        Derivation("pen_pos = task.get_object_position(pen)", frozenset({"task", "pen"}), frozenset({"pen_pos"})),
+        Derivation("start = [obj_pos[0] - 0.06, obj_pos[1], obj_pos[2]]", frozenset({"obj_pos"}), frozenset({"start"})),
+        Derivation("goal = [pen_pos[0], start[1], start[2]]", frozenset({"pen_pos", "start"}), frozenset({"goal"})),
+    )
+    inp = CheckInput(
+        None,
+        observed(cube=[0.14, -0.05, 0.845]),
+        {},
+        {},
+        frozenset({"cube"}),
+        {"obj_pos": ("cube", read)},
+        scene,
+        UR5E,
+        derived,
+    )
+    moved = object_unmoved(inp)
+    assert moved.statements == (
+        "obj_pos = task.get_object_position('cube')",
+        "start = [obj_pos[0] - 0.06, obj_pos[1], obj_pos[2]]",
+        "goal = [pen_pos[0], start[1], start[2]]",
+    )
+    assert moved.instruction == "read obj_pos again and recompute start, goal"
+
+
+def test_latest_definitions_skip_what_a_later_iteration_redefined():
+    code = (
+        "def sweep(env, task, first='red', second='blue'):\n"
+        "    for name in [first, second]:\n"
+        "        obj_pos = task.get_object_position(name)\n"
+        "        start = [obj_pos[0] - 0.06, obj_pos[1], obj_pos[2]]\n"
+        "        push(env, task, start_pos=start, target_pos=[0.2, 0.0, 0.82])\n"
+    )
+    segments = split_segments(code, "sweep")
+    latest = latest_definitions(segments[:-1], {"push"})
+    assert [s.source for s in latest] == [
+        "name = second",
+        "obj_pos = task.get_object_position(name)",
+        "start = [obj_pos[0] - 0.06, obj_pos[1], obj_pos[2]]",
+    ]
+
+
+def test_a_push_that_failed_on_a_moved_cube_is_recomputed_and_retried_without_the_lm(ontology):
+    """The UR5e's push timed out against a cube perturbed after its position was read: the observation
+    explains the failure, so the recomputation is copied in (no LM call, no EI) and the push succeeds."""
+    agent = RecentAgent(AgentSettings(backend="rule"), infiller=CountingInfiller(), ontology=ontology)
+    result = run_episode(agent, "kinematic/push_cube", "UR5e", seed=42, variations="on")
+    assert result.success and result.ei == 0 and result.it == 0
+    stale = [e for e in result.adaptations if "failed (timeout" in e.observation]
+    assert stale and all(e.checks == ("object_unmoved",) and e.attempts == 0 for e in stale)
+    assert "cube moved since obj_pos was read" in stale[0].observation
+    assert stale[0].after.splitlines()[0] == "obj_pos = task.get_object_position(obj)"
+
+
+def test_a_traced_push_checks_the_object_before_each_move_up_to_the_contact(ontology):
+    """On the 2F-85 the push becomes close + four moves: the object may move while the hand approaches,
+    so its position is checked before the close and the two approach moves, not before the slide."""
+    agent = RecentAgent(AgentSettings(backend="rule"), ontology=ontology)
+    result = run_episode(agent, "end_effector/sweep_blocks", "Robotiq85", seed=2024, variations="on")
+    assert result.success
+    revise = [e for e in result.adaptations if e.checks == ("object_unmoved",)]
+    assert revise and "red moved" in revise[0].observation
+    recomputed = revise[0].after.splitlines()
+    assert recomputed[0] == "obj_pos = task.get_object_position('red')"
+    assert any(line.startswith("goal = ") for line in recomputed)  # the slide's goal too, not only the start

@@ -19,7 +19,10 @@ import ast
 import difflib
 import logging
 import textwrap
+from collections import Counter
 from dataclasses import dataclass, field
+
+import numpy as np
 
 from logs.events import CheckVerdict, Emit, PatchApplied, ignore
 from ontology.diagnosis import Warning
@@ -30,7 +33,7 @@ from recent_plugin.grounding.grounder import GroundedSkill, LMCall, call_events,
 from recent_plugin.grounding.units import Hints, RefactoringUnit, apply_unit, cut_unit
 from recent_plugin.grounding.validation import Verdict, validate_program
 from recent_plugin.infillers.base import Infiller
-from recent_plugin.insitu.checks import CHECKS, CheckInput, SceneFacts, Violation
+from recent_plugin.insitu.checks import CHECKS, MOVED, CheckInput, Derivation, SceneFacts, Violation
 
 log = logging.getLogger(__name__)
 
@@ -63,6 +66,7 @@ class InSituAdapter:
     events: list[AdaptationEvent] = field(default_factory=list)
     emit: Emit = ignore  # the loggers' view: check verdicts, infiller calls, patches
     _budget: RepairBudget = field(init=False)
+    _reruns: Counter = field(default_factory=Counter)  # effects done again, per skill
 
     def __post_init__(self) -> None:
         self._budget = RepairBudget(self.max_repairs)
@@ -74,8 +78,7 @@ class InSituAdapter:
             return
         warnings = [w for w in grounded.warnings() if w.check in CHECKS]
         for segment in segments:
-            first, last = segment.node.lineno, segment.node.end_lineno or segment.node.lineno
-            inside = [w for w in warnings if first <= w.span.line <= last]
+            inside = [w for w in warnings if _guards(w, segment.node)]
             segment.guards = tuple(w for w in inside if w.phase == "before")
             if isinstance(segment.node, ast.Expr):  # a bare call: doing it again repeats exactly that call
                 segment.effects = tuple(w for w in inside if w.phase == "after")
@@ -140,15 +143,8 @@ class InSituAdapter:
         if call is None or spec is None:
             return None
         arguments = {k.arg: _value(k.value, executor) for k in call.keywords if k.arg}
-        used = {n.id for n in ast.walk(call) if isinstance(n, ast.Name)}
-        reads = executor.namespace["task"].position_reads
-        stale = {
-            var: (name, list(value))
-            for var, value in executor.namespace.items()
-            if var in used
-            for name, read in reads
-            if value is read
-        }
+        chain = dependencies(executor.segments[: segment.index], call, set(executor.primitives))
+        stale = _position_reads(executor, _loads(call).union(*(_loads(s.node) for s in chain)))
         named = frozenset(v for v in executor.namespace.values() if isinstance(v, str) and v in self.scene.kinds)
         inp = CheckInput(
             warning=warning,
@@ -157,6 +153,10 @@ class InSituAdapter:
             roles={p.name: p.role for p in spec.parameters},
             named=named,
             stale_reads=stale,
+            derived=tuple(
+                Derivation(s.source, frozenset(_loads(s.node)), frozenset(_stored(s.node)))
+                for s in latest_definitions(executor.segments[: segment.index], set(executor.primitives))
+            ),
             scene=self.scene,
             api=self.api,
         )
@@ -165,12 +165,16 @@ class InSituAdapter:
     def _rerun(self, executor: SkillExecutor, segment: Segment, at: int, checks, observation: str) -> None:
         """An effect that did not happen: run the statement again, after what it uses is recomputed.
 
-        The patch is code the skill already holds — copied, not generated — so no LM is asked.
+        The patch is code the skill already holds — copied, not generated — so no LM is asked. The
+        copy is checked again once it completes, up to ``max_repairs`` times per skill.
         """
         redo = recomputation(executor.segments[: segment.index], segment.node, set(executor.primitives))
         redo += (segment.source,)
         before = executor.source()
         executor.insert_segments(at, ("\n" + executor.indent).join(redo))
+        self._reruns[executor.grounded.skill] += 1
+        if self._reruns[executor.grounded.skill] <= self.max_repairs:
+            executor.segments[at + len(redo) - 1].effects = segment.effects
         after = "\n".join(_bare(s, executor) for s in (segment.source, *redo))
         skill = executor.grounded.skill
         self.events.append(AdaptationEvent("revise", skill, at, checks, observation, segment.source, after, 0))
@@ -182,6 +186,8 @@ class InSituAdapter:
         if not self._budget.take(executor, failure):
             return False
         segment = executor.segments[failure.segment]
+        if self.insitu and self._rerun_if_stale(executor, segment, failure):
+            return True
         # The usual cause is a world that moved on: recompute what the statement uses, then retry it.
         statements = recomputation(executor.segments[: failure.segment], segment.node, set(executor.primitives))
         return self._patch(
@@ -195,6 +201,32 @@ class InSituAdapter:
             f"{_bare(segment.source, executor).split('(')[0]} failed ({failure.message})",
             statements,
         )
+
+    def _rerun_if_stale(self, executor: SkillExecutor, segment: Segment, failure: SkillFailure) -> bool:
+        """A failed statement whose positions were read before the object moved: the observation
+        explains the failure, and the fix is determined — read again, recompute, retry — so the
+        recomputation is copied in (no LM call), as a violated effect's rerun is."""
+        chain = dependencies(executor.segments[: segment.index], segment.node, set(executor.primitives))
+        stale = _position_reads(executor, _loads(segment.node).union(*(_loads(s.node) for s in chain)))
+        moved = []
+        for variable, (name, then) in sorted(stale.items()):
+            state = executor.session.obs.objects.get(name)
+            if state is not None and float(np.linalg.norm(np.asarray(state.pos) - np.asarray(then))) > MOVED:
+                moved.append(f"{name} moved since {variable} was read")
+        if not moved or not chain:
+            return False
+        observation = f"{_bare(segment.source, executor).split('(')[0]} failed ({failure.message}); {'; '.join(moved)}"
+        self.emit(CheckVerdict(executor.grounded.skill, segment.index, "object_unmoved", False, observation))
+        before = executor.source()
+        executor.insert_segments(segment.index, ("\n" + executor.indent).join(s.source for s in chain))
+        after = "\n".join(_bare(s, executor) for s in (*(c.source for c in chain), segment.source))
+        skill = executor.grounded.skill
+        event = AdaptationEvent(
+            "revise", skill, segment.index, ("object_unmoved",), observation, segment.source, after, 0
+        )
+        self.events.append(event)
+        self.emit(PatchApplied(skill, "revise", source_diff(before, executor.source()), executor.source()))
+        return True
 
     # ------------------------------------------------------------------ patching
     def _patch(
@@ -282,6 +314,15 @@ class InSituAdapter:
         return textwrap.dedent(accepted.unit.indent + accepted.text), attempts
 
 
+def _guards(warning: Warning, node: ast.stmt) -> bool:
+    """The warning's check belongs to this statement: it contains the warned call, or (a span
+    rendered one statement per line) it is one of the lines the warning guards."""
+    first, last = node.lineno, node.end_lineno or node.lineno
+    if warning.through is None:
+        return first <= warning.span.line <= last
+    return warning.span.line <= first <= warning.span.line + warning.through
+
+
 def source_diff(before: str, after: str) -> str:
     """A patch as the logs show it: the skill before and after, as a unified diff."""
     return "".join(
@@ -337,7 +378,12 @@ def _value(node: ast.expr, executor: SkillExecutor) -> object | None:
         return None
 
 
-def recomputation(earlier: list[Segment], node: ast.stmt, primitives: set[str]) -> tuple[str, ...]:
+def recomputation(earlier: list[Segment], node: ast.AST, primitives: set[str]) -> tuple[str, ...]:
+    """The sources of :func:`dependencies`: what to run again before the statement, in order."""
+    return tuple(s.source for s in dependencies(earlier, node, primitives))
+
+
+def dependencies(earlier: list[Segment], node: ast.AST, primitives: set[str]) -> list[Segment]:
     """Earlier assignments and branches of them (no primitive calls) that the statement depends on, in order.
 
     Only the latest definition of a value is taken: once a statement is chosen, what it assigns on
@@ -351,16 +397,50 @@ def recomputation(earlier: list[Segment], node: ast.stmt, primitives: set[str]) 
         if not isinstance(stmt, ast.Assign | ast.AugAssign | ast.AnnAssign | ast.If):
             continue
         calls = {n.func.id for n in ast.walk(stmt) if isinstance(n, ast.Call) and isinstance(n.func, ast.Name)}
-        targets = {n.id for n in ast.walk(stmt) if isinstance(n, ast.Name) and isinstance(n.ctx, ast.Store)}
-        if calls & primitives or not targets & needed:
+        if calls & primitives or not _stored(stmt) & needed:
             continue
-        chosen.append(segment.source)
+        chosen.append(segment)
         needed = (needed - _always_assigned([stmt])) | _reads([stmt])
-    return tuple(reversed(chosen))
+    return chosen[::-1]
+
+
+def latest_definitions(earlier: list[Segment], primitives: set[str]) -> list[Segment]:
+    """The earlier assignments (and branches of them, no primitive calls) that still define a value, in order.
+
+    What a re-read must recompute comes from these: everything still derived from the old value,
+    whether or not the next call uses it (``goal`` as well as ``start``).
+    """
+    chosen, defined = [], set()
+    for segment in reversed(earlier):
+        stmt = segment.node
+        if not isinstance(stmt, ast.Assign | ast.AugAssign | ast.AnnAssign | ast.If):
+            continue
+        calls = {n.func.id for n in ast.walk(stmt) if isinstance(n, ast.Call) and isinstance(n.func, ast.Name)}
+        if calls & primitives or not _stored(stmt) - defined:
+            continue
+        chosen.append(segment)
+        defined |= _always_assigned([stmt])
+    return chosen[::-1]
+
+
+def _position_reads(executor: SkillExecutor, names: set[str]) -> dict[str, tuple[str, list[float]]]:
+    """Of ``names``, the variables that still hold an object position as the task returned it: name -> (object, value)."""
+    reads = executor.namespace["task"].position_reads
+    return {
+        var: (name, list(value))
+        for var, value in executor.namespace.items()
+        if var in names
+        for name, read in reads
+        if value is read
+    }
 
 
 def _loads(node: ast.AST) -> set[str]:
     return {n.id for n in ast.walk(node) if isinstance(n, ast.Name) and isinstance(n.ctx, ast.Load)}
+
+
+def _stored(node: ast.AST) -> set[str]:
+    return {n.id for n in ast.walk(node) if isinstance(n, ast.Name) and isinstance(n.ctx, ast.Store)}
 
 
 def _reads(body: list[ast.stmt], assigned: frozenset[str] = frozenset()) -> set[str]:

@@ -46,6 +46,15 @@ class SceneFacts:
 
 
 @dataclass(frozen=True)
+class Derivation:
+    """An earlier statement the guarded call's values come from (``start`` computed from ``obj_pos``)."""
+
+    source: str
+    reads: frozenset[str]
+    writes: frozenset[str]
+
+
+@dataclass(frozen=True)
 class CheckInput:
     warning: Warning
     obs: Observation
@@ -55,6 +64,7 @@ class CheckInput:
     stale_reads: dict[str, tuple[str, list[float]]]  # variable -> (object, position read earlier)
     scene: SceneFacts
     api: ApiSpec
+    derived: tuple[Derivation, ...] = ()  # the statements between those reads and the call, in order
 
 
 @dataclass(frozen=True)
@@ -86,8 +96,9 @@ def _fmt(v) -> str:
 
 
 def object_unmoved(inp: CheckInput) -> Violation | None:
-    """Positions the call uses were read before the robot moved: re-read those that drifted."""
-    statements, seen = [], []
+    """Positions the call uses, itself or through values computed from them, were read before the
+    object moved: re-read those that drifted, then recompute what was derived from them."""
+    statements, seen, dirty = [], [], set()
     for variable, (name, then) in sorted(inp.stale_reads.items()):
         state = inp.obs.objects.get(name)
         if state is None:
@@ -96,10 +107,19 @@ def object_unmoved(inp: CheckInput) -> Violation | None:
         if drift > MOVED:
             seen.append(f"{name} moved {100 * drift:.1f} cm since {variable} was read (now at {_fmt(state.pos)})")
             statements.append(f"{variable} = task.get_object_position({name!r})")
+            dirty.add(variable)
     if not statements:
         return None
-    variables = ", ".join(s.split(" = ")[0] for s in statements)
-    return Violation("object_unmoved", "; ".join(seen), tuple(statements), f"read {variables} again")
+    instruction = f"read {', '.join(sorted(dirty))} again"
+    recomputed = []
+    for step in inp.derived:
+        if step.reads & dirty:
+            statements.append(step.source)
+            recomputed += sorted(step.writes - dirty)
+            dirty |= step.writes
+    if recomputed:
+        instruction += f" and recompute {', '.join(dict.fromkeys(recomputed))}"
+    return Violation("object_unmoved", "; ".join(seen), tuple(statements), instruction)
 
 
 def object_present(inp: CheckInput) -> Violation | None:

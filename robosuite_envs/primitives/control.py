@@ -56,6 +56,7 @@ def move_to(
     tol: float = POS_TOL,
     stop_on_contact: bool = False,
     settle: bool = False,
+    straight: bool = False,
 ) -> Steps:
     """Servo the grip site to ``target`` (world frame, metres); fail with ``timeout`` if it does not settle.
 
@@ -64,11 +65,14 @@ def move_to(
     ``settle``: for an arm whose tracking stops short of the target, ``tol`` is where it may stop,
     not where it stops trying: the move ends within ``POS_TOL``, or within ``tol`` once the grip
     site no longer moves (a press that returned on entering ``tol`` stopped 2 cm above the button).
+    ``straight``: follow the line from where the move starts (a push slides an object along it);
+    otherwise each axis closes its own error, and a diagonal move bends.
     """
     goal = as_position(target, "target position")
     if goal[2] < TABLE_CLEARANCE:
         raise PrimitiveFailure("out_of_workspace", f"target z={goal[2]:.3f} m is below the table surface")
     max_steps = max(1, int(timeout_s * CONTROL_FREQ))
+    towards = _line_follower(session.obs.eef_pos, goal) if straight else (lambda _: goal)
     last = None
     for _ in range(max_steps):
         err = float(np.linalg.norm(goal - session.obs.eef_pos))
@@ -80,13 +84,32 @@ def move_to(
         if arrived or (stop_on_contact and resting_above(session, goal, tol)):
             return
         last = session.obs.eef_pos.copy()
-        yield servo_action(session, goal)
+        yield servo_action(session, towards(session.obs.eef_pos))
     err = float(np.linalg.norm(goal - session.obs.eef_pos))
     if settle and err < tol:
         return
     raise PrimitiveFailure(
         "timeout", f"did not reach {np.round(goal, 3).tolist()} within {timeout_s:.1f} s (error {err * 100:.1f} cm)"
     )
+
+
+def _line_follower(origin: np.ndarray, goal: np.ndarray):
+    """Per step, the point one step ahead of the grip site's projection on the line origin → goal.
+
+    One step ahead along the line's dominant axis: the move takes as many steps as a bent one.
+    """
+    origin = np.array(origin, dtype=np.float64)
+    length = float(np.linalg.norm(goal - origin))
+    if length < 1e-6:
+        return lambda _: goal
+    direction = (goal - origin) / length
+    lead = MAX_STEP / float(np.max(np.abs(direction)))
+
+    def towards(position: np.ndarray) -> np.ndarray:
+        along = float(np.dot(position - origin, direction))
+        return origin + direction * float(np.clip(along + lead, 0.0, length))
+
+    return towards
 
 
 def resting_above(session: RobotSession, goal: np.ndarray, tol: float = POS_TOL) -> bool:
@@ -183,7 +206,7 @@ def push_to(session: RobotSession, start: Sequence[float], goal: Sequence[float]
     yield from actuate_gripper(session, 1.0, duration_s=0.2, max_duration_s=1.0)
     yield from move_to(session, begin + np.array([0.0, 0.0, APPROACH_HEIGHT]), timeout_s=timeout_s)
     yield from move_to(session, begin, timeout_s=timeout_s / 2)
-    yield from move_to(session, end, timeout_s=timeout_s, tol=0.015)
+    yield from move_to(session, end, timeout_s=timeout_s, tol=0.015, straight=True)
     yield from move_to(session, end + np.array([0.0, 0.0, APPROACH_HEIGHT]), timeout_s=timeout_s / 2, tol=0.02)
 
 
