@@ -297,3 +297,14 @@ def test_a_traced_push_checks_the_object_before_each_move_up_to_the_contact(onto
     recomputed = revise[0].after.splitlines()
     assert recomputed[0] == "obj_pos = task.get_object_position('red')"
     assert any(line.startswith("goal = ") for line in recomputed)  # the slide's goal too, not only the start
+
+
+def test_an_object_the_hand_holds_has_not_moved_out_from_under_the_skill():
+    """A place computed from the picked block's read height: the block rose with the hand, by design."""
+    from dataclasses import replace
+
+    scene = SceneFacts({"red": "box"}, {"red": (0.05, 0.05, 0.05)})
+    obs = observed(red=[0.1, -0.05, 0.93])
+    obs.objects["red"] = replace(obs.objects["red"], grasped=True)
+    inp = CheckInput(None, obs, {}, {}, frozenset({"red"}), {"obj_pos": ("red", [0.1, -0.05, 0.83])}, scene, UR5E)
+    assert object_unmoved(inp) is None

@@ -211,7 +211,7 @@ class InSituAdapter:
         moved = []
         for variable, (name, then) in sorted(stale.items()):
             state = executor.session.obs.objects.get(name)
-            if state is not None and float(np.linalg.norm(np.asarray(state.pos) - np.asarray(then))) > MOVED:
+            if state is not None and not state.grasped and float(np.linalg.norm(np.asarray(state.pos) - np.asarray(then))) > MOVED:
                 moved.append(f"{name} moved since {variable} was read")
         if not moved or not chain:
             return False

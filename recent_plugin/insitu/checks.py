@@ -101,8 +101,8 @@ def object_unmoved(inp: CheckInput) -> Violation | None:
     statements, seen, dirty = [], [], set()
     for variable, (name, then) in sorted(inp.stale_reads.items()):
         state = inp.obs.objects.get(name)
-        if state is None:
-            continue
+        if state is None or state.grasped:
+            continue  # not seen, or moved by the hand that holds it
         drift = float(np.linalg.norm(np.asarray(state.pos) - np.asarray(then)))
         if drift > MOVED:
             seen.append(f"{name} moved {100 * drift:.1f} cm since {variable} was read (now at {_fmt(state.pos)})")

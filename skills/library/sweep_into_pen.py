@@ -1,12 +1,12 @@
 def sweep_into_pen(env, task, first="red", second="blue", pen="pen"):
-    """Push each object along the table through the pen's open side until it is inside,
-    aiming at a point of the mouth the object fits through (a diagonal push if it lies beside it)."""
+    """Push each object through the pen's open side, aiming at a point of the mouth it fits
+    through, a little below its centre so the hand does not ride up over it."""
     pen_pos = task.get_object_position(pen)
     for name in [first, second]:
         obj_pos = task.get_object_position(name)
-        lane = min(max(obj_pos[1], pen_pos[1] - 0.05), pen_pos[1] + 0.05)
+        lane = min(max(obj_pos[1], pen_pos[1] - 0.03), pen_pos[1] + 0.03)
         dx = pen_pos[0] - obj_pos[0]
         dy = lane - obj_pos[1]
-        start = [obj_pos[0] - 0.06, obj_pos[1] - 0.06 * dy / dx, obj_pos[2]]
-        goal = [pen_pos[0], lane, obj_pos[2]]
+        start = [obj_pos[0] - 0.06, obj_pos[1] - 0.06 * dy / dx, obj_pos[2] - 0.005]
+        goal = [pen_pos[0], lane, obj_pos[2] - 0.005]
         push(env, task, start_pos=start, target_pos=goal, approach_axis="z")
