@@ -229,7 +229,7 @@ def test_a_second_recomputation_copies_only_the_latest_definitions():
 
 
 def test_a_moved_object_is_read_again_with_everything_derived_from_it():
-    """The call uses `start`, computed from `obj_pos`: the re-read recomputes `start` and `goal`, not `pen_pos`."""
+    """The call uses `start`, computed from `obj_pos`: after the re-read, `start` and `goal` are recomputed, not `pen_pos`."""
     read = [0.10, -0.05, 0.845]
     scene = SceneFacts({"cube": "box"}, {"cube": (0.05, 0.05, 0.05)})
     derived = (
@@ -249,12 +249,12 @@ def test_a_moved_object_is_read_again_with_everything_derived_from_it():
         derived,
     )
     moved = object_unmoved(inp)
-    assert moved.statements == (
-        "obj_pos = task.get_object_position('cube')",
+    assert moved.statements == ("obj_pos = task.get_object_position('cube')",)  # the edit the LM writes
+    assert moved.instruction == "read obj_pos again"
+    assert moved.follow == (  # the skill's own statements, copied in after it
         "start = [obj_pos[0] - 0.06, obj_pos[1], obj_pos[2]]",
         "goal = [pen_pos[0], start[1], start[2]]",
     )
-    assert moved.instruction == "read obj_pos again and recompute start, goal"
 
 
 def test_latest_definitions_skip_what_a_later_iteration_redefined():

@@ -126,8 +126,19 @@ class InSituAdapter:
             return
         instruction = "; and ".join(v.instruction for v in violations if v.statements)
         cue = "; ".join(v.cue or v.observation for v in violations)
+        follow = tuple(dict.fromkeys(s for v in violations if v.statements for s in v.follow))
         self._patch(
-            executor, segment, at, "revise", "in_situ_revision", checks, instruction, observation, statements, cue=cue
+            executor,
+            segment,
+            at,
+            "revise",
+            "in_situ_revision",
+            checks,
+            instruction,
+            observation,
+            statements,
+            cue=cue,
+            follow=follow,
         )
 
     def _evaluate(self, executor: SkillExecutor, segment: Segment, warning: Warning) -> Violation | None:
@@ -211,7 +222,11 @@ class InSituAdapter:
         moved = []
         for variable, (name, then) in sorted(stale.items()):
             state = executor.session.obs.objects.get(name)
-            if state is not None and not state.grasped and float(np.linalg.norm(np.asarray(state.pos) - np.asarray(then))) > MOVED:
+            if (
+                state is not None
+                and not state.grasped
+                and float(np.linalg.norm(np.asarray(state.pos) - np.asarray(then))) > MOVED
+            ):
                 moved.append(f"{name} moved since {variable} was read")
         if not moved or not chain:
             return False
@@ -242,19 +257,23 @@ class InSituAdapter:
         statements: tuple[str, ...],
         *,
         cue: str | None = None,
+        follow: tuple[str, ...] = (),
     ) -> bool:
         """Insert statements before segment ``at`` (an empty FIM span: what follows stays the suffix).
 
         ``segment`` is the statement the check or failure is about: ``at`` is its own index (a
         precondition, a repair) or the next one (an effect). Without statements a repair simply
         runs the segment again, with no infiller call. ``cue``: the observation as the LM's hint
-        shows it (default: as the log records it).
+        shows it (default: as the log records it). ``follow``: statements the skill already holds,
+        copied in after an accepted patch (what derives from a value the patch reads again).
         """
         accepted, attempts = (None, 0) if statements else ("", 0)
         if statements:
             accepted, attempts = self._infill_insertion(
                 executor, segment, at, kind, span_type, reason, cue or observation, statements
             )
+        if accepted and follow:
+            accepted = "\n".join([accepted, *(_bare(s, executor) for s in follow)])
         bare = _bare(segment.source, executor)
         order = [accepted, bare] if at == segment.index else [bare, accepted]
         after = None if accepted is None else "\n".join(filter(None, order))

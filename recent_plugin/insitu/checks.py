@@ -75,6 +75,7 @@ class Violation:
     instruction: str = ""  # the edit in words, as the LM's cue ("read obj_pos again")
     rerun: bool = False  # an effect that did not happen: do the statement again from the current scene
     cue: str = ""  # the observation as the LM's hint shows it; empty: ``observation`` itself
+    follow: tuple[str, ...] = ()  # the skill's own statements, copied in after the patch (what derives from it)
 
 
 Check = Callable[[CheckInput], Violation | None]
@@ -97,7 +98,8 @@ def _fmt(v) -> str:
 
 def object_unmoved(inp: CheckInput) -> Violation | None:
     """Positions the call uses, itself or through values computed from them, were read before the
-    object moved: re-read those that drifted, then recompute what was derived from them."""
+    object moved: re-read those that drifted (the patch), then recompute what was derived from
+    them (the skill's own statements, copied: the LM writes only the edit)."""
     statements, seen, dirty = [], [], set()
     for variable, (name, then) in sorted(inp.stale_reads.items()):
         state = inp.obs.objects.get(name)
@@ -111,15 +113,12 @@ def object_unmoved(inp: CheckInput) -> Violation | None:
     if not statements:
         return None
     instruction = f"read {', '.join(sorted(dirty))} again"
-    recomputed = []
+    follow = []
     for step in inp.derived:
         if step.reads & dirty:
-            statements.append(step.source)
-            recomputed += sorted(step.writes - dirty)
+            follow.append(step.source)
             dirty |= step.writes
-    if recomputed:
-        instruction += f" and recompute {', '.join(dict.fromkeys(recomputed))}"
-    return Violation("object_unmoved", "; ".join(seen), tuple(statements), instruction)
+    return Violation("object_unmoved", "; ".join(seen), tuple(statements), instruction, follow=tuple(follow))
 
 
 def object_present(inp: CheckInput) -> Violation | None:
