@@ -243,3 +243,19 @@ def test_a_multiline_span_without_the_substitute_is_rejected(ontology):
     grounded = ground_skill(wipe, "Sawyer", ontology, ScriptedInfiller([moves_instead, push]))
     assert grounded.valid and [c.accepted for c in grounded.calls] == [False, True]
     assert "substitutes sawyer_push() here, but the span calls ['sawyer_move_to']" in grounded.calls[0].message
+
+
+def test_a_traced_path_that_drops_a_waypoints_offset_is_rejected(ontology):
+    """The 1.5B wrote `pos=start` for the first move of a traced sweep: the hand went straight down onto
+    the block's path instead of above it. Each move is held to its own waypoint, in order."""
+    from recent_plugin.grounding.grounder import _check_span
+    from skills.repository import load_skill
+
+    close = load_skill("close_drawer")
+    conflict = diagnose(ontology, close.name, close.code, "Suction").conflicts[0]
+    unit = unit_from_conflict(close.code, conflict, "Suction")
+    right = unit.hints.substitute_call.replace("\n", "\n" + unit.indent)
+    assert _check_span(right, unit) is None
+    wrong = right.replace("pos=[start[0], start[1], start[2] + 0.1]", "pos=start, pointing_to='down'", 1)
+    verdict = _check_span(wrong, unit)
+    assert verdict is not None and not verdict.ok and "keep pos=[start[0], start[1], start[2] + 0.1]" in verdict.message

@@ -361,7 +361,7 @@ def _check_span(text: str, unit: RefactoringUnit) -> Verdict | None:
         return Verdict.reject(
             FailureCategory.EMPTY_CONTINUATION, "the span holds no statement (empty or only comments)"
         )
-    called = set(_calls(statements))
+    called = {name for name, _ in _ordered_calls(statements)}
     if unit.substitute and unit.substitute not in called:
         return Verdict.reject(
             FailureCategory.HALLUCINATED_API,
@@ -378,12 +378,12 @@ def _changed_argument(statements: list[ast.stmt], expected: str | None) -> Verdi
     """
     undecided = "_undecided"  # a <type> placeholder: that value is the LM's to choose
     try:
-        wanted = _calls(ast.parse(PLACEHOLDER.sub(undecided, expected or "")).body)
+        wanted = _ordered_calls(ast.parse(PLACEHOLDER.sub(undecided, expected or "")).body)
     except SyntaxError:
         return None
-    got = _calls(statements)
-    for name, call in wanted.items():
-        given = {k.arg: k.value for k in got[name].keywords} if name in got else {}
+    got = _ordered_calls(statements)
+    for (name, nth), call in wanted.items():  # the n-th call of a name against the n-th (a traced path's moves)
+        given = {k.arg: k.value for k in got[name, nth].keywords} if (name, nth) in got else {}
         for keyword in call.keywords:
             value = given.get(keyword.arg)
             if isinstance(keyword.value, ast.Name) and keyword.value.id == undecided:
@@ -397,12 +397,16 @@ def _changed_argument(statements: list[ast.stmt], expected: str | None) -> Verdi
     return None
 
 
-def _calls(statements: list[ast.stmt]) -> dict[str, ast.Call]:
-    return {
-        n.func.id: n
-        for n in ast.walk(ast.Module(body=statements, type_ignores=[]))
-        if isinstance(n, ast.Call) and isinstance(n.func, ast.Name)
-    }
+def _ordered_calls(statements: list[ast.stmt]) -> dict[tuple[str, int], ast.Call]:
+    """The statements' calls by (name, how many calls of that name came before it)."""
+    seen: dict[str, int] = {}
+    out = {}
+    for stmt in statements:
+        for node in ast.walk(stmt):
+            if isinstance(node, ast.Call) and isinstance(node.func, ast.Name):
+                out[node.func.id, seen.get(node.func.id, 0)] = node
+                seen[node.func.id] = seen.get(node.func.id, 0) + 1
+    return out
 
 
 def _blank(code: str, pending: list[Conflict]) -> str:
