@@ -22,8 +22,6 @@ import textwrap
 from collections import Counter
 from dataclasses import dataclass, field
 
-import numpy as np
-
 from logs.events import CheckVerdict, Emit, PatchApplied, ignore
 from ontology.diagnosis import Warning
 from ontology.specs import ApiSpec
@@ -33,7 +31,7 @@ from recent_plugin.grounding.grounder import GroundedSkill, LMCall, call_events,
 from recent_plugin.grounding.units import Hints, RefactoringUnit, apply_unit, cut_unit
 from recent_plugin.grounding.validation import Verdict, validate_program
 from recent_plugin.infillers.base import Infiller
-from recent_plugin.insitu.checks import CHECKS, MOVED, CheckInput, Derivation, SceneFacts, Violation
+from recent_plugin.insitu.checks import CHECKS, CheckInput, Derivation, SceneFacts, Violation, moved_reads
 
 log = logging.getLogger(__name__)
 
@@ -181,12 +179,16 @@ class InSituAdapter:
         """
         redo = recomputation(executor.segments[: segment.index], segment.node, set(executor.primitives))
         redo += (segment.source,)
-        before = executor.source()
-        executor.insert_segments(at, ("\n" + executor.indent).join(redo))
+        self._insert_copy(executor, segment, at, redo, checks, observation, shown=(segment.source, *redo))
         self._reruns[executor.grounded.skill] += 1
         if self._reruns[executor.grounded.skill] <= self.max_repairs:
             executor.segments[at + len(redo) - 1].effects = segment.effects
-        after = "\n".join(_bare(s, executor) for s in (segment.source, *redo))
+
+    def _insert_copy(self, executor, segment, at, statements, checks, observation, *, shown) -> None:
+        """Put statements the skill already holds before segment ``at``, and record it (no LM call)."""
+        before = executor.source()
+        executor.insert_segments(at, ("\n" + executor.indent).join(statements))
+        after = "\n".join(_bare(s, executor) for s in shown)
         skill = executor.grounded.skill
         self.events.append(AdaptationEvent("revise", skill, at, checks, observation, segment.source, after, 0))
         self.emit(PatchApplied(skill, "revise", source_diff(before, executor.source()), executor.source()))
@@ -219,28 +221,15 @@ class InSituAdapter:
         recomputation is copied in (no LM call), as a violated effect's rerun is."""
         chain = dependencies(executor.segments[: segment.index], segment.node, set(executor.primitives))
         stale = _position_reads(executor, _loads(segment.node).union(*(_loads(s.node) for s in chain)))
-        moved = []
-        for variable, (name, then) in sorted(stale.items()):
-            state = executor.session.obs.objects.get(name)
-            if (
-                state is not None
-                and not state.grasped
-                and float(np.linalg.norm(np.asarray(state.pos) - np.asarray(then))) > MOVED
-            ):
-                moved.append(f"{name} moved since {variable} was read")
+        moved = [f"{name} moved since {var} was read" for var, name, _, _ in moved_reads(stale, executor.session.obs)]
         if not moved or not chain:
             return False
         observation = f"{_bare(segment.source, executor).split('(')[0]} failed ({failure.message}); {'; '.join(moved)}"
         self.emit(CheckVerdict(executor.grounded.skill, segment.index, "object_unmoved", False, observation))
-        before = executor.source()
-        executor.insert_segments(segment.index, ("\n" + executor.indent).join(s.source for s in chain))
-        after = "\n".join(_bare(s, executor) for s in (*(c.source for c in chain), segment.source))
-        skill = executor.grounded.skill
-        event = AdaptationEvent(
-            "revise", skill, segment.index, ("object_unmoved",), observation, segment.source, after, 0
+        redo = tuple(s.source for s in chain)
+        self._insert_copy(
+            executor, segment, segment.index, redo, ("object_unmoved",), observation, shown=(*redo, segment.source)
         )
-        self.events.append(event)
-        self.emit(PatchApplied(skill, "revise", source_diff(before, executor.source()), executor.source()))
         return True
 
     # ------------------------------------------------------------------ patching

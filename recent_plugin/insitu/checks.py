@@ -96,20 +96,31 @@ def _fmt(v) -> str:
     return "[" + ", ".join(f"{float(x):.3f}" for x in v) + "]"
 
 
+def moved_reads(
+    stale_reads: dict[str, tuple[str, list[float]]], obs: Observation
+) -> list[tuple[str, str, float, np.ndarray]]:
+    """(variable, object, drift, position now) for each read whose object moved more than ``MOVED``
+    since — not one that is out of sight, nor one the hand holds (it moved it)."""
+    out = []
+    for variable, (name, then) in sorted(stale_reads.items()):
+        state = obs.objects.get(name)
+        if state is None or state.grasped:
+            continue
+        drift = float(np.linalg.norm(np.asarray(state.pos) - np.asarray(then)))
+        if drift > MOVED:
+            out.append((variable, name, drift, state.pos))
+    return out
+
+
 def object_unmoved(inp: CheckInput) -> Violation | None:
     """Positions the call uses, itself or through values computed from them, were read before the
     object moved: re-read those that drifted (the patch), then recompute what was derived from
     them (the skill's own statements, copied: the LM writes only the edit)."""
     statements, seen, dirty = [], [], set()
-    for variable, (name, then) in sorted(inp.stale_reads.items()):
-        state = inp.obs.objects.get(name)
-        if state is None or state.grasped:
-            continue  # not seen, or moved by the hand that holds it
-        drift = float(np.linalg.norm(np.asarray(state.pos) - np.asarray(then)))
-        if drift > MOVED:
-            seen.append(f"{name} moved {100 * drift:.1f} cm since {variable} was read (now at {_fmt(state.pos)})")
-            statements.append(f"{variable} = task.get_object_position({name!r})")
-            dirty.add(variable)
+    for variable, name, drift, now in moved_reads(inp.stale_reads, inp.obs):
+        seen.append(f"{name} moved {100 * drift:.1f} cm since {variable} was read (now at {_fmt(now)})")
+        statements.append(f"{variable} = task.get_object_position({name!r})")
+        dirty.add(variable)
     if not statements:
         return None
     instruction = f"read {', '.join(sorted(dirty))} again"
