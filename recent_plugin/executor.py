@@ -124,8 +124,8 @@ def unroll(stmt: ast.stmt) -> list[tuple[ast.Assign, list[ast.stmt]]] | None:
     """``for x in [a, b]: body`` as iterations ``(x = a, body)``, ``(x = b, body)``; None for any other statement.
 
     Only loops whose iterations are fixed before they start: a literal list or tuple of
-    expressions without calls (evaluating them one iteration later gives the same values), no
-    ``else`` and no ``break``/``continue``. Unrolled statements keep the loop's line numbers.
+    expressions without calls whose names the loop does not rebind (evaluating them one iteration
+    later gives the same values), no ``else`` and no ``break``/``continue``. Unrolled statements keep the loop's line numbers.
     """
     if not (isinstance(stmt, ast.For) and isinstance(stmt.iter, ast.List | ast.Tuple)) or stmt.orelse:
         return None
@@ -133,6 +133,9 @@ def unroll(stmt: ast.stmt) -> list[tuple[ast.Assign, list[ast.stmt]]] | None:
         return None
     if any(isinstance(n, ast.Break | ast.Continue) for s in stmt.body for n in ast.walk(s)):
         return None
+    items = {n.id for e in stmt.iter.elts for n in ast.walk(e) if isinstance(n, ast.Name)}
+    if any(isinstance(n, ast.Name) and isinstance(n.ctx, ast.Store) and n.id in items for n in ast.walk(stmt)):
+        return None  # the body (or the loop variable) rebinds a name an item reads: items are evaluated once, up front
     iterations = []
     for element in stmt.iter.elts:
         bind = ast.Assign(targets=[copy.deepcopy(stmt.target)], value=copy.deepcopy(element))

@@ -115,6 +115,7 @@ def test_a_loop_over_a_literal_list_is_unrolled_into_one_segment_per_statement_a
     [
         "    for name in range(len(first)):\n        open_gripper(env, task)\n",  # values known only when it runs
         "    for name in [first, second]:\n        if name == 'x':\n            break\n        open_gripper(env, task)\n",
+        "    for name in [first, second]:\n        second = 'c'\n        open_gripper(env, task)\n",  # item rebound
     ],
 )
 def test_a_loop_whose_iterations_are_not_fixed_stays_one_segment(loop):
