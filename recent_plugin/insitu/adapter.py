@@ -402,10 +402,7 @@ def dependencies(earlier: list[Segment], node: ast.AST, primitives: set[str]) ->
     chosen = []
     for segment in reversed(earlier):
         stmt = segment.node
-        if not isinstance(stmt, ast.Assign | ast.AugAssign | ast.AnnAssign | ast.If):
-            continue
-        calls = {n.func.id for n in ast.walk(stmt) if isinstance(n, ast.Call) and isinstance(n.func, ast.Name)}
-        if calls & primitives or not _stored(stmt) & needed:
+        if not _computes(stmt, primitives) or not _stored(stmt) & needed:
             continue
         chosen.append(segment)
         needed = (needed - _always_assigned([stmt])) | _reads([stmt])
@@ -421,14 +418,19 @@ def latest_definitions(earlier: list[Segment], primitives: set[str]) -> list[Seg
     chosen, defined = [], set()
     for segment in reversed(earlier):
         stmt = segment.node
-        if not isinstance(stmt, ast.Assign | ast.AugAssign | ast.AnnAssign | ast.If):
-            continue
-        calls = {n.func.id for n in ast.walk(stmt) if isinstance(n, ast.Call) and isinstance(n.func, ast.Name)}
-        if calls & primitives or not _stored(stmt) - defined:
+        if not _computes(stmt, primitives) or not _stored(stmt) - defined:
             continue
         chosen.append(segment)
         defined |= _always_assigned([stmt])
     return chosen[::-1]
+
+
+def _computes(stmt: ast.stmt, primitives: set[str]) -> bool:
+    """An assignment, or a branch of them, that moves nothing (no primitive call): safe to run again."""
+    if not isinstance(stmt, ast.Assign | ast.AugAssign | ast.AnnAssign | ast.If):
+        return False
+    calls = {n.func.id for n in ast.walk(stmt) if isinstance(n, ast.Call) and isinstance(n.func, ast.Name)}
+    return not calls & primitives
 
 
 def _position_reads(executor: SkillExecutor, names: set[str]) -> dict[str, tuple[str, list[float]]]:
