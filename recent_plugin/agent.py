@@ -53,7 +53,7 @@ class AgentSettings:
     mode: str = "recent"  # recent | name-similarity | full-regen | no-ontology (ablations) | cap | repair | agentless (baselines)
     insitu: bool = True  # run-time checks patch upcoming segments (False: the paper's "w/o in-situ" ablation)
     max_repairs: int = 2  # reactive repairs of failed segments, per skill
-    fast_path: bool = False  # render spans the ontology fully decides without the LM (zero tokens)
+    fast_path: bool = False  # render spans the ontology or a run-time check fully decides without the LM (zero tokens)
 
 
 @dataclass

@@ -97,6 +97,20 @@ def test_ei_it_and_go_add_up_from_the_recorded_calls(counting_agent):
     )
 
 
+def test_the_fast_path_renders_the_patches_a_check_writes_and_still_counts_them_as_interruptions(ontology):
+    """The re-read and the sweep are written by the checks: behind the fast path the LM is not asked,
+    so GO and IT are 0, while EI still counts the two times execution stopped to patch."""
+    from recent_plugin.infillers.fast_path import FastPathInfiller
+
+    lm = CountingInfiller()
+    agent = RecentAgent(AgentSettings(fast_path=True), infiller=FastPathInfiller(lm), ontology=ontology)
+    result = run_episode(agent, "kinematic/cube_on_plate", "UR5e", seed=0, variations="on")
+    assert result.success
+    assert [e.checks for e in result.adaptations] == [("object_unmoved",), ("target_clear",)]
+    assert result.ei == 2 and result.go == 0 and result.it < 0.05
+    assert agent.infiller.rendered == 5  # three grounding spans and the two patches
+
+
 def test_igt_is_the_time_to_the_first_executable_code(counting_agent):
     started = time.perf_counter()
     result = run_episode(counting_agent, "kinematic/press_button", "Robotiq85", seed=1)

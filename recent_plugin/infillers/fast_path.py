@@ -1,15 +1,23 @@
-"""The zero-token fast path: where the ontology decides a whole span, render it; ask the LM for the rest.
+"""The zero-token fast path: where the ontology or a run-time check decides a whole span, render it;
+ask the LM for the rest.
 
 A determined conflict whose substitute call has every argument bound by role (no ``<type>``
 placeholder left) holds nothing for an LM to decide: the ``rule`` renderer writes it in no time
-and with no tokens. Spans with undecided arguments (interface rewiring), run-time patches and
-whole-body regeneration still go to the LM. Off by default, so RECENT's numbers stay the paper's
-method (one LM call per conflict); ``--fast-path`` trades that for a near-zero IGT on CPUs.
+and with no tokens. The same holds while the skill runs: a check that saw the cube move writes
+the re-read itself (``obj_pos = task.get_object_position('cube')``), the obstacle check the sweep
+with its coordinates, a repair the recomputation copied from the skill; the LM would only copy
+them. Spans with undecided arguments (interface rewiring), retries after a rejected rendering and
+whole-body regeneration still go to the LM. Rendered run-time patches still count as
+interruptions (EI): execution stopped to patch, only without tokens or idle time.
+
+Off by default, so RECENT's numbers stay the paper's method (an LM call per conflict and per
+violation); ``--fast-path`` trades that for a near-zero IGT and IT on CPUs.
 """
 
 from __future__ import annotations
 
 from ontology.diagnosis import SPAN_TYPES
+from recent_plugin.grounding.fim_prompt import RUNTIME_SPAN_TYPES
 from recent_plugin.grounding.substitution import has_placeholders
 from recent_plugin.grounding.units import RefactoringUnit
 from recent_plugin.infillers.base import Completion, Infiller
@@ -24,10 +32,10 @@ class FastPathInfiller:
         self.rendered = 0  # spans the fast path wrote (the rest went to the LM)
 
     def decided(self, unit: RefactoringUnit) -> bool:
-        """The ontology bound every argument of the span's substitute, and this is its first attempt."""
+        """The ontology (or the run-time check) wrote the span's every argument, and this is its first attempt."""
         call = unit.hints.substitute_call
         return (
-            unit.span_type in SPAN_TYPES  # the diagnosis' determined conflicts
+            unit.span_type in (*SPAN_TYPES, *RUNTIME_SPAN_TYPES)  # determined conflicts; in-situ patches, repairs
             and unit.hints.attempt == 0
             and bool(call)
             and not has_placeholders(call)
