@@ -54,7 +54,12 @@ def test_diagnose_json(capsys):
     assert main(["ontology", "diagnose", "--skill", "put_in_bin", "--robot", "UR5e", "--json"]) == 0
     record = json.loads(capsys.readouterr().out)
     assert [c["original"] for c in record["conflicts"]] == ["open_gripper", "pick", "place"]
-    assert {w["kind"] for w in record["warnings"]} == {"object_at_target", "object_grasped", "target_clear"}
+    assert {w["kind"] for w in record["warnings"]} == {
+        "object_at_target",
+        "object_grasped",
+        "target_clear",
+        "fingers_clear",
+    }
 
 
 def test_unknown_names_are_clear_errors(capsys):

@@ -19,6 +19,7 @@ from recent_plugin.insitu.checks import (
     CheckInput,
     Derivation,
     SceneFacts,
+    fingers_clear,
     object_unmoved,
     pushed_to_goal,
     target_clear,
@@ -194,6 +195,35 @@ def test_the_lm_sees_only_the_sweeps_coordinates_the_log_keeps_the_slabs():
     assert "[0.178, -0.024, 0.834]" in blocked.observation and "[" not in blocked.cue
     assert blocked.cue == "obstacle (slab, 0.10 m wide) lies on the release target"
     assert sweep.startswith("ur5_push_to(env, task, contact_pos=[0.178, ") and "0.834]" not in sweep
+
+
+def test_an_obstacle_beside_the_grasp_is_swept_away_from_the_object_first():
+    """bench_routine: the push shoved the slab along ahead of the cube, into the zone's far side; an
+    open finger came down on it and the grasp stopped 1 cm short. The slab lies beyond the table's
+    sweep limit already, so only a sweep along the edge, away from the cube, is left."""
+    scene = SceneFacts({"cube": "box", "block": "box", "obstacle": "slab"}, {"obstacle": (0.1, 0.1, 0.03)})
+    grasp = {"grasp_pos": [-0.060, -0.285, 0.821]}
+    roles = {"grasp_pos": "grasp_target"}
+
+    def check(**at):
+        return fingers_clear(CheckInput(None, observed(**at), grasp, roles, frozenset({"cube"}), {}, scene, UR5E))
+
+    beside = check(cube=[-0.060, -0.285, 0.821], obstacle=[-0.060, -0.364, 0.812])
+    assert beside.check == "fingers_clear" and "2.9 cm from the grasp" in beside.observation
+    (sweep,) = beside.statements
+    assert sweep == "ur5_push_to(env, task, contact_pos=[0.020, -0.364, 0.822], goal_pos=[-0.105, -0.364, 0.822])"
+    assert check(cube=[-0.060, -0.285, 0.821], obstacle=[-0.060, -0.45, 0.812]) is None  # beyond the fingers
+    assert check(cube=[-0.060, -0.285, 0.821], block=[-0.060, -0.345, 0.821]) is None  # a task object: placed apart
+
+
+@pytest.mark.slow
+def test_the_slab_a_push_shoved_beside_the_cube_is_swept_away_before_the_grasp(ontology):
+    """bench_routine on UR5e, seed 0: without the sweep, every grasp of the cube stopped on the slab."""
+    agent = RecentAgent(AgentSettings(backend="rule"), infiller=RuleInfiller(), ontology=ontology)
+    result = run_episode(agent, "kinematic/bench_routine", "UR5e", seed=0, variations="on")
+    assert result.success
+    (sweep,) = [e for e in result.adaptations if e.checks == ("fingers_clear",)]
+    assert sweep.skill == "place_on_plate" and sweep.after.splitlines()[0].startswith("ur5_push_to(env, task, ")
 
 
 def test_a_robot_without_a_push_sweeps_along_the_ontologys_push_path(ontology):

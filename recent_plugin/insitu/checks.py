@@ -27,11 +27,14 @@ from robosuite_envs.observation import Observation
 # in ~14, each a needless LM call) and within what a grasp or a place on a 5 cm block tolerates
 MOVED = 0.02
 LOOSE_KINDS = frozenset({"box", "sphere", "slab", "lid", "rake"})  # what can land somewhere unexpected
+OBSTACLE_KINDS = frozenset({"slab"})  # loose and wider than any gripper: what lands in the way, never what is picked
 CLEARANCE = 0.03  # metres around a release target that must be free
 SHIFT = CLEARANCE + 0.075  # metres a swept obstacle's centre moves: past a 10 cm slab's reach of the target
 TABLE_LIMIT = 0.3  # |x|, |y| a swept obstacle may end at (stays on the table)
 FINGER = 0.01  # metres from the hand's centre to the face that pushes
 PUSH_TOLERANCE = 0.03  # metres a pushed object may end from where the push should leave it
+FINGER_SPAN = 0.055  # metres from a grasp's centre an open jaw reaches: half a 2F-85's 8.5 cm stroke, and a pad
+FINGER_DEPTH = 0.02  # metres the fingertips reach below the grasp point
 
 
 @dataclass(frozen=True)
@@ -142,10 +145,8 @@ def target_clear(inp: CheckInput) -> Violation | None:
     target = _by_role(inp, "release_target")
     if target is None:
         return None
-    held = {n for n, s in inp.obs.objects.items() if s.grasped}
-    for name, state in sorted(inp.obs.objects.items()):
-        if name in inp.named or name in held or inp.scene.kinds.get(name) not in LOOSE_KINDS:
-            continue
+    held = _held(inp)
+    for name, state in _strangers(inp, LOOSE_KINDS):
         size = inp.scene.sizes.get(name, (0.05, 0.05, 0.05))
         half = max(size[:2]) / 2
         carried = max((inp.scene.sizes.get(n, (0, 0, 0))[2] / 2 for n in held), default=0.0)
@@ -164,6 +165,43 @@ def target_clear(inp: CheckInput) -> Violation | None:
                 cue=f"{what} on the release target",
             )
     return None
+
+
+def fingers_clear(inp: CheckInput) -> Violation | None:
+    """An obstacle lies where an open finger comes down beside the object (a slab the push shoved
+    along ahead of the cube): sweep it off first, or the hand stops on it, short of the grasp."""
+    target = _by_role(inp, "grasp_target")
+    if target is None:
+        return None
+    for name, state in _strangers(inp, OBSTACLE_KINDS):
+        size = np.asarray(inp.scene.sizes.get(name, (0.1, 0.1, 0.03)), dtype=float)
+        gap = float(np.max(np.abs(np.asarray(state.pos[:2]) - target[:2]) - size[:2] / 2))  # to its nearest face
+        if gap < FINGER_SPAN and state.pos[2] + size[2] / 2 > target[2] - FINGER_DEPTH:
+            statements = sweep_statements(inp, name, _held(inp))
+            what = f"{name} ({inp.scene.kinds[name]}, {max(size[:2]):.2f} m wide) lies"
+            return Violation(
+                "fingers_clear",
+                f"{what} at {_fmt(state.pos)}, {100 * max(gap, 0.0):.1f} cm from the grasp {_fmt(target)}: "
+                "within the open fingers' reach",
+                statements,
+                "push it away first: " + "; then ".join(statements),
+                cue=f"{what} where the open fingers come down",
+            )
+    return None
+
+
+def _held(inp: CheckInput) -> set[str]:
+    return {n for n, s in inp.obs.objects.items() if s.grasped}
+
+
+def _strangers(inp: CheckInput, kinds: frozenset[str]) -> list[tuple[str, object]]:
+    """Objects of ``kinds`` the skill does not name and the hand does not hold: what may be in the way."""
+    held = _held(inp)
+    return [
+        (name, state)
+        for name, state in sorted(inp.obs.objects.items())
+        if name not in inp.named and name not in held and inp.scene.kinds.get(name) in kinds
+    ]
 
 
 def sweep_statements(inp: CheckInput, obstacle: str, held: set[str]) -> tuple[str, ...]:
@@ -189,8 +227,8 @@ def sweep_statements(inp: CheckInput, obstacle: str, held: set[str]) -> tuple[st
 
     def gap(direction: np.ndarray) -> float:
         end = centre[:2] + direction * SHIFT
-        if np.any(np.abs(end) + half > TABLE_LIMIT):
-            return -1.0
+        if np.any((np.abs(end) + half > TABLE_LIMIT) & (np.abs(end) > np.abs(centre[:2]))):
+            return -1.0  # farther out than it is, off the table (where it already lies out there, alongside is fine)
         return min((float(np.max(np.abs(end - pos) - extent - half)) for pos, extent in others), default=1.0)
 
     directions = [np.array(d, dtype=float) for d in ((0, 1), (0, -1), (-1, 0))]
@@ -285,6 +323,7 @@ CHECKS: dict[str, Check] = {
     "object_unmoved": object_unmoved,
     "object_present": object_present,
     "target_clear": target_clear,
+    "fingers_clear": fingers_clear,
     "within_reach": within_reach,
     "object_held": object_held,
     "pushed_to_goal": pushed_to_goal,
