@@ -23,6 +23,8 @@ ROT_DEADBAND = 0.06  # radians of orientation error left uncorrected while movin
 MAX_STEP = 0.02  # metres of goal displacement per control step (~0.4 m/s)
 POS_TOL = 0.008
 SETTLED = 0.001  # metres per control step below which a servoed grip site counts as stopped
+STALL_STEPS = 10  # control steps a lowered load must not move (by SETTLED in all) to count as set down
+SET_DOWN_GAP = 0.02  # metres above its target a grip site may stop once the held object rests on the surface
 APPROACH_HEIGHT = 0.10
 TABLE_CLEARANCE = 0.805  # z below which the fingers would hit the table top (metres, world)
 
@@ -57,6 +59,7 @@ def move_to(
     stop_on_contact: bool = False,
     settle: bool = False,
     straight: bool = False,
+    set_down: bool = False,
 ) -> Steps:
     """Servo the grip site to ``target`` (world frame, metres); fail with ``timeout`` if it does not settle.
 
@@ -67,15 +70,21 @@ def move_to(
     site no longer moves (a press that returned on entering ``tol`` stopped 2 cm above the button).
     ``straight``: follow the line from where the move starts (a push slides an object along it);
     otherwise each axis closes its own error, and a diagonal move bends.
+    ``set_down``: lowering a held object, which may reach the surface before the grip site reaches
+    ``target`` (a target computed from a noisy read of the object's height): the move ends once
+    the grip site has stopped just above it with the load in hand (:func:`load_rests`).
     """
     goal = as_position(target, "target position")
     if goal[2] < TABLE_CLEARANCE:
         raise PrimitiveFailure("out_of_workspace", f"target z={goal[2]:.3f} m is below the table surface")
     max_steps = max(1, int(timeout_s * CONTROL_FREQ))
     towards = _line_follower(session.obs.eef_pos, goal) if straight else (lambda _: goal)
-    last = None
+    last, trail = None, []
     for _ in range(max_steps):
         err = float(np.linalg.norm(goal - session.obs.eef_pos))
+        trail = [*trail[-STALL_STEPS:], session.obs.eef_pos.copy()]
+        if set_down and load_rests(session, goal, trail, tol):
+            return
         if settle:
             still = last is not None and float(np.linalg.norm(session.obs.eef_pos - last)) < SETTLED
             arrived = err < POS_TOL or (err < tol and still)
@@ -110,6 +119,16 @@ def _line_follower(origin: np.ndarray, goal: np.ndarray):
         return origin + direction * float(np.clip(along + lead, 0.0, length))
 
     return towards
+
+
+def load_rests(session: RobotSession, goal: np.ndarray, trail: list[np.ndarray], tol: float = POS_TOL) -> bool:
+    """The held object sits on what is below: the grip site, a little above ``goal`` and over it,
+    has not moved over the last ``STALL_STEPS`` control steps (``trail``: its latest positions)."""
+    if held_position(session) is None or len(trail) <= STALL_STEPS:
+        return False
+    error = goal - session.obs.eef_pos
+    stalled = float(np.linalg.norm(trail[-1] - trail[0])) < SETTLED
+    return stalled and -SET_DOWN_GAP < error[2] < 0 and float(np.linalg.norm(error[:2])) < tol
 
 
 def resting_above(session: RobotSession, goal: np.ndarray, tol: float = POS_TOL) -> bool:
@@ -302,6 +321,6 @@ def release_at(
         offset = held_offset(session)
         target = target - np.array([offset[0], offset[1], 0.0])
         above = target + np.array([0.0, 0.0, APPROACH_HEIGHT / 2])
-    yield from move_to(session, target, timeout_s=timeout_s / 2)
+    yield from move_to(session, target, timeout_s=timeout_s / 2, set_down=True)
     yield from actuate_gripper(session, -1.0)
     yield from move_to(session, above, timeout_s=timeout_s / 2, tol=0.02)
