@@ -109,3 +109,22 @@ def test_parallel_workers_write_the_same_records(tmp_path):
     assert main([*RUN, "--method=recent", f"--out={out}", "--workers=2", "--no-log"]) == 0
     records = load_records(out)
     assert len(records) == 2 and all(r["success"] for r in records)
+
+
+def test_the_headline_targets_are_checked_for_recent_and_its_fast_path():
+    """The fast path renders what a check or the ontology decides: no tokens, so its GO against cap's reads as 0."""
+    from recent_plugin.evaluation.report import target_checks
+
+    def record(method: str, go: float, success: bool, ei: int, it: float) -> dict:
+        return {"method": method, "suite": "kinematic", "seed": 0, "success": success, "go": go, "ei": ei, "it": it}
+
+    records = [record("recent", 8.0, True, 1, 2.4), record("recent+fast-path", 0.0, True, 1, 0.0)]
+    records.append(record("cap", 200.0, False, 3, 20.0))
+    lines = target_checks(records)
+    assert "- kinematic: GO 8.00% (target ≤ 5.0%) ✗" in lines
+    assert "- kinematic (recent+fast-path): GO 0.00% (target ≤ 5.0%) ✓" in lines
+    assert "- kinematic (recent+fast-path): IT 0.00 s (target ≤ 2.0 s) ✓" in lines
+    assert any(
+        "(recent+fast-path): margin over cap +100.0 pp SR" in line and "GO 0 against cap's 200.0%" in line
+        for line in lines
+    )
