@@ -1,6 +1,6 @@
 """Grounding benchmark: IGT, IT, GO, per-step executor overhead, LM speed and memory with the real GGUF.
 
-    .venv/bin/python -m benchmarks.grounding_bench [--model qwen2.5-coder-1.5b] [--threads 2] [--seeds 0,1,2]
+    .venv/bin/python -m benchmarks.grounding_bench [--model qwen2.5-coder-1.5b] [--threads 2] [--seeds 0,1,2] [--fast-path]
 
 Targets (issue "grounding core", 2 CPU threads, Qwen2.5-Coder-1.5B Q4 via llama.cpp): executor
 overhead per control step (no LM call, no env.step) <= 1 ms median; IGT <= 2.0 s median per task;
@@ -8,6 +8,8 @@ IT <= 2.0 s mean per task; GO <= 5 % kinematic and <= 3 % end-effector; RSS with
 
 IGT is measured cold (the grounding cache emptied before each task, the model loaded), and warm
 (served from the cache). IT and GO come from whole episodes with the paper's variations on.
+``--fast-path`` measures the same behind the fast path (what the ontology or a check decides
+completely is rendered; the LM writes the rest).
 """
 
 from __future__ import annotations
@@ -20,7 +22,7 @@ import time
 from pathlib import Path
 
 import robosuite_envs.runtime  # noqa: F401  (MuJoCo GL backend before robosuite loads)
-from recent_plugin.agent import AgentSettings, RecentAgent
+from recent_plugin.agent import AgentSettings, RecentAgent, behind_fast_path
 from recent_plugin.episode import run_episode
 from recent_plugin.executor import TaskExecutor
 from recent_plugin.infillers import make_infiller
@@ -117,6 +119,7 @@ def main() -> None:
     parser.add_argument("--threads", type=int, default=2)
     parser.add_argument("--seeds", default="0,1,2", help="episode seeds for IT and GO (variations on)")
     parser.add_argument("--json", default=None, help="also write the numbers here")
+    parser.add_argument("--fast-path", action="store_true", help="render fully decided spans and patches (no LM)")
     args = parser.parse_args()
     seeds = [int(s) for s in args.seeds.split(",")]
 
@@ -124,7 +127,8 @@ def main() -> None:
     started = time.perf_counter()
     infiller = make_infiller("llamacpp", args.model, n_threads=args.threads)
     load_s = time.perf_counter() - started
-    agent = RecentAgent(AgentSettings(model=args.model, n_threads=args.threads), infiller=infiller)
+    settings = AgentSettings(model=args.model, n_threads=args.threads, fast_path=args.fast_path)
+    agent = RecentAgent(settings, infiller=behind_fast_path(infiller, settings))
     rule_agent = RecentAgent(AgentSettings(backend="rule"), ontology=agent.ontology)
 
     cold, warm, go_pre = [], [], {"kinematic": [], "end_effector": []}
@@ -155,6 +159,7 @@ def main() -> None:
         "machine": {"cpu": platform.processor() or platform.machine(), "python": platform.python_version()},
         "model": infiller.model,
         "threads": args.threads,
+        "fast_path": args.fast_path,
         "load_s": load_s,
         "rss_mib_end": rss_mib(),  # model loaded, after every episode
         "rss_mib_before_model": rss_before,
