@@ -207,10 +207,11 @@ def _strangers(inp: CheckInput, kinds: frozenset[str]) -> list[tuple[str, object
 def sweep_statements(inp: CheckInput, obstacle: str, held: set[str]) -> tuple[str, ...]:
     """Slide the hand (and whatever it holds) through the obstacle until it is clear of the target.
 
-    The side is one where the swept obstacle ends clear of everything else on the table (objects
-    it rests on excepted) by an open finger's reach, so that a later grasp's fingers do not come
-    down on it; sideways sweeps first (they keep the hand as far from the base as the target
-    itself, so they stay in reach), else the side where it ends farthest from the rest.
+    The side is the one where the swept obstacle ends farthest from everything else on the table
+    (objects it rests on excepted), preferring sideways sweeps: they keep the hand as far from the
+    base as the target itself, so they stay in reach. (Requiring an open finger's reach of
+    clearance instead turned most sweeps towards the base, and the Panda holding the cube could
+    not reach their start beyond the plate.)
     """
     state = inp.obs.objects[obstacle]
     size = inp.scene.sizes.get(obstacle, (0.05, 0.05, 0.05))
@@ -233,7 +234,7 @@ def sweep_statements(inp: CheckInput, obstacle: str, held: set[str]) -> tuple[st
         return min((float(np.max(np.abs(end - pos) - extent - half)) for pos, extent in others), default=1.0)
 
     directions = [np.array(d, dtype=float) for d in ((0, 1), (0, -1), (-1, 0))]
-    direction = max(directions, key=lambda d: (gap(d) > FINGER_SPAN and d[0] == 0, gap(d) > FINGER_SPAN, gap(d)))
+    direction = max(directions, key=lambda d: (gap(d) > 0.0 and d[0] == 0, gap(d) > 0.0, gap(d)))
     start = np.array([*(centre[:2] - direction * (half + lead + 0.02)), height])
     goal = np.array([*(centre[:2] + direction * (SHIFT - half - lead)), height])
     return _push_calls(inp, start, goal)
