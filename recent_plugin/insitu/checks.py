@@ -146,7 +146,7 @@ def target_clear(inp: CheckInput) -> Violation | None:
     if target is None:
         return None
     held = _held(inp)
-    for name, state in _strangers(inp, LOOSE_KINDS):
+    for name, state in _strangers(inp, LOOSE_KINDS, held):
         size = inp.scene.sizes.get(name, (0.05, 0.05, 0.05))
         half = max(size[:2]) / 2
         carried = max((inp.scene.sizes.get(n, (0, 0, 0))[2] / 2 for n in held), default=0.0)
@@ -173,11 +173,12 @@ def fingers_clear(inp: CheckInput) -> Violation | None:
     target = _by_role(inp, "grasp_target")
     if target is None:
         return None
-    for name, state in _strangers(inp, OBSTACLE_KINDS):
+    held = _held(inp)
+    for name, state in _strangers(inp, OBSTACLE_KINDS, held):
         size = np.asarray(inp.scene.sizes.get(name, (0.1, 0.1, 0.03)), dtype=float)
         gap = float(np.max(np.abs(np.asarray(state.pos[:2]) - target[:2]) - size[:2] / 2))  # to its nearest face
         if gap < FINGER_SPAN and state.pos[2] + size[2] / 2 > target[2] - FINGER_DEPTH:
-            statements = sweep_statements(inp, name, _held(inp))
+            statements = sweep_statements(inp, name, held)
             what = f"{name} ({inp.scene.kinds[name]}, {max(size[:2]):.2f} m wide) lies"
             return Violation(
                 "fingers_clear",
@@ -194,9 +195,8 @@ def _held(inp: CheckInput) -> set[str]:
     return {n for n, s in inp.obs.objects.items() if s.grasped}
 
 
-def _strangers(inp: CheckInput, kinds: frozenset[str]) -> list[tuple[str, object]]:
-    """Objects of ``kinds`` the skill does not name and the hand does not hold: what may be in the way."""
-    held = _held(inp)
+def _strangers(inp: CheckInput, kinds: frozenset[str], held: set[str]) -> list[tuple[str, object]]:
+    """Objects of ``kinds`` the skill does not name and the hand does not hold (``held``): what may be in the way."""
     return [
         (name, state)
         for name, state in sorted(inp.obs.objects.items())

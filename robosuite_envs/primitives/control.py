@@ -6,6 +6,7 @@ behaviour a skill relies on is identical across robots and only the bindings dif
 
 from __future__ import annotations
 
+from collections import deque
 from collections.abc import Generator, Sequence
 
 import numpy as np
@@ -79,12 +80,14 @@ def move_to(
         raise PrimitiveFailure("out_of_workspace", f"target z={goal[2]:.3f} m is below the table surface")
     max_steps = max(1, int(timeout_s * CONTROL_FREQ))
     towards = _line_follower(session.obs.eef_pos, goal) if straight else (lambda _: goal)
-    last, trail = None, []
+    last = None
+    trail: deque[np.ndarray] = deque(maxlen=STALL_STEPS + 1)  # grip site positions, kept only for set_down
     for _ in range(max_steps):
         err = float(np.linalg.norm(goal - session.obs.eef_pos))
-        trail = [*trail[-STALL_STEPS:], session.obs.eef_pos.copy()]
-        if set_down and load_rests(session, goal, trail, tol):
-            return
+        if set_down:
+            trail.append(session.obs.eef_pos.copy())
+            if load_rests(session, goal, trail, tol):
+                return
         if settle:
             still = last is not None and float(np.linalg.norm(session.obs.eef_pos - last)) < SETTLED
             arrived = err < POS_TOL or (err < tol and still)
@@ -121,7 +124,7 @@ def _line_follower(origin: np.ndarray, goal: np.ndarray):
     return towards
 
 
-def load_rests(session: RobotSession, goal: np.ndarray, trail: list[np.ndarray], tol: float = POS_TOL) -> bool:
+def load_rests(session: RobotSession, goal: np.ndarray, trail: Sequence[np.ndarray], tol: float = POS_TOL) -> bool:
     """The held object sits on what is below: the grip site, a little above ``goal`` and over it,
     has not moved over the last ``STALL_STEPS`` control steps (``trail``: its latest positions)."""
     if held_position(session) is None or len(trail) <= STALL_STEPS:
