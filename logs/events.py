@@ -75,9 +75,11 @@ class InfillCall(Event):
     completion: str
     generated_tokens: int
     seconds: float
+    rendered: bool = False  # the fast path wrote the span; no model was called
 
     def summary(self) -> str:
-        return f"{self.kind} {self.skill} [{self.span_type}] -> {self.completion!r} ({self.generated_tokens} tok, {self.seconds:.2f} s)"
+        cost = "rendered, no LM" if self.rendered else f"{self.generated_tokens} tok, {self.seconds:.2f} s"
+        return f"{self.kind} {self.skill} [{self.span_type}] -> {self.completion!r} ({cost})"
 
 
 @dataclass(frozen=True)

@@ -42,15 +42,24 @@ class EpisodeResult:
             c.generated_tokens for c in self.runtime_calls
         )
 
-    def interruptions(self) -> list[LMCall]:
+    def patch_calls(self) -> list[LMCall]:
         """Every repair and revise call: during execution, and a baseline's answers to a rejected program."""
         before = [c for s in self.grounding.skills for c in s.calls if c.kind in INTERRUPTING_CALLS]
         return before + [c for c in self.runtime_calls if c.kind in INTERRUPTING_CALLS]
 
+    def interruptions(self) -> list[LMCall]:
+        """The repair and revise calls the model answered (a span the fast path rendered made no one wait)."""
+        return [c for c in self.patch_calls() if not c.rendered]
+
     @property
     def ei(self) -> int:
-        """Execution interruptions: the number of repair + revise infiller calls (the paper's EI)."""
+        """Execution interruptions: the number of repair + revise LM calls (the paper's EI)."""
         return len(self.interruptions())
+
+    @property
+    def patches(self) -> int:
+        """Run-time patch calls, rendered or generated: EI plus what the fast path wrote without the model."""
+        return len(self.patch_calls())
 
     @property
     def it(self) -> float:

@@ -64,6 +64,7 @@ def _run(args) -> int:
         "go_pre": round(result.go_pre, 2),
         "lm_seconds": round(result.lm_seconds, 3),
         "ei": result.ei,
+        "patches": result.patches,
         "it_seconds": round(result.it, 3),
         "adaptations": [
             {
@@ -104,6 +105,7 @@ def _run(args) -> int:
         f"(GO {result.go:.1f}% in repair/revise, {result.go_pre:.1f}% before execution), LM {result.lm_seconds:.2f} s, "
         f"first executable code after {result.grounding.igt_seconds:.2f} s; "
         f"{result.ei} interruptions ({result.it:.2f} s idle)"
+        + (f", {result.patches - result.ei} more patches rendered without the LM" if result.patches > result.ei else "")
     )
     log = _log_record(recorder)
     if log:

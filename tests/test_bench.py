@@ -115,15 +115,22 @@ def test_the_headline_targets_are_checked_for_recent_and_its_fast_path():
     """The fast path renders what a check or the ontology decides: no tokens, so its GO against cap's reads as 0."""
     from recent_plugin.evaluation.report import target_checks
 
-    def record(method: str, go: float, success: bool, ei: int, it: float) -> dict:
-        return {"method": method, "suite": "kinematic", "seed": 0, "success": success, "go": go, "ei": ei, "it": it}
+    def record(method: str, go: float, success: bool, ei: int, it: float, patches: int | None = None) -> dict:
+        r = {"method": method, "suite": "kinematic", "seed": 0, "success": success, "go": go, "ei": ei, "it": it}
+        return r if patches is None else {**r, "patches": patches}
 
-    records = [record("recent", 8.0, True, 1, 2.4), record("recent+fast-path", 0.0, True, 1, 0.0)]
+    records = [record("recent", 8.0, True, 1, 2.4), record("recent+fast-path", 0.0, True, 0, 0.0, patches=1)]
     records.append(record("cap", 200.0, False, 3, 20.0))
     lines = target_checks(records)
     assert "- kinematic: GO 8.00% (target ≤ 5.0%) ✗" in lines
     assert "- kinematic (recent+fast-path): GO 0.00% (target ≤ 5.0%) ✓" in lines
     assert "- kinematic (recent+fast-path): IT 0.00 s (target ≤ 2.0 s) ✓" in lines
+    # EI counts the LM's calls; the patch the fast path rendered is named beside it, not hidden
+    assert (
+        "- kinematic (recent+fast-path): EI 0.00 (target ≤ 0.7) ✓ "
+        "(LM calls; 1.00 run-time patches per task, 1.00 of them rendered)" in lines
+    )
+    assert "- kinematic: EI 1.00 (target ≤ 0.7) ✗" in lines  # older records: every patch call was in EI
     assert any(
         "(recent+fast-path): margin over cap +100.0 pp SR" in line and "GO 0 against cap's 200.0%" in line
         for line in lines

@@ -1,7 +1,9 @@
 """SR, GC, GO, EI, IT (and IGT) as the paper's appendix defines them, mean ± std over seeds.
 
 GO counts the tokens of repair and revise calls (the appendix's τ_adapt); the tokens generated
-before execution are reported beside it as GO-pre, so neither is hidden.
+before execution are reported beside it as GO-pre, so neither is hidden. EI counts the repair and
+revise calls made to the model (the appendix's formula); "patches" counts every run-time patch
+call, the ones the fast path renders without the model included.
 
 Within one seed: SR is the fraction of tasks whose every subtask succeeded; GC the fraction of all
 subtasks achieved (weighted by each task's subtask count); GO, EI and IT are per-task means; IGT
@@ -15,7 +17,7 @@ import statistics
 from collections import defaultdict
 from collections.abc import Callable, Iterable
 
-METRICS = ("sr", "gc", "go", "ei", "it", "igt", "go_pre")
+METRICS = ("sr", "gc", "go", "ei", "it", "igt", "go_pre", "patches")
 LABELS = {
     "sr": "SR (%)",
     "gc": "GC (%)",
@@ -24,6 +26,7 @@ LABELS = {
     "it": "IT (s)",
     "igt": "IGT (s)",
     "go_pre": "GO-pre (%)",
+    "patches": "patches",
 }
 HIGHER_IS_BETTER = {"sr", "gc"}
 
@@ -41,6 +44,8 @@ def seed_metrics(records: list[dict]) -> dict[str, float]:
         "it": statistics.fmean(float(r.get("it", 0.0)) for r in records),
         "igt": statistics.median(float(r.get("igt_cold", r.get("igt", 0.0))) for r in records),
         "go_pre": statistics.fmean(float(r.get("go_pre", 0.0)) for r in records),
+        # records written before patches were counted apart had every patch call in EI
+        "patches": statistics.fmean(float(r.get("patches", r.get("ei", 0))) for r in records),
     }
 
 
@@ -87,5 +92,5 @@ def fmt(summary: dict, metric: str) -> str:
     cell = summary.get(metric)
     if not cell:
         return "–"
-    digits = 2 if metric in ("ei", "it", "igt") else 1
+    digits = 2 if metric in ("ei", "it", "igt", "patches") else 1
     return f"{cell['mean']:.{digits}f} ± {cell['std']:.{digits}f}"

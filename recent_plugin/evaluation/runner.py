@@ -157,6 +157,7 @@ def episode_record(job: Job, result, log_dir: Path | None) -> dict:
         "go": round(result.go, 3),
         "go_pre": round(result.go_pre, 3),
         "ei": result.ei,
+        "patches": result.patches,  # run-time patch calls, the fast path's rendered ones included
         "it": round(result.it, 4),
         "igt": round(result.igt, 4),
         # what grounding took when it was not served from the cache: the time to first code of a cold start

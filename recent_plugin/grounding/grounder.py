@@ -54,6 +54,7 @@ class LMCall:
     span: str = ""  # the span the unit replaced (empty for an insertion)
     hints: tuple[str, ...] = ()  # the hint comments as the model saw them
     prompt: str = ""  # prefix + <FILL> + suffix, format-independent (the logs show it)
+    rendered: bool = False  # the fast path wrote it; a revise or repair so written is no interruption
 
 
 @dataclass
@@ -175,6 +176,7 @@ def call_events(skill: str, call: LMCall) -> list[Event]:
             call.text,
             call.generated_tokens,
             call.seconds,
+            call.rendered,
         ),
         ValidationVerdict(skill, call.kind, call.accepted, call.category or "", "" if call.accepted else call.message),
     ]
@@ -287,6 +289,7 @@ def infill_until_valid(
                 span=unit.span,
                 hints=tuple(hint_lines(unit.span_type, unit.hints)),
                 prompt=prompt.prefix + FILL + prompt.suffix,
+                rendered=completion.rendered,
             )
         )
         if verdict.ok:

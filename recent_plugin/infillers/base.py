@@ -15,6 +15,7 @@ class Completion:
     generated_tokens: int  # counted by the model's own tokenizer
     seconds: float  # wall time of the call
     prompt_tokens: int = 0
+    rendered: bool = False  # written by the fast path's renderer: no model call, so no pause
 
 
 class Infiller(Protocol):
