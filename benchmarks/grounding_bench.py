@@ -147,7 +147,7 @@ def main() -> None:
             result = run_episode(agent, task_id, robot, seed=seed, variations="on")
             episodes.append((SETTING[robot], result))
             print(
-                f"episode {task_id} on {robot} seed {seed}: success={result.success} GO {result.go:.1f}% (before execution {result.go_pre:.1f}%) EI {result.ei} IT {result.it:.2f} s"
+                f"episode {task_id} on {robot} seed {seed}: success={result.success} GO {result.go:.1f}% (before execution {result.go_pre:.1f}%) EI {result.ei} ({result.patches} patches) IT {result.it:.2f} s"
             )
     overhead = []
     for task_id, robot in TASKS[:4]:
@@ -191,10 +191,11 @@ def _episode_numbers(results) -> dict[str, float]:
         "sr": 100.0 * statistics.fmean(bool(r.success) for r in results),
         "go_episode": statistics.fmean(r.go for r in results),  # the paper's GO: repair + revise tokens
         "go_pre_episode": statistics.fmean(r.go_pre for r in results),
-        "ei": statistics.fmean(r.ei for r in results),
+        "ei": statistics.fmean(r.ei for r in results),  # repair + revise calls the LM answered
+        "patches": statistics.fmean(r.patches for r in results),  # EI plus the fast path's rendered patches
         "it_mean_s": statistics.fmean(r.it for r in results),
-        "it_per_call_s": statistics.fmean(c.seconds for r in results for c in r.runtime_calls)
-        if any(r.runtime_calls for r in results)
+        "it_per_call_s": statistics.fmean(c.seconds for r in results for c in r.interruptions())
+        if any(r.interruptions() for r in results)
         else 0.0,
     }
 
