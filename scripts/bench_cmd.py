@@ -1,4 +1,5 @@
-"""``recent bench``: the paper's evaluation on our suites; ``recent bench report``: its tables and plots."""
+"""``recent bench``: the paper's evaluation on our suites; ``recent bench report``: its tables and plots;
+``recent bench compare``: whether a re-run reproduced a committed run."""
 
 from __future__ import annotations
 
@@ -47,13 +48,23 @@ def register(sub) -> None:
 
     add_lm_arguments(parser, with_method=False)
     parser.set_defaults(handler=_run)
-    sub_bench = parser.add_subparsers(dest="bench_command", metavar="report")
+    sub_bench = parser.add_subparsers(dest="bench_command", metavar="{report,compare}")
     report = sub_bench.add_parser("report", help="tables (markdown) and plots (PNG) from one or more run directories")
     report.add_argument("dirs", nargs="+", help="run directories written by `recent bench`")
     report.add_argument(
         "--out", dest="report_out", default=None, help="where report.md and the PNGs go (default: the first DIR)"
     )
     report.set_defaults(handler=_report)
+    compare = sub_bench.add_parser(
+        "compare",
+        help="whether RERUN reproduced REFERENCE, episode by episode (exit 1 if an outcome differs)",
+        description="Compare the episodes two run directories share: success, GC, steps, failure category, "
+        "GO and tokens must be identical (the simulation is seeded, decoding greedy); IT and IGT are reported "
+        "as ratios (the host's speed). Exit status 1 when an episode's outcome differs.",
+    )
+    compare.add_argument("reference", help="the run to reproduce, e.g. benchmarks/results/snapshot")
+    compare.add_argument("rerun", help="a `recent bench --out` directory re-running some of its episodes")
+    compare.set_defaults(handler=_compare)
 
 
 def _csv(text: str) -> tuple[str, ...]:
@@ -157,3 +168,11 @@ def _report(args) -> int:
     print(path.read_text())
     print(f"written: {path} (+ sr_vs_go.png, failures_by_method.png)")
     return 0
+
+
+def _compare(args) -> int:
+    from recent_plugin.evaluation.compare import compare_dirs
+
+    comparisons, text = compare_dirs(Path(args.reference), Path(args.rerun))
+    print(text)
+    return 0 if comparisons and all(c.reproduced for c in comparisons) else 1

@@ -66,6 +66,27 @@ def test_a_restarted_run_skips_finished_episodes(bench_dir, capsys):
     assert {p: p.stat().st_mtime_ns for p in (bench_dir / "episodes").rglob("*.json")} == before
 
 
+def test_a_rerun_is_compared_episode_by_episode_with_the_run_it_reproduces(bench_dir, tmp_path, capsys):
+    """Seeded physics, deterministic infilling: a re-run of one episode has the same outcome, and
+    a record that differs is named with the field that changed (exit status 1)."""
+    rerun = tmp_path / "rerun"
+    assert main([*RUN, "--method=recent", "--seeds=1", "--no-log", f"--out={rerun}"]) == 0
+    capsys.readouterr()
+    assert main(["bench", "compare", str(bench_dir), str(rerun)]) == 0
+    text = capsys.readouterr().out
+    assert "1 of 1 shared episodes reproduced" in text
+
+    record = next((rerun / "episodes").rglob("*.json"))
+    tampered = {**json.loads(record.read_text()), "steps": 1, "success": False}
+    record.write_text(json.dumps(tampered))
+    assert main(["bench", "compare", str(bench_dir), str(rerun)]) == 1
+    text = capsys.readouterr().out
+    assert "0 of 1 shared episodes reproduced" in text
+    assert "| recent | kinematic | UR5e | kinematic/cube_on_plate | 1 | success: True → False; steps:" in text
+
+    assert main(["bench", "compare", str(bench_dir), str(tmp_path / "nowhere")]) == 2  # named, not a traceback
+
+
 def test_report_renders_tables_checks_and_plots(bench_dir, tmp_path, capsys):
     assert main(["bench", "report", str(bench_dir), "--out", str(tmp_path)]) == 0
     report = (tmp_path / "report.md").read_text()
