@@ -1,9 +1,11 @@
 """Does a re-run reproduce a committed run? Episode by episode, on the episodes both directories hold.
 
-The simulation is seeded and llama.cpp decodes greedily, so on one machine an episode's outcome
-(success, GC, steps, failure category, tokens, calls) comes out the same every time; what may
-differ is wall time, with the host's speed. The comparison therefore asks for the outcome to be
-identical and reports the timings (IT, cold IGT) as a ratio, not as a verdict.
+The simulation is seeded and llama.cpp decodes greedily, so on one kind of machine an episode's
+outcome (success, GC, steps, failure category, tokens) comes out the same run after run; what
+differs is wall time, with the host's speed. The comparison therefore asks for the outcome to be
+identical and reports the timings (IT, cold IGT) as ratios, not as a verdict. (llama.cpp reuses
+a cached prompt prefix, which has been seen to change a greedy token once in a while: a differing
+episode is worth a look at its logs, not yet proof of a regression.)
 """
 
 from __future__ import annotations
