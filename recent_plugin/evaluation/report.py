@@ -186,20 +186,26 @@ def failure_table(records: list[dict]) -> str:
     if not categories:
         return "No failures."
     methods = _ordered(counts)
+    episodes = Counter(r["method"] for r in records)
     lines = ["| category | " + " | ".join(methods) + " |", "|---|" + "---:|" * len(methods)]
+    lines.append("| *episodes run* | " + " | ".join(f"*{episodes[m]}*" for m in methods) + " |")
     for category in categories:
         lines.append(f"| {category} | " + " | ".join(str(counts[m][category]) for m in methods) + " |")
     return "\n".join(lines)
 
 
-def _figure(size: tuple[float, float]):
-    """A headless matplotlib figure (no display on the machines that run benchmarks)."""
+def _figure(size: tuple[float, float], rows: int = 1, cols: int = 1, **share):
+    """A headless matplotlib figure (no display on the machines that run benchmarks); several
+    panels come as a flat list of axes."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    return plt.subplots(figsize=size)
+    if rows * cols == 1:
+        return plt.subplots(figsize=size)
+    fig, axes = plt.subplots(rows, cols, figsize=size, squeeze=False, **share)
+    return fig, list(axes.flat)
 
 
 def _save(fig, path: Path) -> Path:
@@ -207,50 +213,88 @@ def _save(fig, path: Path) -> Path:
 
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=120)
+    fig.savefig(path, dpi=120, bbox_inches="tight")  # legends placed beside the axes stay in
     plt.close(fig)
     return path
 
 
+MARKERS = "o^sDvP*X<>"  # one per method, so points that land on each other stay distinguishable
+
+
 def plot_sr_vs_go(records: list[dict], path: Path) -> Path:
+    """SR against GO, one panel per suite; each method keeps its colour and marker across panels and reports."""
+    import matplotlib.pyplot as plt
     from matplotlib.ticker import FuncFormatter
 
-    fig, ax = _figure((7.5, 5.0))
-    for (method, suite), rs in sorted(group(records, lambda r: (r["method"], r["suite"])).items()):
-        s = summarize(rs)
-        marker = "o" if suite == "kinematic" else "s"
-        x, y = s["go"]["mean"], s["sr"]["mean"]
-        ax.errorbar(x, y, xerr=s["go"]["std"], yerr=s["sr"]["std"], fmt=marker, capsize=3, label=f"{method} ({suite})")
-        ax.annotate(method, (x, y), textcoords="offset points", xytext=(4, 4), fontsize=7, rotation=20)
-    ax.set_xscale("symlog", linthresh=1.0)
-    ax.xaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
-    ax.set_xlabel("grounding overhead GO (%, log scale) — lower is better")
-    ax.set_ylabel("task success SR (%) — higher is better")
-    ax.set_ylim(-5, 105)
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=7, loc="best")
-    ax.set_title("Success vs. grounding overhead per method")
+    suites = [s for s in SETTINGS if any(r["suite"] == s for r in records)] or ["(none)"]
+    fig, axes = _figure((4.2 * len(suites) + 2.8, 4.6), cols=len(suites), sharey=True)
+    axes = axes if len(suites) > 1 else [axes]
+    cmap = plt.get_cmap("tab10")
+    by = group(records, lambda r: (r["method"], r["suite"]))
+    shown = {}
+    for ax, suite in zip(axes, suites, strict=True):
+        for method in _ordered({m for m, s in by if s == suite}):
+            s = summarize(by[(method, suite)])
+            i = list(METHODS).index(method)
+            shown[method] = ax.errorbar(
+                s["go"]["mean"],
+                s["sr"]["mean"],
+                xerr=s["go"]["std"],
+                yerr=s["sr"]["std"],
+                fmt=MARKERS[i % len(MARKERS)],
+                color=cmap(i % 10),
+                markersize=8,
+                markerfacecolor="none" if method in ABLATION_METHODS else cmap(i % 10),  # ablations hollow
+                capsize=3,
+                alpha=0.9,
+            )
+        ax.set_xscale("symlog", linthresh=1.0)
+        ax.xaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+        ax.set_xlabel("GO (%, log scale) — lower is better")
+        ax.set_title(suite.replace("_", "-"))
+        ax.set_ylim(-5, 105)
+        ax.grid(alpha=0.3)
+    axes[0].set_ylabel("SR (%) — higher is better")
+    fig.legend(
+        list(shown.values()), list(shown), fontsize=8, loc="center left", bbox_to_anchor=(1.0, 0.5), frameon=False
+    )
+    fig.suptitle("Success vs. grounding overhead per method (mean ± std over seeds)")
     return _save(fig, path)
 
 
 def plot_failures(records: list[dict], path: Path) -> Path:
+    """Failures per method, by category and per episode (the methods ran different numbers of
+    episodes): the share of episodes that failed, and the LM outputs the gate rejected."""
     import matplotlib.pyplot as plt
     import numpy as np
 
     counts = failure_counts(records)
-    methods = _ordered(counts) or ["(none)"]
-    categories = sorted({k for c in counts.values() for k in c}) or ["(none)"]
-    fig, ax = _figure((max(6.5, 0.9 * len(methods) + 3), 4.8))
-    bottom = np.zeros(len(methods))
-    cmap = plt.get_cmap("tab20")
-    for i, category in enumerate(categories):
-        values = np.array([counts.get(m, Counter())[category] for m in methods], dtype=float)
-        ax.bar(methods, values, bottom=bottom, label=category, color=cmap(i % 20))
-        bottom += values
-    ax.set_ylabel("count")
-    ax.set_title("Failures per method: failed episodes and rejected LM output, by category")
-    ax.tick_params(axis="x", rotation=30)
-    ax.legend(fontsize=7, bbox_to_anchor=(1.01, 1), loc="upper left")
+    episodes = Counter(r["method"] for r in records)
+    methods = _ordered(episodes) or ["(none)"]
+    names = sorted({key.split(": ", 1)[1] for c in counts.values() for key in c})
+    colour = {name: plt.get_cmap("tab20")(i % 20) for i, name in enumerate(names)}
+    fig, axes = _figure((max(7.0, 0.8 * len(methods) + 3.0), 7.5), rows=2, sharex=True)
+    panels = (
+        ("episode", 100.0, "failed episodes (% of the method's)"),
+        ("rejected", 1.0, "rejected LM outputs per episode"),
+    )
+    legend = {}
+    for ax, (kind, scale, label) in zip(axes, panels, strict=True):
+        bottom = np.zeros(len(methods))
+        for name in names:
+            values = np.array(
+                [scale * counts.get(m, Counter())[f"{kind}: {name}"] / max(episodes[m], 1) for m in methods]
+            )
+            if values.any():
+                legend[name] = ax.bar(methods, values, bottom=bottom, color=colour[name])
+                bottom += values
+        ax.set_ylabel(label)
+        ax.grid(axis="y", alpha=0.3)
+        plt.setp(ax.get_xticklabels(), rotation=35, ha="right")
+    fig.legend(
+        list(legend.values()), list(legend), fontsize=8, loc="center left", bbox_to_anchor=(1.0, 0.5), frameon=False
+    )
+    fig.suptitle("Failures per method by category (failed episodes; LM output the validation gate rejected)")
     return _save(fig, path)
 
 
