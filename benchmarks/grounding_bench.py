@@ -29,6 +29,8 @@ from recent_plugin.infillers import make_infiller
 from robosuite_envs.gym_env import RecentEnv
 from robosuite_envs.observation import Observation
 
+SPEED_PROMPT = Path(__file__).parents[1].joinpath("skills", "library", "put_in_bin.py").read_text() * 3  # ~400 tokens
+
 # (task, target) pairs: the kinematic setting on UR5e, the end-effector setting on both grippers
 TASKS = (
     ("kinematic/cube_in_bin", "UR5e"),
@@ -42,8 +44,8 @@ TASKS = (
 SETTING = {"UR5e": "kinematic", "Sawyer": "kinematic", "Robotiq85": "end_effector", "Suction": "end_effector"}
 
 
-def rss_mib() -> float:
-    for line in Path("/proc/self/status").read_text().splitlines():
+def rss_mib(pid: int | str = "self") -> float:
+    for line in Path(f"/proc/{pid}/status").read_text().splitlines():
         if line.startswith("VmRSS:"):
             return int(line.split()[1]) / 1024
     return float("nan")
@@ -91,26 +93,7 @@ def executor_overhead(agent: RecentAgent, task_id: str, robot: str, seed: int) -
 
 def lm_speed(infiller, repeats: int = 3) -> dict[str, float]:
     """Prompt evaluation and generation speed of the llama.cpp model on a skill-sized prompt."""
-    from llama_cpp import Llama
-
-    llm: Llama = infiller.llm
-    prompt = Path(__file__).parents[1].joinpath("skills", "library", "put_in_bin.py").read_text() * 3  # ~400 tokens
-    tokens = llm.tokenize(prompt.encode())
-    prefill, decode = [], []
-    for _ in range(repeats):
-        llm.reset()
-        started = time.perf_counter()
-        llm.eval(tokens)
-        prefill.append(len(tokens) / (time.perf_counter() - started))
-        started = time.perf_counter()
-        out = llm.create_completion(prompt, max_tokens=64, temperature=0.0, top_k=1)
-        n = out["usage"]["completion_tokens"]
-        decode.append(n / (time.perf_counter() - started))  # prompt cached: this is generation
-    return {
-        "prompt_tokens": len(tokens),
-        "prefill_tok_s": statistics.median(prefill),
-        "decode_tok_s": statistics.median(decode),
-    }
+    return infiller.lm.speed(SPEED_PROMPT, repeats=repeats)
 
 
 def main() -> None:
@@ -161,7 +144,9 @@ def main() -> None:
         "threads": args.threads,
         "fast_path": args.fast_path,
         "load_s": load_s,
-        "rss_mib_end": rss_mib(),  # model loaded, after every episode
+        # this process plus the LM worker that holds the model, after every episode
+        "rss_mib_end": rss_mib() + rss_mib(infiller.lm.pid),
+        "cpu_kernels": infiller.info().get("cpu_kernels"),
         "rss_mib_before_model": rss_before,
         "igt_cold_median_s": statistics.median(cold),
         "igt_cold_max_s": max(cold),

@@ -187,36 +187,65 @@ def _run(
     if recorder is not None:
         started_event = agent.started_event(task_id, robot, seed, env.task_description, ",".join(env.variations))
         episode = recorder.start_episode(started_event)
-    executor, grounding = agent.start_episode(
-        task_id,
-        robot,
-        Observation.decode(raw["agent_pos"], raw["environment_state"], names),
-        emit=episode.emit if episode else ignore,
-    )
     bar = _bar(env._max_episode_steps, progress, f"{task_id} on {robot}")
     success, steps, settled, info, done = False, 0, 0, {}, 0
-    while True:
-        action = executor.act(Observation.decode(raw["agent_pos"], raw["environment_state"], names))
-        if episode is not None:
-            image = env.render() if camera else None
-            episode.step(raw["agent_pos"], raw["environment_state"], action, image)
-        raw, _, terminated, truncated, info = env.step(action)
-        steps += 1
-        bar.update(1)
-        success = bool(info["is_success"])
-        if episode is not None and info["subtasks_done"] > done:
-            done = info["subtasks_done"]
-            episode.emit(SubtaskSucceeded(done - 1, done, len(env.spec_task.plan)))
-        settled = settled + 1 if executor.finished else 0
-        if (terminated and not to_completion) or truncated or settled > SETTLE_STEPS:
-            break
-    bar.close()
+    try:
+        executor, grounding = agent.start_episode(
+            task_id,
+            robot,
+            Observation.decode(raw["agent_pos"], raw["environment_state"], names),
+            emit=episode.emit if episode else ignore,
+        )
+        while True:
+            action = executor.act(Observation.decode(raw["agent_pos"], raw["environment_state"], names))
+            if episode is not None:
+                image = env.render() if camera else None
+                episode.step(raw["agent_pos"], raw["environment_state"], action, image)
+            raw, _, terminated, truncated, info = env.step(action)
+            steps += 1
+            bar.update(1)
+            success = bool(info["is_success"])
+            if episode is not None and info["subtasks_done"] > done:
+                done = info["subtasks_done"]
+                episode.emit(SubtaskSucceeded(done - 1, done, len(env.spec_task.plan)))
+            settled = settled + 1 if executor.finished else 0
+            if (terminated and not to_completion) or truncated or settled > SETTLE_STEPS:
+                break
+    except Exception as exc:
+        if episode is not None:  # the logs say what broke the run, and stay whole and readable
+            episode.end(crashed_event(task_id, robot, seed, steps, time.perf_counter() - started, exc))
+        raise
+    finally:
+        bar.close()
     result = episode_result(
         executor, grounding, seed, success, float(info.get("gc", 0.0)), steps, time.perf_counter() - started
     )
     if episode is not None:
         episode.end(result.ended_event())
     return result
+
+
+def crashed_event(task_id: str, robot: str, seed: int, steps: int, wall_seconds: float, exc: Exception) -> EpisodeEnded:
+    """The end of an episode that an error broke off (the LM worker died, a bug): failed, with the reason."""
+    message = f"{type(exc).__name__}: {exc}"
+    return EpisodeEnded(
+        task_id,
+        robot,
+        seed,
+        False,
+        None,
+        steps,
+        wall_seconds,
+        0,
+        0,
+        0.0,
+        0.0,
+        0,
+        0.0,
+        0.0,
+        str(FailureCategory.CRASH),
+        message,
+    )
 
 
 def episode_result(

@@ -17,6 +17,7 @@ class FailureCategory(StrEnum):
     GRASP_LOST = "grasp_lost"
     TIMEOUT = "timeout"
     SUBTASK_FAILED = "subtask_failed"  # ran to the end, success predicate false
+    CRASH = "crash"  # not the method's failure: the run broke off (the LM worker died, an error); no verdict
 
 
 PRIMITIVE_FAILURE_CATEGORY = {

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import sys
 
 from recent_plugin.episode import run_episode
 from scripts.common import add_lm_arguments, agent_from_args
@@ -44,6 +45,14 @@ def _run(args) -> int:
             recorder=recorder,
             camera=args.camera,
         )
+    except Exception:
+        if recorder is not None:  # the error itself is printed by the CLI; say where its record is
+            root = recorder.layout.root
+            print(
+                f"the episode's logs, with the error as its result: {root} (check: recent logs verify {root})",
+                file=sys.stderr,
+            )
+        raise
     finally:
         if recorder is not None:
             recorder.close()

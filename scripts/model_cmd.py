@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import json
+import sys
 
-from recent_plugin.models import MODELS, fetch_model, model_path
+from recent_plugin.models import MODELS, ensure_model, fetch_model, model_path
+from recent_plugin.models.registry import DEFAULT_MODEL
 
 
 def register(sub) -> None:
@@ -30,6 +32,17 @@ def register(sub) -> None:
     path = actions.add_parser("path", help="print the cached file of a model")
     path.add_argument("name", choices=sorted(MODELS))
     path.set_defaults(handler=_path)
+
+    check = actions.add_parser(
+        "check",
+        help="prove the LM runs here: load it in a worker process and check one known FIM answer (setup runs this)",
+    )
+    check.add_argument(
+        "name", nargs="?", default=DEFAULT_MODEL, help=f"a known model or a .gguf path (default: {DEFAULT_MODEL})"
+    )
+    check.add_argument("--threads", type=int, default=None, help="CPU threads for llama.cpp (default: up to 2)")
+    check.add_argument("--json", action="store_true", help="machine-readable output")
+    check.set_defaults(handler=_check)
 
 
 def _fetch(args) -> int:
@@ -65,3 +78,14 @@ def _path(args) -> int:
         raise FileNotFoundError(f"{args.name} is not cached yet; run `recent model fetch {args.name}`")
     print(path)
     return 0
+
+
+def _check(args) -> int:
+    from recent_plugin.infillers.llama_check import check_lm
+
+    result = check_lm(str(ensure_model(args.name, progress=False)), n_threads=args.threads)
+    if args.json:
+        print(json.dumps(result.to_dict(), indent=2))
+    else:
+        print(result.summary(), file=None if result.ok else sys.stderr)
+    return 0 if result.ok else 3

@@ -2,7 +2,9 @@
 # Set up RECENT on a fresh machine: system GL for headless rendering, uv, the locked environment,
 # and the default offline code LM. Idempotent: a second run reuses every cache.
 #   RECENT_CACHE_DIR   where models and shard wheels go (default ~/.cache/lerobot_policy_recent)
-#   UV_CACHE_DIR       uv's cache, incl. the llama-cpp-python wheel built from source (~11 min once)
+#   UV_CACHE_DIR       uv's cache, incl. the llama-cpp-python wheel built from source (~25 min once)
+# llama.cpp is built with run-time-selected CPU kernels (pyproject.toml, docs/llm_runtime.md), so the
+# cached wheel runs on any x86-64 host; setup still proves the LM works here before it says "ready".
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -40,6 +42,21 @@ if ! "$PYTHON" -m uv sync --locked --offline --python "$PYTHON" >/dev/null 2>&1;
   "$PYTHON" -m uv sync --locked --python "$PYTHON"
 fi
 
+# A .venv made before the portable build keeps its llama-cpp-python (same version, so uv leaves it):
+# one built for the CPU of whatever host made it. Replace it with the wheel of run-time variants.
+if ! .venv/bin/python -c 'import sys; from recent_plugin.infillers.llama_runtime import variant_libraries as v; sys.exit(not v())' 2>/dev/null; then
+  log "replacing a llama-cpp-python built for one CPU with the portable build"
+  "$PYTHON" -m uv sync --locked --python "$PYTHON" --reinstall-package llama-cpp-python
+fi
+
 log "provisioning the default code LM (Qwen2.5-Coder-1.5B, GGUF)"
 .venv/bin/recent model fetch qwen2.5-coder-1.5b --quiet >/dev/null
+
+log "checking the LM runs on this CPU (a worker process fills one known span)"
+if ! check=$(.venv/bin/recent model check qwen2.5-coder-1.5b 2>&1); then
+  printf '%s\n' "$check" >&2
+  log "setup stopped: the code LM does not run correctly here (see above); nothing else is wrong with the install"
+  exit 3
+fi
+log "$check"
 log "ready: $(.venv/bin/recent model path qwen2.5-coder-1.5b)"

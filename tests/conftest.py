@@ -48,6 +48,18 @@ def llama_infiller():
 
 
 @pytest.fixture(scope="session")
+def llama_session():
+    """The same model in this process, for tests that look inside the decoder (the agent's runs in a worker)."""
+    from recent_plugin.infillers.llamacpp import LlamaSession
+    from recent_plugin.models import model_path
+
+    path = model_path("qwen2.5-coder-1.5b")
+    if not path.is_file():
+        pytest.fail("the 1.5B GGUF is not in the cache: run `recent model fetch qwen2.5-coder-1.5b`")
+    return LlamaSession(str(path))
+
+
+@pytest.fixture(scope="session")
 def rule_infiller():
     from recent_plugin.infillers import make_infiller
 

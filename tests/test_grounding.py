@@ -171,7 +171,7 @@ def test_unrecoverable_after_retry_limit(ontology, put_in_bin):
 
 
 def test_llamacpp_tokenizes_fim_markers_as_special_tokens(llama_infiller):
-    ids = llama_infiller.llm.tokenize(b"<|fim_prefix|><|fim_suffix|><|fim_middle|>", add_bos=False, special=True)
+    ids = llama_infiller.lm.tokenize("<|fim_prefix|><|fim_suffix|><|fim_middle|>", True)
     assert ids == [151659, 151661, 151660]
 
 

@@ -27,19 +27,19 @@ def _greedy(llm, text: str, max_tokens: int, stops, grammar) -> str:
 
 
 @pytest.mark.parametrize("robot", ["UR5e", "Suction"])
-def test_lookup_decoding_matches_plain_greedy_decoding(ontology, put_in_bin, llama_infiller, robot):
+def test_lookup_decoding_matches_plain_greedy_decoding(ontology, put_in_bin, llama_session, robot):
     """Same FIM prompt, same grammar: the drafts only change how fast the tokens come."""
     diagnosis = diagnose(ontology, put_in_bin.name, put_in_bin.code, robot, source=put_in_bin.source_embodiment)
-    infiller = llama_infiller
+    session = llama_session
     for conflict in diagnosis.conflicts:
         unit = unit_from_conflict(put_in_bin.code, conflict, robot)
-        prompt = build_prompt(unit, infiller.count_tokens(unit.span))
+        prompt = build_prompt(unit, len(session.tokenize(unit.span)))
         text = QWEN.render(prompt.prefix, prompt.suffix)
         stops = (*prompt.stop, *QWEN.stops)
-        grammar = infiller._grammar(STATEMENT_LINE)
-        reference = _greedy(infiller.llm, text, prompt.max_tokens, stops, grammar)
-        decoded = infiller.decoder.generate(
-            infiller.llm.tokenize(text.encode(), add_bos=False, special=True),
+        grammar = session.grammar(STATEMENT_LINE)
+        reference = _greedy(session.llm, text, prompt.max_tokens, stops, grammar)
+        decoded = session.decoder.generate(
+            session.tokenize(text, special=True),
             max_tokens=prompt.max_tokens,
             stops=stops,
             grammar=grammar,

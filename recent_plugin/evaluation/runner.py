@@ -22,6 +22,7 @@ from pathlib import Path
 
 from recent_plugin.agent import AgentSettings, RecentAgent, behind_fast_path, infiller_for
 from recent_plugin.evaluation.methods import settings_for
+from recent_plugin.failures import FailureCategory
 from robosuite_envs.suites import SEEDS, get_suite
 
 SUITE_TARGETS = {"kinematic": ("UR5e", "Sawyer"), "end_effector": ("Robotiq85", "Suction")}
@@ -131,7 +132,7 @@ def run_job(job: Job) -> dict:
             "success": False,
             "gc": 0.0,
             "crashed": f"{type(exc).__name__}: {exc}",
-            "failure_category": "crash",
+            "failure_category": str(FailureCategory.CRASH),
             "wall_seconds": time.perf_counter() - started,
         }
     finally:

@@ -1,0 +1,128 @@
+"""The LM runtime starts on any x86-64 host, proves itself, and a native crash is an explained error.
+
+The smoke check here is the one ``scripts/setup.sh`` runs before it says "ready": on a host where
+llama.cpp's kernels crash (an AMX Xeon with a natively built wheel did), this file fails with the
+check's message instead of the whole suite dying of a segfault.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import time
+
+import pytest
+
+from recent_plugin.infillers.llama_runtime import (
+    AMX_VARIANTS,
+    CpuKernelsError,
+    choose_variant,
+    variant_libraries,
+)
+from recent_plugin.models import model_path
+
+SCORES = {"x64": 1, "haswell": 40, "skylakex": 90, "zen4": 120, "sapphirerapids": 250, "alderlake": 0}
+
+
+def test_the_best_variant_this_cpu_runs_is_chosen_and_amx_is_left_out():
+    assert choose_variant(SCORES) == "zen4"  # sapphirerapids scores higher, but its AMX kernels crashed
+    assert choose_variant({"x64": 1, "haswell": 0}) == "x64"
+    assert choose_variant(SCORES, "sapphirerapids") == "sapphirerapids"  # AMX only when asked for by name
+
+
+def test_a_forced_variant_must_exist_and_run_on_this_cpu():
+    with pytest.raises(CpuKernelsError, match="no such variant"):
+        choose_variant(SCORES, "graviton")
+    with pytest.raises(CpuKernelsError, match="lacks instructions"):
+        choose_variant(SCORES, "alderlake")
+    with pytest.raises(CpuKernelsError, match="none of llama.cpp's CPU-kernel variants"):
+        choose_variant({"zen4": 0, "sapphirerapids": 7})
+
+
+def test_the_installed_llama_cpp_selects_its_cpu_kernels_at_run_time():
+    """The wheel setup installs is the portable one: kernels for every x86-64 level, none tied to the build host."""
+    variants = variant_libraries()
+    assert {"x64", "haswell", "skylakex"} <= set(variants), f"not the portable build: {sorted(variants)}"
+    assert AMX_VARIANTS <= set(variants)  # built, but only loaded when forced
+
+
+@pytest.fixture(scope="module")
+def gguf() -> str:
+    path = model_path("qwen2.5-coder-1.5b")
+    if not path.is_file():
+        pytest.fail("the 1.5B GGUF is not in the cache: run `recent model fetch qwen2.5-coder-1.5b` (setup does)")
+    return str(path)
+
+
+def test_setup_smoke_check_passes_on_this_host(gguf):
+    """Setup's check: a worker process loads the model and fills ``return a + b``."""
+    from recent_plugin.infillers.llama_check import check_lm
+
+    result = check_lm(gguf)
+    assert result.ok, result.problem
+    kernels = result.info["cpu_kernels"]
+    assert kernels not in AMX_VARIANTS and result.info["cpu_kernel_scores"][kernels] > 0
+    assert "`a + b`" in result.summary() or "`b + a`" in result.summary()
+
+
+def test_a_dead_worker_is_an_explained_error_and_the_next_call_starts_a_fresh_one(gguf):
+    from recent_plugin.infillers.llama_worker import LlamaWorker, LMWorkerCrashed
+
+    worker = LlamaWorker(gguf)
+    try:
+        first = worker.pid
+        assert worker.tokenize("open_gripper(env, task)")
+        os.kill(first, signal.SIGSEGV)  # what a bad kernel does
+        with pytest.raises(LMWorkerCrashed) as crash:
+            worker.tokenize("open_gripper(env, task)")
+        message = str(crash.value)
+        for part in ("killed by SIGSEGV", "CPU:", "Kernels:", "llama-cpp-python", "Fix:", "scripts/setup.sh"):
+            assert part in message, message
+        assert worker.tokenize("x") and worker.pid != first  # a benchmark loses only the call in flight
+    finally:
+        worker.close()
+    assert not worker.alive
+
+
+def test_python_errors_in_the_worker_come_back_as_python_errors(gguf):
+    from recent_plugin.infillers.llama_worker import LlamaWorker
+
+    worker = LlamaWorker(gguf)
+    try:
+        with pytest.raises(AttributeError, match="in the LM worker"):
+            worker.tokenize(None)  # type: ignore[arg-type]
+        with pytest.raises(ValueError, match="unknown LM worker call"):
+            worker._call("shutdown_everything")
+        assert worker.alive and worker.tokenize("still here")
+    finally:
+        worker.close()
+
+
+def test_an_episode_whose_lm_dies_ends_with_the_reason_in_logs_that_verify(gguf, ontology, tmp_path):
+    """Kill the LM mid-run: the CLI's error names the cause, the episode's logs are whole and say 'crash'."""
+    import pyarrow.parquet as pq
+
+    from logs.layout import LogLayout
+    from logs.recorder import Recorder
+    from logs.verify import verify
+    from recent_plugin.agent import AgentSettings, RecentAgent
+    from recent_plugin.episode import run_episode
+    from recent_plugin.infillers.llama_worker import LMWorkerCrashed
+    from recent_plugin.infillers.llamacpp import LlamaCppInfiller
+
+    infiller = LlamaCppInfiller(gguf)
+    agent = RecentAgent(AgentSettings(), infiller=infiller, ontology=ontology)
+    os.kill(infiller.lm.pid, signal.SIGKILL)
+    for _ in range(100):  # bounded: SIGKILL is delivered within milliseconds
+        if not infiller.lm.alive:
+            break
+        time.sleep(0.05)
+    with Recorder(tmp_path) as recorder, pytest.raises(LMWorkerCrashed, match="killed by SIGKILL"):
+        run_episode(agent, "cube_in_bin", "UR5e", seed=0, recorder=recorder)
+    infiller.close()
+
+    report = verify(tmp_path)
+    assert report.ok, (report.problems, [e.problems for e in report.episodes])
+    row = pq.read_table(LogLayout(tmp_path).results(0)).to_pylist()[0]
+    assert row["failure_category"] == "crash" and "LMWorkerCrashed" in row["failure_message"]
+    assert row["success"] is False
