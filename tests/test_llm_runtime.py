@@ -126,3 +126,15 @@ def test_an_episode_whose_lm_dies_ends_with_the_reason_in_logs_that_verify(gguf,
     row = pq.read_table(LogLayout(tmp_path).results(0)).to_pylist()[0]
     assert row["failure_category"] == "crash" and "LMWorkerCrashed" in row["failure_message"]
     assert row["success"] is False
+
+
+def test_a_model_that_does_not_load_is_a_python_error_and_leaves_no_worker(tmp_path):
+    from recent_plugin.infillers.llama_check import check_lm
+    from recent_plugin.infillers.llama_worker import LlamaWorker
+
+    bad = tmp_path / "truncated.gguf"
+    bad.write_bytes(b"GGUF\x03\x00\x00\x00")
+    with pytest.raises(ValueError, match="in the LM worker"):
+        LlamaWorker(str(bad))
+    result = check_lm(str(bad))
+    assert not result.ok and "ValueError" in result.problem and "Fix:" in result.problem

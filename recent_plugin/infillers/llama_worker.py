@@ -103,7 +103,13 @@ class LlamaWorker:
         self._finalizer = weakref.finalize(self, _stop, self._proc, self._conn)
         if not self._conn.poll(START_TIMEOUT_S):
             self._died("loading the model")
-        self._info = self._receive("loading the model")
+        try:
+            self._info = self._receive("loading the model")
+        except LMWorkerCrashed:
+            raise
+        except Exception:  # the model did not load (a bad file, an unusable variant): the worker has exited
+            self.close()
+            raise
 
     @property
     def pid(self) -> int | None:
@@ -150,9 +156,9 @@ class LlamaWorker:
         if self._proc is not None:
             try:
                 returncode = self._proc.wait(timeout=5)
-            except subprocess.TimeoutExpired:
+            except subprocess.TimeoutExpired:  # alive but silent: ours is the kill, not the cause
                 self._proc.kill()
-                returncode = self._proc.wait()
+                self._proc.wait()
         info = self._info
         self.close()
         raise LMWorkerCrashed(crash_message(returncode, doing, info))
