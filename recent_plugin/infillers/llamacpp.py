@@ -109,22 +109,15 @@ class LlamaCppInfiller:
 
     name = "llamacpp"
 
-    def __init__(
-        self,
-        model_path: str,
-        *,
-        n_threads: int | None = None,
-        n_ctx: int = 2048,
-        seed: int = 0,
-        in_process: bool = False,
-    ):
+    def __init__(self, model_path: str, *, in_process: bool = False, **options):
+        """``options`` are :class:`LlamaSession`'s (``n_threads``, ``n_ctx``, ``seed``)."""
         self.model = os.path.basename(model_path)
         if in_process:
-            self.lm = LlamaSession(model_path, n_threads=n_threads, n_ctx=n_ctx, seed=seed)
+            self.lm = LlamaSession(model_path, **options)
         else:
             from recent_plugin.infillers.llama_worker import LlamaWorker
 
-            self.lm = LlamaWorker(str(Path(model_path)), n_threads=n_threads, n_ctx=n_ctx, seed=seed)
+            self.lm = LlamaWorker(str(Path(model_path)), **options)
 
     def info(self) -> dict[str, object]:
         return self.lm.info()
