@@ -21,7 +21,7 @@ from logs.events import ignore
 from logs.recorder import EpisodeLog, Recorder
 from recent_plugin.agent import EpisodeGrounding, RecentAgent
 from recent_plugin.configuration_recent import RecentConfig
-from recent_plugin.episode import episode_result
+from recent_plugin.episode import crashed_event, episode_result
 from recent_plugin.executor import TaskExecutor
 from robosuite_envs.observation import Observation
 from robosuite_envs.tasks import get_task, parse_task_string
@@ -108,7 +108,12 @@ class RecentPolicy(PreTrainedPolicy):
             if self._episodes[b] is None:
                 self._episodes[b] = self._start(task_id, robot, text, obs)
             episode = self._episodes[b]
-            action = episode.executor.act(obs)
+            try:
+                action = episode.executor.act(obs)
+            except Exception as exc:  # the LM worker died, a bug: the log says so, and lerobot-eval sees the error
+                self._episodes[b] = None
+                _end_crashed(episode.log, task_id, robot, self.config.seed, episode.started, exc)
+                raise
             if episode.log is not None:
                 episode.log.step(state, env_state, action)
             actions.append(action)
@@ -119,6 +124,16 @@ class RecentPolicy(PreTrainedPolicy):
         log = None
         if self.recorder is not None:
             log = self.recorder.start_episode(self.agent.started_event(task_id, robot, self.config.seed, text))
-        executor, report = self.agent.start_episode(task_id, robot, obs, emit=log.emit if log else ignore)
+        try:
+            executor, report = self.agent.start_episode(task_id, robot, obs, emit=log.emit if log else ignore)
+        except Exception as exc:
+            _end_crashed(log, task_id, robot, self.config.seed, started, exc)
+            raise
         self.groundings.append(report)
         return _Episode(executor, report, log, started)
+
+
+def _end_crashed(log: EpisodeLog | None, task_id: str, robot: str, seed: int, started: float, exc: Exception) -> None:
+    """End a logged episode that an error broke off, with the error as its result (the logs stay whole)."""
+    if log is not None:
+        log.end(crashed_event(task_id, robot, seed, log.frame_index, time.perf_counter() - started, exc))

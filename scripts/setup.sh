@@ -58,5 +58,5 @@ if ! check=$(.venv/bin/recent model check qwen2.5-coder-1.5b 2>&1); then
   log "setup stopped: the code LM does not run correctly here (see above); nothing else is wrong with the install"
   exit 3
 fi
-log "$check"
+log "${check##*$'\n'}"  # the verdict line (llama.cpp's own notes come before it)
 log "ready: $(.venv/bin/recent model path qwen2.5-coder-1.5b)"

@@ -138,3 +138,42 @@ def test_a_model_that_does_not_load_is_a_python_error_and_leaves_no_worker(tmp_p
         LlamaWorker(str(bad))
     result = check_lm(str(bad))
     assert not result.ok and "ValueError" in result.problem and "Fix:" in result.problem
+
+
+def test_inside_lerobot_eval_a_dead_lm_is_the_policys_error_and_its_episode_is_logged_as_crash(gguf, tmp_path):
+    import pyarrow.parquet as pq
+    import torch
+    from lerobot.policies.factory import make_policy, make_pre_post_processors
+
+    import lerobot_policy_recent  # noqa: F401
+    from logs.layout import LogLayout
+    from logs.verify import verify
+    from recent_plugin.configuration_recent import RecentConfig
+    from recent_plugin.infillers.llama_worker import LMWorkerCrashed
+    from robosuite_envs.gym_env import RecentEnv
+    from robosuite_envs.lerobot_env import RecentEnvConfig
+
+    env_cfg = RecentEnvConfig(task="cube_in_bin", robot="UR5e")
+    policy = make_policy(RecentConfig(log_dir=str(tmp_path)), env_cfg=env_cfg)
+    pre, _ = make_pre_post_processors(policy.config)
+    worker = policy.agent.infiller.lm
+    os.kill(worker.pid, signal.SIGKILL)
+    for _ in range(100):
+        if not worker.alive:
+            break
+        time.sleep(0.05)
+    env = RecentEnv(task="cube_in_bin", robot="UR5e", render_mode="none")
+    obs, _ = env.reset(seed=0)
+    batch = {
+        "observation.state": torch.from_numpy(obs["agent_pos"])[None],
+        "observation.environment_state": torch.from_numpy(obs["environment_state"])[None],
+        "task": [env.task_description],
+    }
+    with pytest.raises(LMWorkerCrashed, match="killed by SIGKILL"):
+        policy.select_action(pre(batch))
+    env.close()
+    policy.close_logs()
+
+    assert verify(tmp_path).ok
+    row = pq.read_table(LogLayout(tmp_path).results(0)).to_pylist()[0]
+    assert row["failure_category"] == "crash" and "LMWorkerCrashed" in row["failure_message"]
