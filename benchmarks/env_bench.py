@@ -17,11 +17,11 @@ import time
 
 import numpy as np
 
-import robosuite_envs.runtime  # noqa: F401  (MuJoCo GL backend before robosuite loads)
-from robosuite_envs.gym_env import RecentEnv
-from robosuite_envs.observation import Observation
-from robosuite_envs.primitives.control import move_to
-from robosuite_envs.primitives.session import CONTROL_FREQ, RobotSession
+import lerobot_policy_recent.robosuite_envs.runtime  # noqa: F401  (MuJoCo GL backend before robosuite loads)
+from lerobot_policy_recent.robosuite_envs.gym_env import RecentEnv
+from lerobot_policy_recent.robosuite_envs.observation import Observation
+from lerobot_policy_recent.robosuite_envs.primitives.control import move_to
+from lerobot_policy_recent.robosuite_envs.primitives.session import CONTROL_FREQ, RobotSession
 
 HOLD = np.zeros(7)
 

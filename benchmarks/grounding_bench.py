@@ -21,13 +21,13 @@ import statistics
 import time
 from pathlib import Path
 
-import robosuite_envs.runtime  # noqa: F401  (MuJoCo GL backend before robosuite loads)
-from recent_plugin.agent import AgentSettings, RecentAgent, behind_fast_path
-from recent_plugin.episode import run_episode
-from recent_plugin.executor import TaskExecutor
-from recent_plugin.infillers import make_infiller
-from robosuite_envs.gym_env import RecentEnv
-from robosuite_envs.observation import Observation
+import lerobot_policy_recent.robosuite_envs.runtime  # noqa: F401  (MuJoCo GL backend before robosuite loads)
+from lerobot_policy_recent.recent_plugin.agent import AgentSettings, RecentAgent, behind_fast_path
+from lerobot_policy_recent.recent_plugin.episode import run_episode
+from lerobot_policy_recent.recent_plugin.executor import TaskExecutor
+from lerobot_policy_recent.recent_plugin.infillers import make_infiller
+from lerobot_policy_recent.robosuite_envs.gym_env import RecentEnv
+from lerobot_policy_recent.robosuite_envs.observation import Observation
 
 SPEED_PROMPT = Path(__file__).parents[1].joinpath("skills", "library", "put_in_bin.py").read_text() * 3  # ~400 tokens
 

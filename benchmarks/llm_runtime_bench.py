@@ -26,15 +26,15 @@ import statistics
 import time
 from pathlib import Path
 
-from recent_plugin.infillers.llama_runtime import VARIANT_ENV, cpu_description, variant_libraries
-from recent_plugin.models import ensure_model
+from lerobot_policy_recent.recent_plugin.infillers.llama_runtime import VARIANT_ENV, cpu_description, variant_libraries
+from lerobot_policy_recent.recent_plugin.models import ensure_model
 
 SPEED_PROMPT = Path(__file__).parents[1].joinpath("skills", "library", "put_in_bin.py").read_text() * 3
 
 
 def start_worker(model: str, threads: int, *, variant: str | None = None, site: str | None = None):
     """An LM worker on ``variant`` of the portable build, or on the llama_cpp installed in ``site``."""
-    from recent_plugin.infillers.llama_worker import LlamaWorker
+    from lerobot_policy_recent.recent_plugin.infillers.llama_worker import LlamaWorker
 
     started = time.perf_counter()
     worker = LlamaWorker(model, n_threads=threads, env={VARIANT_ENV: variant} if variant else None, site=site)
@@ -78,9 +78,9 @@ def kernels(model: str, threads: int, variants: list[str], compare: dict[str, st
 
 def worker_cost(model: str, threads: int, calls: int = 200) -> dict[str, float]:
     """In-process against worker: load to first answer, a tiny call's round trip, a warm FIM span."""
-    from recent_plugin.infillers.fim_formats import FORMATS
-    from recent_plugin.infillers.llama_check import PREFIX, SUFFIX
-    from recent_plugin.infillers.llamacpp import LlamaSession
+    from lerobot_policy_recent.recent_plugin.infillers.fim_formats import FORMATS
+    from lerobot_policy_recent.recent_plugin.infillers.llama_check import PREFIX, SUFFIX
+    from lerobot_policy_recent.recent_plugin.infillers.llama_session import LlamaSession
 
     qwen = FORMATS["qwen2.5-coder"]
     span = qwen.render(PREFIX, SUFFIX)

@@ -18,9 +18,9 @@ import platform
 import tempfile
 import time
 
-from logs.recorder import SINKS, Recorder
-from recent_plugin.agent import AgentSettings, RecentAgent
-from recent_plugin.episode import run_episode
+from lerobot_policy_recent.logs.recorder import SINKS, Recorder
+from lerobot_policy_recent.recent_plugin.agent import AgentSettings, RecentAgent
+from lerobot_policy_recent.recent_plugin.episode import run_episode
 
 SETTINGS = {  # name -> (sinks or None for no recorder, camera)
     "logging off": (None, False),

@@ -18,9 +18,9 @@ from pathlib import Path
 
 import yaml
 
-from ontology.builder import RC, EmbodimentSource, build_ontology, default_embodiment_sources
-from ontology.diagnosis import diagnose
-from skills.repository import list_skills, load_skill
+from lerobot_policy_recent.ontology.builder import RC, EmbodimentSource, build_ontology, default_embodiment_sources
+from lerobot_policy_recent.ontology.diagnosis import diagnose
+from lerobot_policy_recent.skills.repository import list_skills, load_skill
 
 
 def timed(fn, repeats: int) -> list[float]:

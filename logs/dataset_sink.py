@@ -18,10 +18,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from logs.events import EpisodeStarted, Stamped, Step
-from logs.layout import LogLayout, write_parquet_atomically
-from robosuite_envs.observation import ACTION_DIM, AGENT_POS_DIM, ENV_STATE_DIM
-from robosuite_envs.primitives.session import CONTROL_FREQ
+from lerobot_policy_recent.logs.events import EpisodeStarted, Stamped, Step
+from lerobot_policy_recent.logs.layout import LogLayout, write_parquet_atomically
+from lerobot_policy_recent.robosuite_envs.observation import ACTION_DIM, AGENT_POS_DIM, ENV_STATE_DIM
+from lerobot_policy_recent.robosuite_envs.primitives.session import CONTROL_FREQ
 
 log = logging.getLogger(__name__)
 

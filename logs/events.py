@@ -1,7 +1,7 @@
 """Typed events: what the agent did, as plain records the sinks can serialise without knowing the agent.
 
 The agent (grounding, executor, in-situ adapter) creates these and hands them to an ``emit``
-callable; the :class:`~logs.recorder.Recorder` stamps them with the episode, the control step and
+callable; the :class:`~lerobot_policy_recent.logs.recorder.Recorder` stamps them with the episode, the control step and
 the wall clock and fans them out. Every field is a str, number, bool or a list/dict of those, so
 each event is one JSON object (MCAP), one text log line (Rerun) and one parquet row (dataset).
 """

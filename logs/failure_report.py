@@ -12,9 +12,9 @@ from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from logs.layout import LogLayout, log_roots
-from logs.readers import read_table
-from recent_plugin.failures import FailureCategory
+from lerobot_policy_recent.logs.layout import LogLayout, log_roots
+from lerobot_policy_recent.logs.readers import read_table
+from lerobot_policy_recent.recent_plugin.failures import FailureCategory
 
 KINDS = ("rejected spans", "failed segments", "failed episodes")
 

@@ -27,9 +27,9 @@ from google.protobuf.timestamp_pb2 import Timestamp
 from mcap.writer import Writer
 from mcap_protobuf.schema import build_file_descriptor_set
 
-from logs.events import EVENT_TYPES, Stamped, Step, json_schema
-from logs.layout import LogLayout
-from robosuite_envs.observation import SLOT_DIM
+from lerobot_policy_recent.logs.events import EVENT_TYPES, Stamped, Step, json_schema
+from lerobot_policy_recent.logs.layout import LogLayout
+from lerobot_policy_recent.robosuite_envs.observation import SLOT_DIM
 
 LOG_LEVELS = {"debug": Log.DEBUG, "info": Log.INFO, "warning": Log.WARNING, "error": Log.ERROR}
 ACTION_SCHEMA = {

@@ -109,7 +109,7 @@ def dataset_lengths(dataset_dir: Path) -> dict[int, int]:
         return {}
     from lerobot.datasets.lerobot_dataset import LeRobotDatasetMetadata
 
-    from logs.dataset_sink import REPO_ID
+    from lerobot_policy_recent.logs.dataset_sink import REPO_ID
 
     meta = LeRobotDatasetMetadata(REPO_ID, root=dataset_dir)
     return {int(e): int(n) for e, n in zip(meta.episodes["episode_index"], meta.episodes["length"], strict=True)}

@@ -16,9 +16,9 @@ from typing import Protocol
 
 import numpy as np
 
-from logs.events import EpisodeEnded, EpisodeStarted, Event, Stamped, Step
-from logs.layout import LogLayout, episode_number, write_parquet_atomically
-from robosuite_envs.primitives.session import CONTROL_FREQ
+from lerobot_policy_recent.logs.events import EpisodeEnded, EpisodeStarted, Event, Stamped, Step
+from lerobot_policy_recent.logs.layout import LogLayout, episode_number, write_parquet_atomically
+from lerobot_policy_recent.robosuite_envs.primitives.session import CONTROL_FREQ
 
 log = logging.getLogger(__name__)
 
@@ -43,15 +43,15 @@ def make_sinks(layout: LogLayout, names: Sequence[str]) -> list[Sink]:
         raise ValueError(f"unknown log sink(s) {', '.join(unknown)}; choose from {', '.join(SINKS)}")
     sinks: list[Sink] = []
     if "mcap" in names:
-        from logs.mcap_sink import McapSink
+        from lerobot_policy_recent.logs.mcap_sink import McapSink
 
         sinks.append(McapSink(layout))
     if "rerun" in names:
-        from logs.rerun_sink import RerunSink
+        from lerobot_policy_recent.logs.rerun_sink import RerunSink
 
         sinks.append(RerunSink(layout.rrd))
     if "dataset" in names:
-        from logs.dataset_sink import DatasetSink
+        from lerobot_policy_recent.logs.dataset_sink import DatasetSink
 
         sinks.append(DatasetSink(layout))
     return sinks
@@ -143,7 +143,7 @@ class EpisodeLog:
             stamped = self.stamp(result)
             self.recorder._fan_out("end", stamped)
             if not self.recorder.writes_results:  # without the dataset sink, commit the episode here
-                from logs.dataset_sink import result_row
+                from lerobot_policy_recent.logs.dataset_sink import result_row
 
                 write_parquet_atomically(
                     [result_row(stamped, self.started, self.frame_index)], self.recorder.layout.results(self.index)

@@ -1,7 +1,7 @@
 """``recent replay``: rebuild an episode's Rerun recording from the LeRobotDataset and its grounding events.
 
 The frames come from the dataset, the events from ``grounding_events/``; both are fed through the
-same :class:`~logs.rerun_sink.RerunSink` a live run uses, so a replayed recording has the live
+same :class:`~lerobot_policy_recent.logs.rerun_sink.RerunSink` a live run uses, so a replayed recording has the live
 one's blueprint and entity layout (and works for datasets downloaded from the Hub).
 """
 
@@ -13,12 +13,12 @@ from pathlib import Path
 
 import numpy as np
 
-from logs.dataset_sink import CAMERA_KEY, REPO_ID, VIDEO_BACKEND
-from logs.events import EVENT_TYPES, Stamped, Step
-from logs.layout import LogLayout, episode_name
-from logs.readers import read_table
-from logs.rerun_sink import RerunSink
-from logs.verify import rerun_executable
+from lerobot_policy_recent.logs.dataset_sink import CAMERA_KEY, REPO_ID, VIDEO_BACKEND
+from lerobot_policy_recent.logs.events import EVENT_TYPES, Stamped, Step
+from lerobot_policy_recent.logs.layout import LogLayout, episode_name
+from lerobot_policy_recent.logs.readers import read_table
+from lerobot_policy_recent.logs.rerun_sink import RerunSink
+from lerobot_policy_recent.logs.verify import rerun_executable
 
 
 def replay_episode(root: str | Path, episode: int, out: Path) -> Path:

@@ -17,10 +17,10 @@ import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
 
-from logs.events import EpisodeStarted, InfillCall, PatchApplied, Stamped, Step
-from logs.layout import episode_name
-from robosuite_envs.observation import SLOT_DIM
-from robosuite_envs.primitives.session import CONTROL_FREQ
+from lerobot_policy_recent.logs.events import EpisodeStarted, InfillCall, PatchApplied, Stamped, Step
+from lerobot_policy_recent.logs.layout import episode_name
+from lerobot_policy_recent.robosuite_envs.observation import SLOT_DIM
+from lerobot_policy_recent.robosuite_envs.primitives.session import CONTROL_FREQ
 
 BATCH = 64  # steps buffered before they are sent as one column chunk
 _LEVELS = {"debug": rr.TextLogLevel.DEBUG, "info": rr.TextLogLevel.INFO, "warning": rr.TextLogLevel.WARN}

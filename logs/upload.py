@@ -10,8 +10,8 @@ from __future__ import annotations
 import tempfile
 from pathlib import Path
 
-from logs.layout import LogLayout
-from logs.readers import read_table
+from lerobot_policy_recent.logs.layout import LogLayout
+from lerobot_policy_recent.logs.readers import read_table
 
 CARD = """---
 license: apache-2.0
@@ -47,7 +47,7 @@ Replay an episode with its grounding events in Rerun: `recent replay DIR --episo
 
 
 def dataset_card(layout: LogLayout, repo_id: str, recordings: bool) -> str:
-    from robosuite_envs.primitives.session import CONTROL_FREQ
+    from lerobot_policy_recent.robosuite_envs.primitives.session import CONTROL_FREQ
 
     rows = [read_table(layout.results(e))[0] for e in layout.committed()]
     return CARD.format(

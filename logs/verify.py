@@ -16,8 +16,8 @@ import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from logs.layout import LogLayout, episode_number
-from logs.readers import dataset_lengths, read_mcap, read_rrd, read_table, salvage_mcap_records
+from lerobot_policy_recent.logs.layout import LogLayout, episode_number
+from lerobot_policy_recent.logs.readers import dataset_lengths, read_mcap, read_rrd, read_table, salvage_mcap_records
 
 
 @dataclass

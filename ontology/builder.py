@@ -13,9 +13,9 @@ from pathlib import Path
 
 import pyoxigraph as ox
 
-from ontology.mjcf import ArmFacts, GripperFacts, read_arm, read_gripper
-from ontology.skill_code import call_sites
-from ontology.specs import (
+from lerobot_policy_recent.ontology.mjcf import ArmFacts, GripperFacts, read_arm, read_gripper
+from lerobot_policy_recent.ontology.skill_code import call_sites
+from lerobot_policy_recent.ontology.specs import (
     ApiSpec,
     ConditionSpec,
     PrimitiveSpec,
@@ -145,8 +145,8 @@ class Ontology:
 
 
 def default_embodiment_sources() -> list[EmbodimentSource]:
-    from robosuite_envs.embodiments import EMBODIMENTS, SOURCE_EMBODIMENT
-    from robosuite_envs.primitives import api_spec_path
+    from lerobot_policy_recent.robosuite_envs.embodiments import EMBODIMENTS, SOURCE_EMBODIMENT
+    from lerobot_policy_recent.robosuite_envs.primitives import api_spec_path
 
     return [
         EmbodimentSource(e.name, api_spec_path(e.api), e.robot_mjcf, e.gripper_mjcf, source=e.name == SOURCE_EMBODIMENT)

@@ -10,9 +10,9 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass, field
 
-from ontology.builder import Ontology
-from ontology.skill_code import CallSite, CodeSpan, call_sites, position_bindings
-from ontology.specs import PrimitiveSpec
+from lerobot_policy_recent.ontology.builder import Ontology
+from lerobot_policy_recent.ontology.skill_code import CallSite, CodeSpan, call_sites, position_bindings
+from lerobot_policy_recent.ontology.specs import PrimitiveSpec
 
 SPAN_TYPES = ("api_substitution", "parameter_binding", "interface_rewiring", "preparatory_step", "path_tracing")
 

@@ -8,9 +8,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ontology.builder import Ontology
-from ontology.diagnosis import diagnose
-from ontology.query import query
+from lerobot_policy_recent.ontology.builder import Ontology
+from lerobot_policy_recent.ontology.diagnosis import diagnose
+from lerobot_policy_recent.ontology.query import query
 
 COLORS = {"skill": "#4c72b0", "source": "#8c8c8c", "target": "#55a868", "robot": "#dd8452", "gap": "#c44e52"}
 COLUMNS = {"skill": 0.0, "source": 3.0, "target": 7.0, "robot": 10.6, "gap": 10.0}

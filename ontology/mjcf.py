@@ -7,7 +7,7 @@ import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from pathlib import Path
 
-from ontology.specs import SpecError
+from lerobot_policy_recent.ontology.specs import SpecError
 
 
 @dataclass(frozen=True)

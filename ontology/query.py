@@ -10,9 +10,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ontology.builder import RC, Ontology, inst
-from ontology.skill_code import call_sites
-from ontology.specs import PrimitiveSpec
+from lerobot_policy_recent.ontology.builder import RC, Ontology, inst
+from lerobot_policy_recent.ontology.skill_code import call_sites
+from lerobot_policy_recent.ontology.specs import PrimitiveSpec
 
 
 @dataclass(frozen=True)

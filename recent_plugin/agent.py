@@ -13,23 +13,24 @@ from dataclasses import dataclass, field
 from itertools import takewhile
 from pathlib import Path
 
-from logs.events import Emit, EpisodeStarted, ignore
-from ontology.builder import Ontology, build_ontology
-from recent_plugin.baselines import BASELINES
-from recent_plugin.baselines.adapter import BaselineAdapter
-from recent_plugin.baselines.generate import generate_skill
-from recent_plugin.baselines.program_prompt import ProgramContext
-from recent_plugin.executor import Adapter, PlannedSkill, TaskExecutor
-from recent_plugin.grounding.ablations import GROUNDING_MODES
-from recent_plugin.grounding.grounder import GroundedSkill, ground_skill
-from recent_plugin.infillers import Infiller, make_infiller
-from recent_plugin.insitu.adapter import InSituAdapter
-from recent_plugin.insitu.checks import SceneFacts
-from robosuite_envs.embodiments import ROBOT_BASE_XY, get_embodiment
-from robosuite_envs.observation import Observation
-from robosuite_envs.primitives import api_functions
-from robosuite_envs.tasks import TaskSpec, get_task
-from skills.repository import LIBRARY, Skill, serve_skill
+from lerobot_policy_recent.logs.events import Emit, EpisodeStarted, ignore
+from lerobot_policy_recent.ontology.builder import Ontology, build_ontology
+from lerobot_policy_recent.recent_plugin.baselines import BASELINES
+from lerobot_policy_recent.recent_plugin.baselines.adapter import BaselineAdapter
+from lerobot_policy_recent.recent_plugin.baselines.generate import generate_skill
+from lerobot_policy_recent.recent_plugin.baselines.program_prompt import ProgramContext
+from lerobot_policy_recent.recent_plugin.executor import Adapter, PlannedSkill, TaskExecutor
+from lerobot_policy_recent.recent_plugin.grounding.ablations import GROUNDING_MODES
+from lerobot_policy_recent.recent_plugin.grounding.grounder import GroundedSkill, ground_skill
+from lerobot_policy_recent.recent_plugin.infillers import Infiller, make_infiller
+from lerobot_policy_recent.recent_plugin.insitu.adapter import InSituAdapter
+from lerobot_policy_recent.recent_plugin.insitu.checks import SceneFacts
+from lerobot_policy_recent.robosuite_envs.embodiments import ROBOT_BASE_XY, get_embodiment
+from lerobot_policy_recent.robosuite_envs.observation import Observation
+from lerobot_policy_recent.robosuite_envs.primitives import api_functions
+from lerobot_policy_recent.robosuite_envs.suites import get_task
+from lerobot_policy_recent.robosuite_envs.tasks import TaskSpec
+from lerobot_policy_recent.skills.repository import LIBRARY, Skill, serve_skill
 
 log = logging.getLogger(__name__)
 
@@ -242,7 +243,7 @@ def behind_fast_path(infiller: Infiller, s: AgentSettings) -> Infiller:
     """``infiller``, or with ``s.fast_path`` the fast path in front of it (spans the ontology decides: no LM)."""
     if not s.fast_path or infiller.name == "rule":
         return infiller
-    from recent_plugin.infillers.fast_path import FastPathInfiller
+    from lerobot_policy_recent.recent_plugin.infillers.fast_path import FastPathInfiller
 
     return FastPathInfiller(infiller)
 

@@ -7,8 +7,8 @@ from dataclasses import dataclass, field, fields
 from lerobot.configs import NormalizationMode, PreTrainedConfig
 from lerobot.optim import AdamConfig
 
-from recent_plugin.agent import MODES, AgentSettings
-from recent_plugin.infillers import BACKENDS
+from lerobot_policy_recent.recent_plugin.agent import MODES, AgentSettings
+from lerobot_policy_recent.recent_plugin.infillers import BACKENDS
 
 
 @PreTrainedConfig.register_subclass("recent")

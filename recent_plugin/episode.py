@@ -5,15 +5,14 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass, field
 
-from logs.events import EpisodeEnded, SubtaskSucceeded, ignore
-from logs.recorder import Recorder
-from recent_plugin.agent import EpisodeGrounding, RecentAgent
-from recent_plugin.executor import SkillFailure, TaskExecutor
-from recent_plugin.failures import FailureCategory
-from recent_plugin.grounding.grounder import LMCall
-from recent_plugin.insitu.adapter import AdaptationEvent
-from robosuite_envs.gym_env import RecentEnv
-from robosuite_envs.observation import Observation
+from lerobot_policy_recent.logs.events import EpisodeEnded, SubtaskSucceeded, ignore
+from lerobot_policy_recent.logs.recorder import Recorder
+from lerobot_policy_recent.recent_plugin.agent import EpisodeGrounding, RecentAgent
+from lerobot_policy_recent.recent_plugin.executor import SkillFailure, TaskExecutor
+from lerobot_policy_recent.recent_plugin.failures import FailureCategory
+from lerobot_policy_recent.recent_plugin.grounding.attempts import AdaptationEvent, LMCall
+from lerobot_policy_recent.robosuite_envs.gym_env import RecentEnv
+from lerobot_policy_recent.robosuite_envs.observation import Observation
 
 CAMERA_SIZE = 84  # the logged front view, pixels per side
 SETTLE_STEPS = 20  # after the plan ends, let objects come to rest before judging success

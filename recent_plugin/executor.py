@@ -20,14 +20,14 @@ from typing import Protocol
 
 import numpy as np
 
-from logs.events import Emit, SegmentEnded, SegmentFailed, SegmentStarted, ignore
-from ontology.diagnosis import Warning
-from recent_plugin.failures import PRIMITIVE_FAILURE_CATEGORY, FailureCategory
-from recent_plugin.grounding.grounder import GroundedSkill
-from recent_plugin.grounding.validation import SAFE_HELPERS
-from robosuite_envs.observation import Observation
-from robosuite_envs.primitives import PrimitiveFailure, RobotSession, TaskContext
-from robosuite_envs.primitives.control import servo_action
+from lerobot_policy_recent.logs.events import Emit, SegmentEnded, SegmentFailed, SegmentStarted, ignore
+from lerobot_policy_recent.ontology.diagnosis import Warning
+from lerobot_policy_recent.recent_plugin.failures import PRIMITIVE_FAILURE_CATEGORY, FailureCategory
+from lerobot_policy_recent.recent_plugin.grounding.gate import SAFE_HELPERS
+from lerobot_policy_recent.recent_plugin.grounding.grounder import GroundedSkill
+from lerobot_policy_recent.robosuite_envs.observation import Observation
+from lerobot_policy_recent.robosuite_envs.primitives import PrimitiveFailure, RobotSession, TaskContext
+from lerobot_policy_recent.robosuite_envs.primitives.control import servo_action
 
 _SAFE_BUILTINS = {name: getattr(builtins, name) for name in SAFE_HELPERS}
 
@@ -44,7 +44,7 @@ class Segment:
 
 
 class Adapter(Protocol):
-    """In-situ adaptation as the executor sees it (implemented in :mod:`recent_plugin.insitu`)."""
+    """In-situ adaptation as the executor sees it (implemented in :mod:`lerobot_policy_recent.recent_plugin.insitu`)."""
 
     def guard(self, grounded: GroundedSkill, segments: list[Segment]) -> None: ...
 

@@ -17,14 +17,15 @@ import torch
 from lerobot.policies.pretrained import PreTrainedPolicy
 from lerobot.utils.constants import OBS_ENV_STATE, OBS_STATE
 
-from logs.events import ignore
-from logs.recorder import EpisodeLog, Recorder
-from recent_plugin.agent import EpisodeGrounding, RecentAgent
-from recent_plugin.configuration_recent import RecentConfig
-from recent_plugin.episode import crashed_event, episode_result
-from recent_plugin.executor import TaskExecutor
-from robosuite_envs.observation import Observation
-from robosuite_envs.tasks import get_task, parse_task_string
+from lerobot_policy_recent.logs.events import ignore
+from lerobot_policy_recent.logs.recorder import EpisodeLog, Recorder
+from lerobot_policy_recent.recent_plugin.agent import EpisodeGrounding, RecentAgent
+from lerobot_policy_recent.recent_plugin.configuration_recent import RecentConfig
+from lerobot_policy_recent.recent_plugin.episode import crashed_event, episode_result
+from lerobot_policy_recent.recent_plugin.executor import TaskExecutor
+from lerobot_policy_recent.robosuite_envs.observation import Observation
+from lerobot_policy_recent.robosuite_envs.suites import get_task
+from lerobot_policy_recent.robosuite_envs.tasks import parse_task_string
 
 
 @dataclass

@@ -7,7 +7,7 @@ from typing import Any
 from lerobot.processor import PolicyAction, PolicyProcessorPipeline
 from lerobot.processor.factory import make_default_policy_processor_steps, make_policy_processor_pipelines
 
-from recent_plugin.configuration_recent import RecentConfig
+from lerobot_policy_recent.recent_plugin.configuration_recent import RecentConfig
 
 
 def make_recent_pre_post_processors(

@@ -1,7 +1,7 @@
 """A gymnasium env around :class:`RecentTabletopEnv`, in LeRobot's observation conventions.
 
 Observations: ``agent_pos`` (8) and ``environment_state`` (object slots), see
-:mod:`robosuite_envs.observation`, as the robot senses them (with the ``sensing_noise``
+:mod:`lerobot_policy_recent.robosuite_envs.observation`, as the robot senses them (with the ``sensing_noise``
 variation, noisy). ``info["is_success"]`` is true once every subtask of the plan succeeded (in
 order), ``info["gc"]`` is the fraction that did; the reward is ``gc``. An episode terminates on
 success and truncates at ``max_episode_steps``.
@@ -13,11 +13,12 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from robosuite_envs.embodiments import get_embodiment
-from robosuite_envs.observation import ACTION_DIM, AGENT_POS_DIM, ENV_STATE_DIM, MAX_OBJECTS
-from robosuite_envs.primitives.session import CONTROL_FREQ
-from robosuite_envs.tasks import get_task, task_string
-from robosuite_envs.variations import parse_variations
+from lerobot_policy_recent.robosuite_envs.embodiments import get_embodiment
+from lerobot_policy_recent.robosuite_envs.observation import ACTION_DIM, AGENT_POS_DIM, ENV_STATE_DIM, MAX_OBJECTS
+from lerobot_policy_recent.robosuite_envs.primitives.session import CONTROL_FREQ
+from lerobot_policy_recent.robosuite_envs.suites import get_task
+from lerobot_policy_recent.robosuite_envs.tasks import task_string
+from lerobot_policy_recent.robosuite_envs.variations import parse_variations
 
 
 class RecentEnv(gym.Env):
@@ -61,7 +62,7 @@ class RecentEnv(gym.Env):
     def _make(self, seed: int | None):
         from robosuite.controllers import load_composite_controller_config
 
-        from robosuite_envs.tabletop import RecentTabletopEnv
+        from lerobot_policy_recent.robosuite_envs.tabletop import RecentTabletopEnv
 
         return RecentTabletopEnv(
             self.spec_task,

@@ -9,10 +9,10 @@ from lerobot.configs import FeatureType, PolicyFeature
 from lerobot.envs.configs import EnvConfig
 from lerobot.utils.constants import ACTION, OBS_ENV_STATE, OBS_STATE
 
-from robosuite_envs.observation import ACTION_DIM, AGENT_POS_DIM, ENV_STATE_DIM
-from robosuite_envs.primitives.session import CONTROL_FREQ
-from robosuite_envs.suites import SUITES
-from robosuite_envs.variations import parse_variations
+from lerobot_policy_recent.robosuite_envs.observation import ACTION_DIM, AGENT_POS_DIM, ENV_STATE_DIM
+from lerobot_policy_recent.robosuite_envs.primitives.session import CONTROL_FREQ
+from lerobot_policy_recent.robosuite_envs.suites import SUITES
+from lerobot_policy_recent.robosuite_envs.variations import parse_variations
 
 
 @EnvConfig.register_subclass("recent")
@@ -41,8 +41,8 @@ class RecentEnvConfig(EnvConfig):
     )
 
     def __post_init__(self):
-        from robosuite_envs.embodiments import get_embodiment
-        from robosuite_envs.tasks import get_task
+        from lerobot_policy_recent.robosuite_envs.embodiments import get_embodiment
+        from lerobot_policy_recent.robosuite_envs.suites import get_task
 
         for task_id in self.task_ids:
             get_task(task_id)  # unknown names fail here, listing the valid ones
@@ -68,7 +68,7 @@ class RecentEnvConfig(EnvConfig):
         }
 
     def create_envs(self, n_envs: int, use_async_envs: bool = False) -> dict[str, dict[int, gym.vector.VectorEnv]]:
-        from robosuite_envs.gym_env import RecentEnv
+        from lerobot_policy_recent.robosuite_envs.gym_env import RecentEnv
 
         env_cls = gym.vector.AsyncVectorEnv if use_async_envs and n_envs > 1 else gym.vector.SyncVectorEnv
         extra = {"context": "forkserver"} if env_cls is gym.vector.AsyncVectorEnv else {}

@@ -1,6 +1,6 @@
 """The subtask library: what each subtask means, as a success predicate over an observation.
 
-Predicates read only the :class:`~robosuite_envs.observation.Observation` (true object poses,
+Predicates read only the :class:`~lerobot_policy_recent.robosuite_envs.observation.Observation` (true object poses,
 grasp flags, articulation state) and the task's object sizes, so the env can latch per-subtask
 success for goal-conditioned success (GC) and anyone holding a recorded observation can recompute it.
 Families and categories mirror the paper's two evaluation suites.
@@ -13,8 +13,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from robosuite_envs.observation import ObjectState, Observation
-from robosuite_envs.tasks import TaskSpec
+from lerobot_policy_recent.robosuite_envs.observation import ObjectState, Observation
+from lerobot_policy_recent.robosuite_envs.tasks import TaskSpec
 
 TABLE_Z = 0.8  # world height of the table top (robosuite TableArena offset used by the env)
 

@@ -7,8 +7,10 @@ subtasks, each bound to the reference skill of the same name. Task ids are ``<su
 
 from __future__ import annotations
 
-from robosuite_envs.tasks import ObjectSpec, PlanStep, TaskSpec
-from robosuite_envs.variations import OBSTACLE
+import functools
+
+from lerobot_policy_recent.robosuite_envs.tasks import ObjectSpec, PlanStep, TaskSpec
+from lerobot_policy_recent.robosuite_envs.variations import OBSTACLE
 
 SEEDS = (0, 1, 42, 123, 2024)  # the paper's evaluation seeds
 STEPS_PER_SUBTASK = 400
@@ -180,3 +182,16 @@ def validation_task(subtask: str) -> TaskSpec:
             if [step.subtask for step in spec.plan] == [subtask]:
                 return spec
     raise KeyError(f"no single-subtask task for {subtask!r} in the suites")
+
+
+@functools.cache
+def tasks() -> dict[str, TaskSpec]:
+    """Every task id → spec: ``cube_in_bin`` and the suites' ``<suite>/<task>`` ids."""
+    return {task.task_id: task for task in all_tasks()}
+
+
+def get_task(task_id: str) -> TaskSpec:
+    try:
+        return tasks()[task_id]
+    except KeyError:
+        raise KeyError(f"unknown task {task_id!r}; known tasks: {', '.join(tasks())}") from None

@@ -1,8 +1,8 @@
-"""A robosuite manipulation environment built from a :class:`~robosuite_envs.tasks.TaskSpec`.
+"""A robosuite manipulation environment built from a :class:`~lerobot_policy_recent.robosuite_envs.tasks.TaskSpec`.
 
 Follows robosuite's layering: a ``ManipulationEnv`` whose ``_load_model`` composes a
 ``TableArena``, the robot (with the embodiment's gripper) and the task's objects
-(:mod:`robosuite_envs.objects`). Per-subtask success is latched in plan order every step, so
+(:mod:`lerobot_policy_recent.robosuite_envs.objects`). Per-subtask success is latched in plan order every step, so
 goal-conditioned success (GC) survives later subtasks that change the scene again.
 """
 
@@ -18,12 +18,20 @@ from robosuite.models.tasks import ManipulationTask
 from robosuite.utils.mjcf_utils import array_to_string
 from robosuite.utils.transform_utils import convert_quat, mat2quat
 
-from robosuite_envs.grippers import SuctionGripper  # also registers our gripper models with robosuite
-from robosuite_envs.objects import get_kind
-from robosuite_envs.observation import ObjectState, Observation
-from robosuite_envs.subtasks import TABLE_Z, get_subtask
-from robosuite_envs.tasks import ObjectSpec, TaskSpec
-from robosuite_envs.variations import FAR_TARGET_XY, OBSTACLE, VariationPlan, manipulated_object, plan_variations
+from lerobot_policy_recent.robosuite_envs.grippers import (
+    SuctionGripper,  # also registers our gripper models with robosuite
+)
+from lerobot_policy_recent.robosuite_envs.objects import get_kind
+from lerobot_policy_recent.robosuite_envs.observation import ObjectState, Observation
+from lerobot_policy_recent.robosuite_envs.subtasks import TABLE_Z, get_subtask
+from lerobot_policy_recent.robosuite_envs.tasks import ObjectSpec, TaskSpec
+from lerobot_policy_recent.robosuite_envs.variations import (
+    FAR_TARGET_XY,
+    OBSTACLE,
+    VariationPlan,
+    manipulated_object,
+    plan_variations,
+)
 
 TABLE_SIZE = (0.8, 0.8, 0.05)
 TABLE_OFFSET = np.array((0.0, 0.0, TABLE_Z))

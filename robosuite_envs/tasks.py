@@ -1,16 +1,15 @@
 """Task specifications: objects in the scene, the instruction, and the plan of skills.
 
 A task is pure data so the policy (in another process than the env) can decode observations
-and pick skills from the task id alone. The suites' tasks live in :mod:`robosuite_envs.suites`.
+and pick skills from the task id alone. The suites' tasks live in :mod:`lerobot_policy_recent.robosuite_envs.suites`.
 """
 
 from __future__ import annotations
 
-import functools
 import re
 from dataclasses import dataclass, field
 
-from robosuite_envs.objects import get_kind
+from lerobot_policy_recent.robosuite_envs.objects import get_kind
 
 
 @dataclass(frozen=True)
@@ -61,21 +60,6 @@ class TaskSpec:
 
     def subtasks(self) -> list[str]:
         return [step.subtask for step in self.plan]
-
-
-@functools.cache
-def tasks() -> dict[str, TaskSpec]:
-    """Every task id → spec: ``cube_in_bin`` and the suites' ``<suite>/<task>`` ids."""
-    from robosuite_envs.suites import all_tasks
-
-    return {task.task_id: task for task in all_tasks()}
-
-
-def get_task(task_id: str) -> TaskSpec:
-    try:
-        return tasks()[task_id]
-    except KeyError:
-        raise KeyError(f"unknown task {task_id!r}; known tasks: {', '.join(tasks())}") from None
 
 
 # The task id and robot travel to the policy inside LeRobot's `task` string.

@@ -1,7 +1,7 @@
 """Environmental variations: switchable, seeded changes to the world that a skill must cope with.
 
 :func:`plan_variations` decides *what* changes and *when* from the task and the episode's RNG;
-the env (:mod:`robosuite_envs.tabletop`) applies the plan to the simulation.
+the env (:mod:`lerobot_policy_recent.robosuite_envs.tabletop`) applies the plan to the simulation.
 """
 
 from __future__ import annotations
@@ -10,8 +10,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from robosuite_envs.objects import get_kind
-from robosuite_envs.tasks import TaskSpec
+from lerobot_policy_recent.robosuite_envs.objects import get_kind
+from lerobot_policy_recent.robosuite_envs.tasks import TaskSpec
 
 VARIATIONS: dict[str, str] = {
     "pose_perturbation": "the manipulated object is displaced 4-6 cm after planning, before the grasp",

@@ -11,8 +11,8 @@ import sys
 from dataclasses import replace
 from pathlib import Path
 
-from recent_plugin.evaluation.methods import METHODS, parse_methods
-from robosuite_envs.suites import SEEDS, SUITES
+from lerobot_policy_recent.recent_plugin.evaluation.methods import METHODS, parse_methods
+from lerobot_policy_recent.robosuite_envs.suites import SEEDS, SUITES
 
 
 def register(sub) -> None:
@@ -44,7 +44,7 @@ def register(sub) -> None:
     )
     parser.add_argument("--no-log", action="store_true", help="no per-episode MCAP/Rerun/dataset logs")
     parser.add_argument("--log-sinks", default="mcap,rerun,dataset", help="sinks of the per-episode logs")
-    from scripts.common import add_lm_arguments
+    from lerobot_policy_recent.scripts.common import add_lm_arguments
 
     add_lm_arguments(parser, with_method=False)
     parser.set_defaults(handler=_run)
@@ -74,9 +74,16 @@ def _csv(text: str) -> tuple[str, ...]:
 def _run(args) -> int:
     from tqdm import tqdm
 
-    from recent_plugin.evaluation.report import render_report, results_document
-    from recent_plugin.evaluation.runner import BenchConfig, load_records, machine, pending, run_bench, write_json
-    from scripts.common import settings_from_args
+    from lerobot_policy_recent.recent_plugin.evaluation.report import render_report, results_document
+    from lerobot_policy_recent.recent_plugin.evaluation.runner import (
+        BenchConfig,
+        load_records,
+        machine,
+        pending,
+        run_bench,
+        write_json,
+    )
+    from lerobot_policy_recent.scripts.common import settings_from_args
 
     suites = _csv(args.suite)
     unknown = [s for s in suites if s not in SUITES]
@@ -161,7 +168,7 @@ def command_line(config) -> str:
 
 
 def _report(args) -> int:
-    from recent_plugin.evaluation.report import render_report
+    from lerobot_policy_recent.recent_plugin.evaluation.report import render_report
 
     dirs = [Path(d) for d in args.dirs]
     path = render_report(dirs, Path(args.report_out) if args.report_out else dirs[0])
@@ -171,7 +178,7 @@ def _report(args) -> int:
 
 
 def _compare(args) -> int:
-    from recent_plugin.evaluation.compare import compare_dirs
+    from lerobot_policy_recent.recent_plugin.evaluation.compare import compare_dirs
 
     comparisons, text = compare_dirs(Path(args.reference), Path(args.rerun))
     print(text)

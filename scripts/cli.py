@@ -19,7 +19,16 @@ import argparse
 import logging
 import sys
 
-from scripts import bench_cmd, envs_cmd, episode_cmd, ground_cmd, logs_cmd, model_cmd, ontology_cmd, skills_cmd
+from lerobot_policy_recent.scripts import (
+    bench_cmd,
+    envs_cmd,
+    episode_cmd,
+    ground_cmd,
+    logs_cmd,
+    model_cmd,
+    ontology_cmd,
+    skills_cmd,
+)
 
 COMMANDS = (episode_cmd, ground_cmd, bench_cmd, envs_cmd, model_cmd, ontology_cmd, skills_cmd, logs_cmd)
 

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import argparse
 
-from recent_plugin.agent import MODES, AgentSettings, RecentAgent
-from recent_plugin.infillers import BACKENDS
-from recent_plugin.models.registry import DEFAULT_MODEL
+from lerobot_policy_recent.recent_plugin.agent import MODES, AgentSettings, RecentAgent
+from lerobot_policy_recent.recent_plugin.infillers import BACKENDS
+from lerobot_policy_recent.recent_plugin.models.registry import DEFAULT_MODEL
 
 
 def add_lm_arguments(parser: argparse.ArgumentParser, *, with_method: bool = True) -> None:

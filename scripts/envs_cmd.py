@@ -4,12 +4,11 @@ from __future__ import annotations
 
 import json
 
-from robosuite_envs.embodiments import EMBODIMENTS
-from robosuite_envs.primitives import api_functions
-from robosuite_envs.subtasks import SUBTASKS, get_subtask
-from robosuite_envs.suites import SUITES
-from robosuite_envs.tasks import get_task
-from robosuite_envs.variations import ON, VARIATIONS
+from lerobot_policy_recent.robosuite_envs.embodiments import EMBODIMENTS
+from lerobot_policy_recent.robosuite_envs.primitives import api_functions
+from lerobot_policy_recent.robosuite_envs.subtasks import SUBTASKS, get_subtask
+from lerobot_policy_recent.robosuite_envs.suites import SUITES, get_task
+from lerobot_policy_recent.robosuite_envs.variations import ON, VARIATIONS
 
 
 def register(sub) -> None:

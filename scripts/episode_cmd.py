@@ -5,10 +5,10 @@ from __future__ import annotations
 import json
 import sys
 
-from recent_plugin.episode import run_episode
-from scripts.common import add_lm_arguments, agent_from_args
-from scripts.ground_cmd import grounding_summary, print_grounding
-from scripts.logs_cmd import add_log_arguments, recorder_from_args
+from lerobot_policy_recent.recent_plugin.episode import run_episode
+from lerobot_policy_recent.scripts.common import add_lm_arguments, agent_from_args
+from lerobot_policy_recent.scripts.ground_cmd import grounding_summary, print_grounding
+from lerobot_policy_recent.scripts.logs_cmd import add_log_arguments, recorder_from_args
 
 
 def register(sub) -> None:

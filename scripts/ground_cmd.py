@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import json
 
-from scripts.common import add_lm_arguments, agent_from_args
+from lerobot_policy_recent.scripts.common import add_lm_arguments, agent_from_args
 
 
 def register(sub) -> None:

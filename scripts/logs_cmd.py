@@ -7,7 +7,7 @@ import json
 import sys
 from pathlib import Path
 
-from logs.recorder import SINKS
+from lerobot_policy_recent.logs.recorder import SINKS
 
 DEFAULT_LOG_DIR = "outputs/recent_logs"
 
@@ -26,7 +26,7 @@ def add_log_arguments(parser: argparse.ArgumentParser) -> None:
 def recorder_from_args(args: argparse.Namespace):
     if args.no_log:
         return None
-    from logs.recorder import Recorder
+    from lerobot_policy_recent.logs.recorder import Recorder
 
     return Recorder(args.log_dir, [s.strip() for s in args.log_sinks.split(",") if s.strip()])
 
@@ -65,7 +65,7 @@ def register(sub) -> None:
 
 
 def _verify(args) -> int:
-    from logs.verify import recover, verify
+    from lerobot_policy_recent.logs.verify import recover, verify
 
     recovered = recover(args.dir) if args.recover else []
     report = verify(args.dir)
@@ -103,7 +103,7 @@ def _verify(args) -> int:
 
 
 def _failures(args) -> int:
-    from logs.failure_report import failure_table, plot_failures
+    from lerobot_policy_recent.logs.failure_report import failure_table, plot_failures
 
     table = failure_table(args.dirs)
     print(table.markdown())
@@ -113,7 +113,7 @@ def _failures(args) -> int:
 
 
 def _replay(args) -> int:
-    from logs.replay import default_output, open_viewer, replay_episode
+    from lerobot_policy_recent.logs.replay import default_output, open_viewer, replay_episode
 
     path = Path(args.path)
     if path.is_dir():
@@ -130,7 +130,7 @@ def _replay(args) -> int:
 
 
 def _upload(args) -> int:
-    from logs.upload import upload
+    from lerobot_policy_recent.logs.upload import upload
 
     url = upload(args.dir, args.repo_id, private=args.private, recordings=args.with_recordings)
     print(f"uploaded {args.dir} to {url}", file=sys.stdout)

@@ -5,8 +5,8 @@ from __future__ import annotations
 import json
 import sys
 
-from recent_plugin.models import MODELS, ensure_model, fetch_model, model_path
-from recent_plugin.models.registry import DEFAULT_MODEL
+from lerobot_policy_recent.recent_plugin.models import MODELS, ensure_model, fetch_model, model_path
+from lerobot_policy_recent.recent_plugin.models.registry import DEFAULT_MODEL
 
 
 def register(sub) -> None:
@@ -81,7 +81,7 @@ def _path(args) -> int:
 
 
 def _check(args) -> int:
-    from recent_plugin.infillers.llama_check import check_lm
+    from lerobot_policy_recent.recent_plugin.infillers.llama_check import check_lm
 
     result = check_lm(str(ensure_model(args.name, progress=False)), n_threads=args.threads)
     if args.json:

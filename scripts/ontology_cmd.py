@@ -5,11 +5,11 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from ontology.builder import SkillSource, build_ontology
-from ontology.diagnosis import diagnose
-from ontology.instance_graph import draw_instance_graph
-from ontology.query import query
-from skills.repository import list_skills, load_skill
+from lerobot_policy_recent.ontology.builder import SkillSource, build_ontology
+from lerobot_policy_recent.ontology.diagnosis import diagnose
+from lerobot_policy_recent.ontology.instance_graph import draw_instance_graph
+from lerobot_policy_recent.ontology.query import query
+from lerobot_policy_recent.skills.repository import list_skills, load_skill
 
 
 def register(sub) -> None:

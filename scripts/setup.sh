@@ -44,7 +44,7 @@ fi
 
 # A .venv made before the portable build keeps its llama-cpp-python (same version, so uv leaves it):
 # one built for the CPU of whatever host made it. Replace it with the wheel of run-time variants.
-if ! .venv/bin/python -c 'import sys; from recent_plugin.infillers.llama_runtime import variant_libraries as v; sys.exit(not v())' 2>/dev/null; then
+if ! .venv/bin/python -c 'import sys; from lerobot_policy_recent.recent_plugin.infillers.llama_runtime import variant_libraries as v; sys.exit(not v())' 2>/dev/null; then
   log "replacing a llama-cpp-python built for one CPU with the portable build"
   "$PYTHON" -m uv sync --locked --python "$PYTHON" --reinstall-package llama-cpp-python
 fi

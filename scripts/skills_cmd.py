@@ -6,9 +6,16 @@ import json
 import os
 from pathlib import Path
 
-from robosuite_envs.suites import SEEDS
-from skills.repository import LIBRARY, derived_capabilities, list_skills, load_skill, source_call_sites
-from skills.validation import load_record, save_record, validate
+from lerobot_policy_recent.recent_plugin.authoring.sim_validation import validate
+from lerobot_policy_recent.robosuite_envs.suites import SEEDS
+from lerobot_policy_recent.skills.records import load_record, save_record
+from lerobot_policy_recent.skills.repository import (
+    LIBRARY,
+    derived_capabilities,
+    list_skills,
+    load_skill,
+    source_call_sites,
+)
 
 
 def register(sub) -> None:
@@ -43,7 +50,7 @@ def _row(name: str) -> dict:
     return {
         "name": skill.name,
         "subtask": skill.subtask,
-        "validated": bool(record and record.matches(skill)),
+        "validated": bool(record and record.matches(skill.code_sha256)),
         "code_sha256": skill.code_sha256,
         "seeds_passed": sorted(record.passed) if record and record.code_sha256 == skill.code_sha256 else [],
     }
@@ -108,7 +115,7 @@ def _validate(args) -> int:
 def _generate(args) -> int:
     from tqdm import tqdm
 
-    from skills.generation import generate_skill
+    from lerobot_policy_recent.recent_plugin.authoring.generation import generate_skill
 
     with tqdm(total=len(SEEDS), unit="episode", desc=f"validate generated {args.subtask}") as bar:
         result = generate_skill(

@@ -12,12 +12,11 @@ from pathlib import Path
 
 import yaml
 
-from ontology.skill_code import CallSite, call_sites, parse_skill
-from ontology.specs import ApiSpec, load_api_spec
-from robosuite_envs.embodiments import get_embodiment
-from robosuite_envs.primitives import api_spec_path
-
-LIBRARY = Path(__file__).with_name("library")
+from lerobot_policy_recent.ontology.skill_code import CallSite, call_sites, parse_skill
+from lerobot_policy_recent.ontology.specs import ApiSpec, load_api_spec
+from lerobot_policy_recent.robosuite_envs.embodiments import get_embodiment
+from lerobot_policy_recent.robosuite_envs.primitives import api_spec_path
+from lerobot_policy_recent.skills.records import LIBRARY, load_record, records_dir
 
 
 class SkillNotFoundError(KeyError):
@@ -44,11 +43,6 @@ class Skill:
     @property
     def code_sha256(self) -> str:
         return hashlib.sha256(self.code.encode()).hexdigest()
-
-
-def records_dir(library: Path = LIBRARY) -> Path:
-    """Validation records travel with their skills: ``<library>/validation/<skill>.json``."""
-    return library / "validation"
 
 
 def list_skills(library: Path = LIBRARY) -> list[str]:
@@ -109,12 +103,10 @@ def serve_skill(name: str, library: Path = LIBRARY, *, require_validated: bool =
 
     ``require_validated=False`` is the paper's "w/o offline validation" ablation.
     """
-    from skills.validation import load_record
-
     skill = load_skill(name, library)
     if require_validated:
         record = load_record(name, records_dir(library))
-        if record is None or not record.matches(skill):
+        if record is None or not record.matches(skill.code_sha256):
             why = (
                 "it was never validated"
                 if record is None

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-import robosuite_envs  # noqa: F401  (headless GL and quiet robosuite before anything imports it)
+import lerobot_policy_recent.robosuite_envs  # noqa: F401  (headless GL and quiet robosuite before anything imports it)
 
 
 def pytest_addoption(parser):
@@ -22,14 +22,14 @@ def pytest_collection_modifyitems(config, items):
 
 @pytest.fixture(scope="session")
 def ontology():
-    from ontology.builder import build_ontology
+    from lerobot_policy_recent.ontology.builder import build_ontology
 
     return build_ontology()
 
 
 @pytest.fixture(scope="session")
 def put_in_bin():
-    from skills.repository import load_skill
+    from lerobot_policy_recent.skills.repository import load_skill
 
     return load_skill("put_in_bin")
 
@@ -37,8 +37,8 @@ def put_in_bin():
 @pytest.fixture(scope="session")
 def llama_infiller():
     """The real Qwen2.5-Coder-1.5B GGUF on llama.cpp (provisioned by the README's setup)."""
-    from recent_plugin.infillers import make_infiller
-    from recent_plugin.models import model_path
+    from lerobot_policy_recent.recent_plugin.infillers import make_infiller
+    from lerobot_policy_recent.recent_plugin.models import model_path
 
     if not model_path("qwen2.5-coder-1.5b").is_file():
         pytest.fail(
@@ -50,8 +50,8 @@ def llama_infiller():
 @pytest.fixture(scope="session")
 def llama_session():
     """The same model in this process, for tests that look inside the decoder (the agent's runs in a worker)."""
-    from recent_plugin.infillers.llamacpp import LlamaSession
-    from recent_plugin.models import model_path
+    from lerobot_policy_recent.recent_plugin.infillers.llama_session import LlamaSession
+    from lerobot_policy_recent.recent_plugin.models import model_path
 
     path = model_path("qwen2.5-coder-1.5b")
     if not path.is_file():
@@ -61,7 +61,7 @@ def llama_session():
 
 @pytest.fixture(scope="session")
 def rule_infiller():
-    from recent_plugin.infillers import make_infiller
+    from lerobot_policy_recent.recent_plugin.infillers import make_infiller
 
     return make_infiller("rule")
 
@@ -69,6 +69,6 @@ def rule_infiller():
 @pytest.fixture(scope="session")
 def panda_agent(ontology, rule_infiller):
     """Runs skills without an LM: on Panda they run unmodified, elsewhere the rule backend grounds them."""
-    from recent_plugin.agent import AgentSettings, RecentAgent
+    from lerobot_policy_recent.recent_plugin.agent import AgentSettings, RecentAgent
 
     return RecentAgent(AgentSettings(backend="rule"), infiller=rule_infiller, ontology=ontology)

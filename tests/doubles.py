@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from recent_plugin.infillers.base import Completion
+from lerobot_policy_recent.recent_plugin.infillers.base import Completion
 
 
 @dataclass

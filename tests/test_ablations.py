@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import pytest
 
-from recent_plugin.agent import AgentSettings, RecentAgent
-from recent_plugin.episode import run_episode
-from recent_plugin.grounding.ablations import body_span, name_similarity_conflicts
-from recent_plugin.grounding.grounder import ground_skill
-from recent_plugin.infillers.rule import RuleInfiller
+from lerobot_policy_recent.recent_plugin.agent import AgentSettings, RecentAgent
+from lerobot_policy_recent.recent_plugin.episode import run_episode
+from lerobot_policy_recent.recent_plugin.grounding.ablations import body_span, name_similarity_conflicts
+from lerobot_policy_recent.recent_plugin.grounding.grounder import ground_skill
+from lerobot_policy_recent.recent_plugin.infillers.rule import RuleInfiller
 
 
 @pytest.mark.parametrize(

@@ -9,11 +9,11 @@ from __future__ import annotations
 import pytest
 from doubles import ScriptedInfiller
 
-from recent_plugin.agent import AgentSettings, RecentAgent
-from recent_plugin.baselines.program_prompt import PROGRAM, STATEMENT
-from recent_plugin.episode import run_episode
-from recent_plugin.grounding.fim_prompt import build_prompt
-from robosuite_envs.tasks import get_task
+from lerobot_policy_recent.recent_plugin.agent import AgentSettings, RecentAgent
+from lerobot_policy_recent.recent_plugin.baselines.program_prompt import PROGRAM, STATEMENT
+from lerobot_policy_recent.recent_plugin.episode import run_episode
+from lerobot_policy_recent.recent_plugin.refactoring.fim_prompt import build_prompt
+from lerobot_policy_recent.robosuite_envs.suites import get_task
 
 UR5E_BODY = """obj_pos = task.get_object_position(obj)
     bin_pos = task.get_object_position(receptacle)

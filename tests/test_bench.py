@@ -6,10 +6,10 @@ import json
 
 import pytest
 
-from recent_plugin.evaluation.methods import parse_methods
-from recent_plugin.evaluation.metrics import seed_metrics, summarize
-from recent_plugin.evaluation.runner import load_records
-from scripts.cli import main
+from lerobot_policy_recent.recent_plugin.evaluation.methods import parse_methods
+from lerobot_policy_recent.recent_plugin.evaluation.metrics import seed_metrics, summarize
+from lerobot_policy_recent.recent_plugin.evaluation.runner import load_records
+from lerobot_policy_recent.scripts.cli import main
 
 RUN = [
     "bench",
@@ -134,7 +134,7 @@ def test_parallel_workers_write_the_same_records(tmp_path):
 
 def test_the_headline_targets_are_checked_for_recent_and_its_fast_path():
     """The fast path renders what a check or the ontology decides: no tokens, so its GO against cap's reads as 0."""
-    from recent_plugin.evaluation.report import target_checks
+    from lerobot_policy_recent.recent_plugin.evaluation.report import target_checks
 
     def record(method: str, go: float, success: bool, ei: int, it: float, patches: int | None = None) -> dict:
         r = {"method": method, "suite": "kinematic", "seed": 0, "success": success, "go": go, "ei": ei, "it": it}

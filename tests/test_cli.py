@@ -6,7 +6,7 @@ import json
 
 import pytest
 
-from scripts.cli import main
+from lerobot_policy_recent.scripts.cli import main
 
 
 @pytest.mark.parametrize(
@@ -41,7 +41,7 @@ def test_ground_json_has_the_documented_keys(capsys):
 def test_a_skill_that_cannot_be_grounded_says_so_not_that_it_is_compatible(capsys, monkeypatch):
     """Robotiq85 has no push (the paper's API moves and grips only); without tracing its path, closing a
     drawer does not ground."""
-    from ontology.builder import Ontology
+    from lerobot_policy_recent.ontology.builder import Ontology
 
     monkeypatch.setattr(Ontology, "path_tracers", lambda self, source, primitive, target: [])
     assert main(["ground", "--skill", "close_drawer", "--robot", "Robotiq85", "--backend", "rule"]) == 1

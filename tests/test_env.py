@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from robosuite_envs.embodiments import ROBOT_BASE_XY
-from robosuite_envs.gym_env import RecentEnv
-from robosuite_envs.observation import ENV_STATE_DIM
-from robosuite_envs.tasks import parse_task_string
+from lerobot_policy_recent.robosuite_envs.embodiments import ROBOT_BASE_XY
+from lerobot_policy_recent.robosuite_envs.gym_env import RecentEnv
+from lerobot_policy_recent.robosuite_envs.observation import ENV_STATE_DIM
+from lerobot_policy_recent.robosuite_envs.tasks import parse_task_string
 
 
 @pytest.fixture(scope="module")

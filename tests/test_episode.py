@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import pytest
 
-from recent_plugin.agent import AgentSettings, RecentAgent
-from recent_plugin.episode import run_episode
+from lerobot_policy_recent.recent_plugin.agent import AgentSettings, RecentAgent
+from lerobot_policy_recent.recent_plugin.episode import run_episode
 
 
 def test_panda_runs_the_reference_skill_unmodified(ontology, rule_infiller):
@@ -57,10 +57,10 @@ def test_sawyer_reaches_the_whole_table(ontology):
     """Its base joint turns (no mount contact locks it): the hand reaches both halves of the table."""
     import numpy as np
 
-    from robosuite_envs.gym_env import RecentEnv
-    from robosuite_envs.observation import Observation
-    from robosuite_envs.primitives.control import servo_action
-    from robosuite_envs.primitives.session import RobotSession
+    from lerobot_policy_recent.robosuite_envs.gym_env import RecentEnv
+    from lerobot_policy_recent.robosuite_envs.observation import Observation
+    from lerobot_policy_recent.robosuite_envs.primitives.control import servo_action
+    from lerobot_policy_recent.robosuite_envs.primitives.session import RobotSession
 
     env = RecentEnv(task="cube_in_bin", robot="Sawyer")
     try:

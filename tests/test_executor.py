@@ -5,11 +5,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from recent_plugin.executor import SkillExecutor, split_segments
-from recent_plugin.grounding.grounder import ground_skill
-from robosuite_envs.observation import ObjectState, Observation
-from robosuite_envs.primitives import api_functions
-from robosuite_envs.primitives.session import RobotSession
+from lerobot_policy_recent.recent_plugin.executor import SkillExecutor, split_segments
+from lerobot_policy_recent.recent_plugin.grounding.grounder import ground_skill
+from lerobot_policy_recent.robosuite_envs.observation import ObjectState, Observation
+from lerobot_policy_recent.robosuite_envs.primitives import api_functions
+from lerobot_policy_recent.robosuite_envs.primitives.session import RobotSession
 
 
 def _obs(eef=(0.0, 0.0, 1.0), cube=(0.0, -0.1, 0.82)) -> Observation:
@@ -62,7 +62,7 @@ def test_only_upcoming_segments_can_be_patched(grounded):
 def test_unvalidated_code_is_never_executed(grounded):
     from dataclasses import replace
 
-    from recent_plugin.grounding.validation import Verdict
+    from lerobot_policy_recent.recent_plugin.grounding.gate import Verdict
 
     with pytest.raises(ValueError, match="refusing to execute"):
         SkillExecutor(

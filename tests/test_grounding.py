@@ -5,10 +5,10 @@ from __future__ import annotations
 import pytest
 from doubles import ScriptedInfiller
 
-from ontology.diagnosis import diagnose
-from recent_plugin.grounding.fim_prompt import build_prompt
-from recent_plugin.grounding.grounder import ground_skill
-from recent_plugin.grounding.units import unit_from_conflict
+from lerobot_policy_recent.ontology.diagnosis import diagnose
+from lerobot_policy_recent.recent_plugin.grounding.grounder import ground_skill
+from lerobot_policy_recent.recent_plugin.refactoring.fim_prompt import build_prompt
+from lerobot_policy_recent.recent_plugin.refactoring.units import unit_from_conflict
 
 RULE_DIFF_LINES = {
     "-    open_gripper(env, task)",
@@ -44,7 +44,7 @@ def test_prompt_renders_hints_as_comments_before_the_span(ontology, put_in_bin):
 
 def test_a_call_written_over_several_lines_is_one_comment_line_and_a_one_line_span(ontology):
     """wipe_area's push spans seven lines: its "Was:" hint once left six of them as bare code in the prompt."""
-    from skills.repository import load_skill
+    from lerobot_policy_recent.skills.repository import load_skill
 
     wipe = load_skill("wipe_area")
     conflict = diagnose(ontology, wipe.name, wipe.code, "Sawyer").conflicts[0]
@@ -79,7 +79,7 @@ def test_a_retry_is_held_to_the_ontology_call_with_only_the_placeholders_free(on
 def test_a_traced_push_is_one_move_per_waypoint_and_its_retry_is_held_to_all_of_them(ontology, rule_infiller):
     from llama_cpp import LlamaGrammar
 
-    from skills.repository import load_skill
+    from lerobot_policy_recent.skills.repository import load_skill
 
     wipe, close = load_skill("wipe_area"), load_skill("close_drawer")
     grounded = ground_skill(wipe, "Suction", ontology, rule_infiller)  # the push's positions are list literals
@@ -191,14 +191,14 @@ def test_real_lm_grounds_put_in_bin(ontology, put_in_bin, llama_infiller, robot)
 @pytest.mark.slow
 def test_small_model_runs_the_same_pipeline(ontology, put_in_bin):
     """The 0.5B is part of the model-size ablation; it may fail to ground, but must never run unvalidated code."""
-    from recent_plugin.infillers import make_infiller
+    from lerobot_policy_recent.recent_plugin.infillers import make_infiller
 
     grounded = ground_skill(put_in_bin, "UR5e", ontology, make_infiller("llamacpp", "qwen2.5-coder-0.5b"))
     assert grounded.valid or grounded.verdict.category is not None
 
 
 def test_fast_path_renders_decided_spans_and_asks_the_lm_only_for_the_rest(ontology, put_in_bin):
-    from recent_plugin.infillers.fast_path import FastPathInfiller
+    from lerobot_policy_recent.recent_plugin.infillers.fast_path import FastPathInfiller
 
     lm = ScriptedInfiller(["sawyer_pick(env, task, target_object=obj, target_pos=obj_pos)"])
     fast = FastPathInfiller(lm)
@@ -212,7 +212,7 @@ def test_fast_path_renders_decided_spans_and_asks_the_lm_only_for_the_rest(ontol
 
 def test_a_span_that_changes_a_carried_over_argument_is_rejected(ontology):
     """The 1.5B once repeated the suffix's approach height where the press height belongs."""
-    from skills.repository import load_skill
+    from lerobot_policy_recent.skills.repository import load_skill
 
     press = load_skill("press_button")
     lift = "ur5_move_to(env, task, target_pos=[cap_pos[0], cap_pos[1], cap_pos[2] + 0.08], timeout_s=3.0)"
@@ -229,7 +229,7 @@ def test_a_span_that_changes_a_carried_over_argument_is_rejected(ontology):
 
 def test_a_multiline_span_without_the_substitute_is_rejected(ontology):
     """In a loop body a span's later lines are indented; it is still parsed and held to the substitute."""
-    from skills.repository import load_skill
+    from lerobot_policy_recent.skills.repository import load_skill
 
     wipe = load_skill("wipe_area")
     moves_instead = (  # valid code in place, but no push: the span alone did not parse, so went unchecked
@@ -248,8 +248,8 @@ def test_a_multiline_span_without_the_substitute_is_rejected(ontology):
 def test_a_traced_path_that_drops_a_waypoints_offset_is_rejected(ontology):
     """The 1.5B wrote `pos=start` for the first move of a traced sweep: the hand went straight down onto
     the block's path instead of above it. Each move is held to its own waypoint, in order."""
-    from recent_plugin.grounding.grounder import _check_span
-    from skills.repository import load_skill
+    from lerobot_policy_recent.recent_plugin.grounding.grounder import _check_span
+    from lerobot_policy_recent.skills.repository import load_skill
 
     close = load_skill("close_drawer")
     conflict = diagnose(ontology, close.name, close.code, "Suction").conflicts[0]

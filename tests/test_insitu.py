@@ -7,15 +7,14 @@ import time
 import numpy as np
 import pytest
 
-from ontology.specs import load_api_spec
-from recent_plugin.agent import AgentSettings, RecentAgent
-from recent_plugin.episode import run_episode
-from recent_plugin.executor import split_segments
-from recent_plugin.grounding.units import RefactoringUnit
-from recent_plugin.infillers.base import Completion
-from recent_plugin.infillers.rule import RuleInfiller
-from recent_plugin.insitu.adapter import latest_definitions, recomputation
-from recent_plugin.insitu.checks import (
+from lerobot_policy_recent.ontology.specs import load_api_spec
+from lerobot_policy_recent.recent_plugin.agent import AgentSettings, RecentAgent
+from lerobot_policy_recent.recent_plugin.episode import run_episode
+from lerobot_policy_recent.recent_plugin.executor import split_segments
+from lerobot_policy_recent.recent_plugin.infillers.base import Completion
+from lerobot_policy_recent.recent_plugin.infillers.rule import RuleInfiller
+from lerobot_policy_recent.recent_plugin.insitu.adapter import latest_definitions, recomputation
+from lerobot_policy_recent.recent_plugin.insitu.checks import (
     CheckInput,
     Derivation,
     SceneFacts,
@@ -25,8 +24,9 @@ from recent_plugin.insitu.checks import (
     target_clear,
     within_reach,
 )
-from robosuite_envs.observation import ObjectState, Observation
-from robosuite_envs.primitives import api_spec_path
+from lerobot_policy_recent.recent_plugin.refactoring.units import RefactoringUnit
+from lerobot_policy_recent.robosuite_envs.observation import ObjectState, Observation
+from lerobot_policy_recent.robosuite_envs.primitives import api_spec_path
 
 
 class CountingInfiller(RuleInfiller):
@@ -101,7 +101,7 @@ def test_ei_it_and_go_add_up_from_the_recorded_calls(counting_agent):
 def test_the_fast_path_renders_the_patches_a_check_writes_without_interrupting(ontology):
     """The re-read and the sweep are written by the checks: behind the fast path the LM is not asked,
     so GO, EI and IT are 0, while the two run-time patches are still counted (and logged) as such."""
-    from recent_plugin.infillers.fast_path import FastPathInfiller
+    from lerobot_policy_recent.recent_plugin.infillers.fast_path import FastPathInfiller
 
     lm = CountingInfiller()
     agent = RecentAgent(AgentSettings(fast_path=True), infiller=FastPathInfiller(lm), ontology=ontology)

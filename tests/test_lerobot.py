@@ -12,22 +12,26 @@ import torch
 
 
 def test_distribution_is_discovered_by_lerobot():
-    from lerobot.configs import PreTrainedConfig
-    from lerobot.envs.configs import EnvConfig
-    from lerobot.utils.import_utils import register_third_party_plugins
-
-    register_third_party_plugins()
-    assert "recent" in PreTrainedConfig.get_known_choices()
-    assert "recent" in EnvConfig.get_known_choices()
+    """LeRobot's own discovery, in a fresh interpreter (here the package is imported before LeRobot)."""
+    code = (
+        "from lerobot.configs import PreTrainedConfig\n"
+        "from lerobot.envs.configs import EnvConfig\n"
+        "from lerobot.utils.import_utils import register_third_party_plugins\n"
+        "register_third_party_plugins()\n"
+        "print('recent' in PreTrainedConfig.get_known_choices(), 'recent' in EnvConfig.get_known_choices())\n"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd="/")
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert done.stdout.split()[-2:] == ["True", "True"]
 
 
 def test_policy_factory_builds_recent_and_returns_batched_actions():
     from lerobot.policies.factory import make_policy, make_pre_post_processors
 
     import lerobot_policy_recent  # noqa: F401
-    from recent_plugin.configuration_recent import RecentConfig
-    from robosuite_envs.gym_env import RecentEnv
-    from robosuite_envs.lerobot_env import RecentEnvConfig
+    from lerobot_policy_recent.recent_plugin.configuration_recent import RecentConfig
+    from lerobot_policy_recent.robosuite_envs.gym_env import RecentEnv
+    from lerobot_policy_recent.robosuite_envs.lerobot_env import RecentEnvConfig
 
     env_cfg = RecentEnvConfig(task="cube_in_bin", robot="UR5e")
     policy = make_policy(RecentConfig(backend="rule", log_dir=None), env_cfg=env_cfg)
@@ -69,7 +73,7 @@ def test_lerobot_eval_runs_two_tasks_with_batch_size_two(tmp_path):
     assert info["overall"]["n_episodes"] == 4
     assert {row["task_group"] for row in info["per_task"]} == set(tasks)
     assert info["overall"]["pc_success"] == 100.0, info["per_task"]
-    from logs.verify import verify
+    from lerobot_policy_recent.logs.verify import verify
 
     report = verify(tmp_path / "logs")  # the policy logged each batch element's episode
     assert report.ok and len(report.episodes) == 4, (report.problems, [e.problems for e in report.episodes])

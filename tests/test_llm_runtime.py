@@ -13,13 +13,13 @@ import time
 
 import pytest
 
-from recent_plugin.infillers.llama_runtime import (
+from lerobot_policy_recent.recent_plugin.infillers.llama_runtime import (
     AMX_VARIANTS,
     CpuKernelsError,
     choose_variant,
     variant_libraries,
 )
-from recent_plugin.models import model_path
+from lerobot_policy_recent.recent_plugin.models import model_path
 
 SCORES = {"x64": 1, "haswell": 40, "skylakex": 90, "zen4": 120, "sapphirerapids": 250, "alderlake": 0}
 
@@ -56,7 +56,7 @@ def gguf() -> str:
 
 def test_setup_smoke_check_passes_on_this_host(gguf):
     """Setup's check: a worker process loads the model and fills ``return a + b``."""
-    from recent_plugin.infillers.llama_check import check_lm
+    from lerobot_policy_recent.recent_plugin.infillers.llama_check import check_lm
 
     result = check_lm(gguf)
     assert result.ok, result.problem
@@ -66,7 +66,7 @@ def test_setup_smoke_check_passes_on_this_host(gguf):
 
 
 def test_a_dead_worker_is_an_explained_error_and_the_next_call_starts_a_fresh_one(gguf):
-    from recent_plugin.infillers.llama_worker import LlamaWorker, LMWorkerCrashed
+    from lerobot_policy_recent.recent_plugin.infillers.llama_worker import LlamaWorker, LMWorkerCrashed
 
     worker = LlamaWorker(gguf)
     try:
@@ -85,7 +85,7 @@ def test_a_dead_worker_is_an_explained_error_and_the_next_call_starts_a_fresh_on
 
 
 def test_python_errors_in_the_worker_come_back_as_python_errors(gguf):
-    from recent_plugin.infillers.llama_worker import LlamaWorker
+    from lerobot_policy_recent.recent_plugin.infillers.llama_worker import LlamaWorker
 
     worker = LlamaWorker(gguf)
     try:
@@ -102,13 +102,13 @@ def test_an_episode_whose_lm_dies_ends_with_the_reason_in_logs_that_verify(gguf,
     """Kill the LM mid-run: the CLI's error names the cause, the episode's logs are whole and say 'crash'."""
     import pyarrow.parquet as pq
 
-    from logs.layout import LogLayout
-    from logs.recorder import Recorder
-    from logs.verify import verify
-    from recent_plugin.agent import AgentSettings, RecentAgent
-    from recent_plugin.episode import run_episode
-    from recent_plugin.infillers.llama_worker import LMWorkerCrashed
-    from recent_plugin.infillers.llamacpp import LlamaCppInfiller
+    from lerobot_policy_recent.logs.layout import LogLayout
+    from lerobot_policy_recent.logs.recorder import Recorder
+    from lerobot_policy_recent.logs.verify import verify
+    from lerobot_policy_recent.recent_plugin.agent import AgentSettings, RecentAgent
+    from lerobot_policy_recent.recent_plugin.episode import run_episode
+    from lerobot_policy_recent.recent_plugin.infillers.llama_worker import LMWorkerCrashed
+    from lerobot_policy_recent.recent_plugin.infillers.llamacpp import LlamaCppInfiller
 
     infiller = LlamaCppInfiller(gguf)
     agent = RecentAgent(AgentSettings(), infiller=infiller, ontology=ontology)
@@ -129,8 +129,8 @@ def test_an_episode_whose_lm_dies_ends_with_the_reason_in_logs_that_verify(gguf,
 
 
 def test_a_model_that_does_not_load_is_a_python_error_and_leaves_no_worker(tmp_path):
-    from recent_plugin.infillers.llama_check import check_lm
-    from recent_plugin.infillers.llama_worker import LlamaWorker
+    from lerobot_policy_recent.recent_plugin.infillers.llama_check import check_lm
+    from lerobot_policy_recent.recent_plugin.infillers.llama_worker import LlamaWorker
 
     bad = tmp_path / "truncated.gguf"
     bad.write_bytes(b"GGUF\x03\x00\x00\x00")
@@ -146,12 +146,12 @@ def test_inside_lerobot_eval_a_dead_lm_is_the_policys_error_and_its_episode_is_l
     from lerobot.policies.factory import make_policy, make_pre_post_processors
 
     import lerobot_policy_recent  # noqa: F401
-    from logs.layout import LogLayout
-    from logs.verify import verify
-    from recent_plugin.configuration_recent import RecentConfig
-    from recent_plugin.infillers.llama_worker import LMWorkerCrashed
-    from robosuite_envs.gym_env import RecentEnv
-    from robosuite_envs.lerobot_env import RecentEnvConfig
+    from lerobot_policy_recent.logs.layout import LogLayout
+    from lerobot_policy_recent.logs.verify import verify
+    from lerobot_policy_recent.recent_plugin.configuration_recent import RecentConfig
+    from lerobot_policy_recent.recent_plugin.infillers.llama_worker import LMWorkerCrashed
+    from lerobot_policy_recent.robosuite_envs.gym_env import RecentEnv
+    from lerobot_policy_recent.robosuite_envs.lerobot_env import RecentEnvConfig
 
     env_cfg = RecentEnvConfig(task="cube_in_bin", robot="UR5e")
     policy = make_policy(RecentConfig(log_dir=str(tmp_path)), env_cfg=env_cfg)

@@ -19,11 +19,11 @@ import numpy as np
 import pytest
 from doubles import ScriptedInfiller
 
-from logs.layout import LogLayout
-from logs.readers import decoded_protobuf, read_mcap, read_rrd, read_table
-from logs.recorder import Recorder
-from recent_plugin.agent import AgentSettings, RecentAgent
-from recent_plugin.episode import run_episode
+from lerobot_policy_recent.logs.layout import LogLayout
+from lerobot_policy_recent.logs.readers import decoded_protobuf, read_mcap, read_rrd, read_table
+from lerobot_policy_recent.logs.recorder import Recorder
+from lerobot_policy_recent.recent_plugin.agent import AgentSettings, RecentAgent
+from lerobot_policy_recent.recent_plugin.episode import run_episode
 
 TASK = "kinematic/cube_on_plate"
 
@@ -93,7 +93,7 @@ def test_rerun_opens_the_mcap(run):
 
 
 def test_rerun_recording_matches_the_mcap(run):
-    from logs.verify import rerun_executable
+    from lerobot_policy_recent.logs.verify import rerun_executable
 
     root, (good, _) = run
     path = LogLayout(root).rrd(0)
@@ -135,8 +135,8 @@ def read_mcap_action(path: Path) -> list[float]:
 
 
 def test_verify_finds_the_logs_consistent_and_replay_rebuilds_the_recording(run, tmp_path):
-    from logs.replay import replay_episode
-    from logs.verify import verify
+    from lerobot_policy_recent.logs.replay import replay_episode
+    from lerobot_policy_recent.logs.verify import verify
 
     root, (good, broken) = run
     report = verify(root)
@@ -147,7 +147,7 @@ def test_verify_finds_the_logs_consistent_and_replay_rebuilds_the_recording(run,
 
 
 def test_failure_report_lists_the_injected_categories(run, tmp_path):
-    from logs.failure_report import failure_table, plot_failures
+    from lerobot_policy_recent.logs.failure_report import failure_table, plot_failures
 
     root, _ = run
     table = failure_table([root])
@@ -163,7 +163,7 @@ def test_failure_report_lists_the_injected_categories(run, tmp_path):
 
 
 def test_upload_pushes_dataset_tables_and_card_to_the_hub(run):
-    from logs.upload import upload
+    from lerobot_policy_recent.logs.upload import upload
 
     root, _ = run
     hub = RecordingHub()
@@ -180,7 +180,7 @@ def test_upload_pushes_dataset_tables_and_card_to_the_hub(run):
 def test_upload_to_the_real_hub(run):  # pragma: no cover - no machine here reaches the Hub
     from huggingface_hub import HfApi
 
-    from logs.upload import upload
+    from lerobot_policy_recent.logs.upload import upload
 
     root, _ = run
     user = HfApi().whoami()["name"]
@@ -246,16 +246,16 @@ def test_a_failing_sink_is_switched_off_and_the_episode_goes_on(tmp_path, ontolo
 
 CHILD = """
 import sys
-from logs.recorder import Recorder
-from recent_plugin.agent import AgentSettings, RecentAgent
-from recent_plugin.episode import run_episode
+from lerobot_policy_recent.logs.recorder import Recorder
+from lerobot_policy_recent.recent_plugin.agent import AgentSettings, RecentAgent
+from lerobot_policy_recent.recent_plugin.episode import run_episode
 recorder = Recorder(sys.argv[1])
 run_episode(RecentAgent(AgentSettings(backend="rule")), "kinematic/tidy_bench", "UR5e", seed=0, recorder=recorder)
 """
 
 
 def test_sigkill_mid_episode_then_recover_salvages_everything_flushed(tmp_path):
-    from logs.verify import recover, verify
+    from lerobot_policy_recent.logs.verify import recover, verify
 
     layout = LogLayout(tmp_path)
     child = subprocess.Popen([sys.executable, "-c", CHILD, str(tmp_path)], cwd=Path(__file__).parents[1])

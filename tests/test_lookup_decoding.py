@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import pytest
 
-from ontology.diagnosis import diagnose
-from recent_plugin.grounding.fim_prompt import STATEMENT_LINE, build_prompt
-from recent_plugin.grounding.units import Hints, cut_unit, unit_from_conflict
-from recent_plugin.infillers.llamacpp import QWEN
-from recent_plugin.infillers.lookup_decoding import draft_from_context
+from lerobot_policy_recent.ontology.diagnosis import diagnose
+from lerobot_policy_recent.recent_plugin.infillers.llamacpp import QWEN
+from lerobot_policy_recent.recent_plugin.infillers.lookup_decoding import draft_from_context
+from lerobot_policy_recent.recent_plugin.refactoring.fim_prompt import STATEMENT_LINE, build_prompt
+from lerobot_policy_recent.recent_plugin.refactoring.units import Hints, cut_unit, unit_from_conflict
 
 
 def test_draft_continues_the_latest_match_of_the_longest_ngram():

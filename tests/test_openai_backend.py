@@ -5,9 +5,9 @@ from __future__ import annotations
 import pytest
 from loopback import json_server
 
-from recent_plugin.grounding.grounder import ground_skill
-from recent_plugin.infillers import make_infiller
-from recent_plugin.infillers.fim_formats import fim_format
+from lerobot_policy_recent.recent_plugin.grounding.grounder import ground_skill
+from lerobot_policy_recent.recent_plugin.infillers import make_infiller
+from lerobot_policy_recent.recent_plugin.infillers.fim_formats import fim_format
 
 ANSWERS = {
     "no place;": "ur5_release_at(env, task, place_pos=drop_pos)",

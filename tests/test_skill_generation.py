@@ -5,9 +5,9 @@ from __future__ import annotations
 import pytest
 from loopback import json_server
 
-from skills.generation import extract_code, generate_skill, skill_query
-from skills.repository import list_skills, load_skill, records_dir, serve_skill
-from skills.validation import load_record
+from lerobot_policy_recent.recent_plugin.authoring.generation import extract_code, generate_skill, skill_query
+from lerobot_policy_recent.skills.records import load_record
+from lerobot_policy_recent.skills.repository import list_skills, load_skill, records_dir, serve_skill
 
 PRESS = load_skill("press_button").code
 DOES_NOT_PRESS = PRESS.replace("+ 0.010]", "+ 0.08]")  # hovers over the cap: parses, runs, fails Validate
@@ -61,7 +61,7 @@ def test_an_invalid_completion_is_not_stored(tmp_path, code, why):
 
 
 def test_cli_refuses_to_overwrite_a_reference_skill(capsys):
-    from scripts.cli import main
+    from lerobot_policy_recent.scripts.cli import main
 
     with json_server(chat_answer(PRESS), []) as url, pytest.raises(FileExistsError, match="--force"):
         main(["skills", "generate", "--subtask", "press_button", "--base-url", url, "--model", "m"])

@@ -7,8 +7,10 @@ import shutil
 
 import pytest
 
-from robosuite_envs.suites import SEEDS
-from skills.repository import (
+from lerobot_policy_recent.recent_plugin.authoring.sim_validation import validate
+from lerobot_policy_recent.robosuite_envs.suites import SEEDS
+from lerobot_policy_recent.skills.records import load_record
+from lerobot_policy_recent.skills.repository import (
     LIBRARY,
     SkillNotValidatedError,
     derived_capabilities,
@@ -17,7 +19,6 @@ from skills.repository import (
     records_dir,
     serve_skill,
 )
-from skills.validation import load_record, validate
 
 
 def test_every_stored_skill_passed_validate_on_all_five_seeds_with_its_current_code():
@@ -69,7 +70,7 @@ def test_validate_runs_the_skill_on_panda_over_the_seeds_and_records_why():
 
 
 def test_skills_list_json_has_the_documented_fields(capsys):
-    from scripts.cli import main
+    from lerobot_policy_recent.scripts.cli import main
 
     assert main(["skills", "list", "--json"]) == 0
     rows = json.loads(capsys.readouterr().out)
@@ -80,7 +81,7 @@ def test_skills_list_json_has_the_documented_fields(capsys):
 
 
 def test_skills_show_prints_code_metadata_and_last_validation(capsys):
-    from scripts.cli import main
+    from lerobot_policy_recent.scripts.cli import main
 
     assert main(["skills", "show", "open_drawer"]) == 0
     out = capsys.readouterr().out

@@ -11,11 +11,11 @@ import importlib.util
 
 import pytest
 
-from ontology.diagnosis import diagnose
-from recent_plugin.grounding.units import unit_from_conflict
-from recent_plugin.infillers import make_infiller
-from recent_plugin.infillers.fim_formats import FORMATS
-from skills.repository import LIBRARY
+from lerobot_policy_recent.ontology.diagnosis import diagnose
+from lerobot_policy_recent.recent_plugin.infillers import make_infiller
+from lerobot_policy_recent.recent_plugin.infillers.fim_formats import FORMATS
+from lerobot_policy_recent.recent_plugin.refactoring.units import unit_from_conflict
+from lerobot_policy_recent.skills.repository import LIBRARY
 
 QWEN = FORMATS["qwen2.5-coder"]
 
@@ -67,7 +67,7 @@ def test_fim_markers_are_single_special_tokens_and_spans_are_counted(tiny_model_
 
 
 def test_random_weights_are_rejected_by_validation_not_executed(tiny_model_dir, ontology, put_in_bin):
-    from recent_plugin.grounding.grounder import ground_skill
+    from lerobot_policy_recent.recent_plugin.grounding.grounder import ground_skill
 
     infiller = make_infiller("transformers", str(tiny_model_dir), device="cpu")
     grounded = ground_skill(put_in_bin, "UR5e", ontology, infiller, max_retries=1)
@@ -93,7 +93,7 @@ def _cuda() -> bool:
 @pytest.mark.skipif(not _cuda(), reason="needs a CUDA GPU (runs on the lent GPU machine, not in CI)")
 @pytest.mark.parametrize("dtype", ["auto", "float16", "bfloat16", "float32"])
 def test_cuda_is_chosen_and_every_dtype_infills_the_same_span_each_time(tiny_model_dir, put_in_bin, dtype):
-    from recent_plugin.grounding.units import Hints, cut_unit
+    from lerobot_policy_recent.recent_plugin.refactoring.units import Hints, cut_unit
 
     infiller = make_infiller("transformers", str(tiny_model_dir), dtype=dtype)  # device=None: CUDA when present
     weights = next(infiller.lm.parameters())
@@ -116,7 +116,7 @@ def test_cuda_is_chosen_and_every_dtype_infills_the_same_span_each_time(tiny_mod
 @pytest.mark.slow
 def test_real_gguf_through_transformers_grounds_put_in_bin(ontology, put_in_bin):
     """The 1.5B GGUF dequantized to fp32 on the CPU (minutes): the paper's stack, slowly."""
-    from recent_plugin.grounding.grounder import ground_skill
+    from lerobot_policy_recent.recent_plugin.grounding.grounder import ground_skill
 
     infiller = make_infiller("transformers", "qwen2.5-coder-1.5b", device="cpu", n_threads=2)
     grounded = ground_skill(put_in_bin, "UR5e", ontology, infiller)

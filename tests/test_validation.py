@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import pytest
 
-from recent_plugin.failures import FailureCategory as F
-from recent_plugin.grounding.validation import validate_program
+from lerobot_policy_recent.recent_plugin.failures import FailureCategory as F
+from lerobot_policy_recent.recent_plugin.grounding.gate import validate_program
 
 GOOD = """def put_in_bin(env, task, obj="cube", receptacle="bin"):
     obj_pos = task.get_object_position(obj)

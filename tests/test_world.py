@@ -5,12 +5,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from robosuite_envs.gym_env import RecentEnv
-from robosuite_envs.observation import MAX_OBJECTS, SLOT_DIM
-from robosuite_envs.subtasks import SUBTASKS
-from robosuite_envs.suites import SUITES, get_suite, validation_task
-from robosuite_envs.variations import FAR_TARGET_XY, VARIATIONS, parse_variations
-from skills.repository import list_skills
+from lerobot_policy_recent.robosuite_envs.gym_env import RecentEnv
+from lerobot_policy_recent.robosuite_envs.observation import MAX_OBJECTS, SLOT_DIM
+from lerobot_policy_recent.robosuite_envs.subtasks import SUBTASKS
+from lerobot_policy_recent.robosuite_envs.suites import SUITES, get_suite, validation_task
+from lerobot_policy_recent.robosuite_envs.variations import FAR_TARGET_XY, VARIATIONS, parse_variations
+from lerobot_policy_recent.skills.repository import list_skills
 
 PANDA_REACH = 0.855  # metres, Franka's published reach (UR5e: 0.85)
 FAST = {"press_button", "open_drawer", "insert_peg", "sweep_into_pen"}  # a representative subset for CI
@@ -43,7 +43,7 @@ def test_every_subtask_has_a_reference_skill_and_a_single_subtask_task():
     "subtask", [pytest.param(s, marks=() if s in FAST else pytest.mark.slow) for s in sorted(SUBTASKS)]
 )
 def test_panda_reference_skill_achieves_the_subtask(subtask, panda_agent):
-    from recent_plugin.episode import run_episode
+    from lerobot_policy_recent.recent_plugin.episode import run_episode
 
     result = run_episode(panda_agent, validation_task(subtask).task_id, "Panda", seed=0)
     assert result.success, result.failures
@@ -157,7 +157,7 @@ def test_far_target_leaves_the_smaller_robots_workspace():
 # ------------------------------------------------------------------------------------ suction
 @pytest.mark.parametrize("variation", ["", "non_flat", "porous"])
 def test_suction_holds_a_flat_box_but_not_a_ball_or_a_porous_box(variation, panda_agent):
-    from recent_plugin.episode import run_episode
+    from lerobot_policy_recent.recent_plugin.episode import run_episode
 
     env = RecentEnv(task="kinematic/lift_cube", robot="Suction", render_mode="none", variations=variation)
     result = run_episode(panda_agent, "kinematic/lift_cube", "Suction", seed=0, env=env)
@@ -172,7 +172,7 @@ def test_suction_holds_a_flat_box_but_not_a_ball_or_a_porous_box(variation, pand
 def test_suction_stacks_a_tower_the_held_block_going_where_the_skill_places_it(panda_agent):
     """``detach_vacuum_handle(release_pos)`` puts the object, not the cup, at ``release_pos``: the
     cup stops above by how far the block hangs below it, once the block hangs still."""
-    from recent_plugin.episode import run_episode
+    from lerobot_policy_recent.recent_plugin.episode import run_episode
 
     result = run_episode(panda_agent, "end_effector/build_tower", "Suction", seed=0)
     assert result.success and not result.failures and not result.adaptations
@@ -181,7 +181,7 @@ def test_suction_stacks_a_tower_the_held_block_going_where_the_skill_places_it(p
 def test_suction_cup_lowered_onto_a_knob_stops_on_it_and_pulls_the_drawer(panda_agent):
     """``move_to_position`` to a knob's centre stops where the cup rests on the knob (it cannot go
     inside), so the Panda skill's move-then-grip grounds to move-then-suck."""
-    from recent_plugin.episode import run_episode
+    from lerobot_policy_recent.recent_plugin.episode import run_episode
 
     result = run_episode(panda_agent, "end_effector/open_drawer", "Suction", seed=0)
     assert result.success and not result.failures
@@ -201,9 +201,9 @@ def test_a_release_aimed_below_where_the_load_comes_to_rest_sets_it_down_instead
     comes to rest on the table: the cup cannot lower it further. The lowering ends once the hand has
     stalled just above the target with the load in hand, and the block is let go (it timed out 1.1 cm
     short in arrange_row on Suction, seed 123)."""
-    from robosuite_envs.observation import Observation
-    from robosuite_envs.primitives import control
-    from robosuite_envs.primitives.session import RobotSession
+    from lerobot_policy_recent.robosuite_envs.observation import Observation
+    from lerobot_policy_recent.robosuite_envs.primitives import control
+    from lerobot_policy_recent.robosuite_envs.primitives.session import RobotSession
 
     env = RecentEnv(task="end_effector/arrange_row", robot="Suction", render_mode="none")
     names = env.spec_task.object_names()

@@ -11,17 +11,23 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from logs.events import Emit, PatchApplied, ignore
-from ontology.specs import ApiSpec
-from recent_plugin.baselines.program_prompt import EMPTY, ProgramContext, ProgramPrompt
-from recent_plugin.executor import RepairBudget, Segment, SkillExecutor, SkillFailure
-from recent_plugin.grounding.grounder import GroundedSkill, LMCall, call_events, infill_until_valid
-from recent_plugin.grounding.units import RefactoringUnit, apply_unit
-from recent_plugin.grounding.validation import Verdict, validate_program
-from recent_plugin.infillers.base import Infiller
-from recent_plugin.insitu.adapter import AdaptationEvent, source_diff
-from robosuite_envs.observation import Observation
-from skills.repository import Skill
+from lerobot_policy_recent.logs.events import Emit, PatchApplied, ignore
+from lerobot_policy_recent.ontology.specs import ApiSpec
+from lerobot_policy_recent.recent_plugin.baselines.program_prompt import EMPTY, ProgramContext, ProgramPrompt
+from lerobot_policy_recent.recent_plugin.executor import RepairBudget, Segment, SkillExecutor, SkillFailure
+from lerobot_policy_recent.recent_plugin.grounding.attempts import (
+    AdaptationEvent,
+    LMCall,
+    call_events,
+    infill_until_valid,
+    source_diff,
+)
+from lerobot_policy_recent.recent_plugin.grounding.gate import Verdict, validate_program
+from lerobot_policy_recent.recent_plugin.grounding.grounder import GroundedSkill
+from lerobot_policy_recent.recent_plugin.infillers.base import Infiller
+from lerobot_policy_recent.recent_plugin.refactoring.units import RefactoringUnit, apply_unit
+from lerobot_policy_recent.robosuite_envs.observation import Observation
+from lerobot_policy_recent.skills.repository import Skill
 
 
 @dataclass

@@ -10,14 +10,20 @@ from __future__ import annotations
 
 import time
 
-from ontology.builder import Ontology
-from ontology.diagnosis import Diagnosis
-from recent_plugin.baselines.program_prompt import EMPTY, ProgramContext, ProgramPrompt, statement_span
-from recent_plugin.grounding.grounder import GroundedSkill, infill_until_valid, unrecoverable
-from recent_plugin.grounding.units import RefactoringUnit, apply_unit
-from recent_plugin.grounding.validation import Verdict, validate_program
-from recent_plugin.infillers.base import Infiller
-from skills.repository import Skill
+from lerobot_policy_recent.ontology.builder import Ontology
+from lerobot_policy_recent.ontology.diagnosis import Diagnosis
+from lerobot_policy_recent.recent_plugin.baselines.program_prompt import (
+    EMPTY,
+    ProgramContext,
+    ProgramPrompt,
+    statement_span,
+)
+from lerobot_policy_recent.recent_plugin.grounding.attempts import infill_until_valid
+from lerobot_policy_recent.recent_plugin.grounding.gate import Verdict, validate_program
+from lerobot_policy_recent.recent_plugin.grounding.grounder import GroundedSkill, unrecoverable
+from lerobot_policy_recent.recent_plugin.infillers.base import Infiller
+from lerobot_policy_recent.recent_plugin.refactoring.units import RefactoringUnit, apply_unit
+from lerobot_policy_recent.skills.repository import Skill
 
 
 def generate_skill(

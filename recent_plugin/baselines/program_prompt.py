@@ -13,15 +13,15 @@ import ast
 import re
 from dataclasses import dataclass, replace
 
-from ontology.specs import ApiSpec
-from recent_plugin.failures import FailureCategory
-from recent_plugin.grounding.ablations import body_span
-from recent_plugin.grounding.units import Hints, RefactoringUnit, cut_unit
-from recent_plugin.grounding.validation import Verdict
-from robosuite_envs.primitives.session import TaskContext
-from robosuite_envs.subtasks import TABLE_Z
-from robosuite_envs.tabletop import TABLE_SIZE
-from skills.repository import Skill
+from lerobot_policy_recent.ontology.specs import ApiSpec
+from lerobot_policy_recent.recent_plugin.failures import FailureCategory
+from lerobot_policy_recent.recent_plugin.grounding.ablations import body_span
+from lerobot_policy_recent.recent_plugin.grounding.gate import Verdict
+from lerobot_policy_recent.recent_plugin.refactoring.units import Hints, RefactoringUnit, cut_unit
+from lerobot_policy_recent.robosuite_envs.primitives.session import TaskContext
+from lerobot_policy_recent.robosuite_envs.subtasks import TABLE_Z
+from lerobot_policy_recent.robosuite_envs.tabletop import TABLE_SIZE
+from lerobot_policy_recent.skills.repository import Skill
 
 EMPTY = Verdict.reject(FailureCategory.EMPTY_CONTINUATION, "the completion is empty")
 PROGRAM = "program_synthesis"  # the whole body, written from the prompt

@@ -14,7 +14,7 @@ import statistics
 from dataclasses import dataclass
 from pathlib import Path
 
-from recent_plugin.evaluation.runner import load_records
+from lerobot_policy_recent.recent_plugin.evaluation.runner import load_records
 
 OUTCOME = ("success", "gc", "steps", "failure_category", "go", "go_pre", "ei", "patches", "generated_tokens")
 TIMINGS = ("it", "igt_cold")

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import replace
 
-from recent_plugin.agent import AgentSettings
+from lerobot_policy_recent.recent_plugin.agent import AgentSettings
 
 METHODS: dict[str, dict[str, object]] = {
     "recent": {},

@@ -12,9 +12,9 @@ import datetime as dt
 from collections import Counter
 from pathlib import Path
 
-from recent_plugin.evaluation.methods import ABLATION_METHODS, EXPECTED, METHODS
-from recent_plugin.evaluation.metrics import LABELS, aggregate, fmt, group, summarize
-from recent_plugin.evaluation.runner import load_records
+from lerobot_policy_recent.recent_plugin.evaluation.methods import ABLATION_METHODS, EXPECTED, METHODS
+from lerobot_policy_recent.recent_plugin.evaluation.metrics import LABELS, aggregate, fmt, group, summarize
+from lerobot_policy_recent.recent_plugin.evaluation.runner import load_records
 
 SETTINGS = ("kinematic", "end_effector")
 MAIN_METRICS = ("sr", "gc", "go", "ei", "it")

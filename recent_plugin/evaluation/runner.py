@@ -20,10 +20,10 @@ from dataclasses import asdict, dataclass, field
 from multiprocessing import get_context
 from pathlib import Path
 
-from recent_plugin.agent import AgentSettings, RecentAgent, behind_fast_path, infiller_for
-from recent_plugin.evaluation.methods import settings_for
-from recent_plugin.failures import FailureCategory
-from robosuite_envs.suites import SEEDS, get_suite
+from lerobot_policy_recent.recent_plugin.agent import AgentSettings, RecentAgent, behind_fast_path, infiller_for
+from lerobot_policy_recent.recent_plugin.evaluation.methods import settings_for
+from lerobot_policy_recent.recent_plugin.failures import FailureCategory
+from lerobot_policy_recent.robosuite_envs.suites import SEEDS, get_suite
 
 SUITE_TARGETS = {"kinematic": ("UR5e", "Sawyer"), "end_effector": ("Robotiq85", "Suction")}
 
@@ -116,8 +116,8 @@ def _agent(method: str) -> RecentAgent:
 
 def run_job(job: Job) -> dict:
     """One episode of ``job`` in this worker; its record (a failure to run is a record too)."""
-    from logs.recorder import Recorder
-    from recent_plugin.episode import run_episode
+    from lerobot_policy_recent.logs.recorder import Recorder
+    from lerobot_policy_recent.recent_plugin.episode import run_episode
 
     config: BenchConfig = _WORKER["config"]  # type: ignore[assignment]
     recorder = Recorder(job.log_dir(config.out), config.log_sinks) if config.log_sinks else None

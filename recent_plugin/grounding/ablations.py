@@ -16,10 +16,10 @@ import ast
 import difflib
 from dataclasses import replace
 
-from ontology.diagnosis import Conflict, Diagnosis, ParameterMapping
-from ontology.specs import ApiSpec, PrimitiveSpec
-from recent_plugin.grounding.substitution import has_placeholders, render_substitute_call
-from recent_plugin.grounding.units import Hints, RefactoringUnit, cut_unit
+from lerobot_policy_recent.ontology.diagnosis import Conflict, Diagnosis, ParameterMapping
+from lerobot_policy_recent.ontology.specs import ApiSpec, PrimitiveSpec
+from lerobot_policy_recent.recent_plugin.refactoring.substitution import has_placeholders, render_substitute_call
+from lerobot_policy_recent.recent_plugin.refactoring.units import Hints, RefactoringUnit, cut_unit
 
 GROUNDING_MODES = ("recent", "name-similarity", "full-regen", "no-ontology")
 WHOLE_SKILL_MODES = ("full-regen", "no-ontology")

@@ -1,8 +1,8 @@
-"""Span generators behind one interface (:class:`~recent_plugin.infillers.base.Infiller`)."""
+"""Span generators behind one interface (:class:`~lerobot_policy_recent.recent_plugin.infillers.base.Infiller`)."""
 
 from __future__ import annotations
 
-from recent_plugin.infillers.base import Completion, Infiller
+from lerobot_policy_recent.recent_plugin.infillers.base import Completion, Infiller
 
 BACKENDS = ("llamacpp", "transformers", "openai", "rule")
 
@@ -26,20 +26,20 @@ def make_infiller(
     ``http://127.0.0.1:8000``).
     """
     if backend == "rule":
-        from recent_plugin.infillers.rule import RuleInfiller
+        from lerobot_policy_recent.recent_plugin.infillers.rule import RuleInfiller
 
         return RuleInfiller()
     if backend == "llamacpp":
-        from recent_plugin.infillers.llamacpp import LlamaCppInfiller
-        from recent_plugin.models import ensure_model
+        from lerobot_policy_recent.recent_plugin.infillers.llamacpp import LlamaCppInfiller
+        from lerobot_policy_recent.recent_plugin.models import ensure_model
 
         return LlamaCppInfiller(str(ensure_model(model)), n_threads=n_threads, seed=seed)
     if backend == "transformers":
-        from recent_plugin.infillers.hf_transformers import TransformersInfiller
+        from lerobot_policy_recent.recent_plugin.infillers.hf_transformers import TransformersInfiller
 
         return TransformersInfiller(model, device=device, dtype=dtype, quantization=quantization, n_threads=n_threads)
     if backend == "openai":
-        from recent_plugin.infillers.openai_compat import OpenAICompatInfiller
+        from lerobot_policy_recent.recent_plugin.infillers.openai_compat import OpenAICompatInfiller
 
         if not base_url:
             raise ValueError("the openai backend needs a server: pass --base-url (e.g. http://127.0.0.1:8000)")

@@ -2,11 +2,10 @@
 
 from __future__ import annotations
 
-import re
 from dataclasses import dataclass
 from typing import Protocol
 
-from recent_plugin.grounding.units import RefactoringUnit
+from lerobot_policy_recent.recent_plugin.refactoring.units import RefactoringUnit
 
 
 @dataclass(frozen=True)
@@ -29,11 +28,3 @@ class Infiller(Protocol):
     def count_tokens(self, text: str) -> int:
         """Tokens of ``text`` under this backend's tokenizer (the GO denominator)."""
         ...
-
-
-_CODE_TOKEN = re.compile(r"[A-Za-z_]+|\d+|\S")
-
-
-def approximate_tokens(text: str) -> int:
-    """A tokenizer-free count (identifiers, numbers, symbols) for backends without a model."""
-    return len(_CODE_TOKEN.findall(text))

@@ -20,12 +20,12 @@ from __future__ import annotations
 
 from dataclasses import replace
 
-from ontology.diagnosis import SPAN_TYPES
-from recent_plugin.grounding.fim_prompt import RUNTIME_SPAN_TYPES
-from recent_plugin.grounding.substitution import has_placeholders
-from recent_plugin.grounding.units import RefactoringUnit
-from recent_plugin.infillers.base import Completion, Infiller
-from recent_plugin.infillers.rule import RuleInfiller
+from lerobot_policy_recent.ontology.diagnosis import SPAN_TYPES
+from lerobot_policy_recent.recent_plugin.infillers.base import Completion, Infiller
+from lerobot_policy_recent.recent_plugin.infillers.rule import RuleInfiller
+from lerobot_policy_recent.recent_plugin.refactoring.fim_prompt import RUNTIME_SPAN_TYPES
+from lerobot_policy_recent.recent_plugin.refactoring.substitution import has_placeholders
+from lerobot_policy_recent.recent_plugin.refactoring.units import RefactoringUnit
 
 
 class FastPathInfiller:

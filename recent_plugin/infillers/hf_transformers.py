@@ -12,10 +12,10 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-from recent_plugin.grounding.fim_prompt import build_prompt
-from recent_plugin.grounding.units import RefactoringUnit
-from recent_plugin.infillers.base import Completion
-from recent_plugin.infillers.fim_formats import FimFormat, fim_format
+from lerobot_policy_recent.recent_plugin.infillers.base import Completion
+from lerobot_policy_recent.recent_plugin.infillers.fim_formats import FimFormat, fim_format
+from lerobot_policy_recent.recent_plugin.refactoring.fim_prompt import build_prompt
+from lerobot_policy_recent.recent_plugin.refactoring.units import RefactoringUnit
 
 DTYPES = ("auto", "float32", "float16", "bfloat16")
 PROMPT_LOOKUP_TOKENS = 8  # a span mostly copies its prompt (see infillers/lookup_decoding.py)
@@ -113,10 +113,10 @@ class TransformersInfiller:
 
 def _source(model: str) -> tuple[str, str | None]:
     """(directory or Hub id, GGUF file name or None) for a Hub id, a directory, a .gguf path or a known name."""
-    from recent_plugin.models.registry import MODELS
+    from lerobot_policy_recent.recent_plugin.models.registry import MODELS
 
     if model in MODELS:
-        from recent_plugin.models import ensure_model
+        from lerobot_policy_recent.recent_plugin.models import ensure_model
 
         path = Path(ensure_model(model))
         return str(path.parent), path.name

@@ -11,7 +11,7 @@ from __future__ import annotations
 import time
 from dataclasses import asdict, dataclass, field
 
-from recent_plugin.infillers.fim_formats import FORMATS
+from lerobot_policy_recent.recent_plugin.infillers.fim_formats import FORMATS
 
 QWEN = FORMATS["qwen2.5-coder"]
 PREFIX = 'def add(a, b):\n    """Return the sum of a and b."""\n    return '
@@ -44,7 +44,7 @@ class LMCheck:
 
 def check_lm(model_path: str, *, n_threads: int | None = None) -> LMCheck:
     """Load ``model_path`` in a worker process and check one known FIM answer; never raises for a bad LM."""
-    from recent_plugin.infillers.llama_worker import LlamaWorker, LMWorkerCrashed, runtime_and_fix
+    from lerobot_policy_recent.recent_plugin.infillers.llama_worker import LlamaWorker, LMWorkerCrashed, runtime_and_fix
 
     name = model_path.rsplit("/", 1)[-1]
     started = time.perf_counter()

@@ -11,7 +11,7 @@ a report starts a fresh worker, so a long benchmark loses only the episode in fl
 Cost, measured in ``benchmarks/llm_runtime_bench.py`` (BENCHMARKS.md "LM runtime"): a few hundred
 microseconds per call against seconds of prompt evaluation, and about a second more to start.
 
-``python -m recent_plugin.infillers.llama_worker FD MODEL THREADS CTX SEED`` is the child's entry.
+``python -m lerobot_policy_recent.recent_plugin.infillers.llama_worker FD MODEL THREADS CTX SEED`` is the child's entry.
 """
 
 from __future__ import annotations
@@ -27,7 +27,7 @@ import weakref
 from multiprocessing.connection import Connection
 from typing import NoReturn
 
-from recent_plugin.infillers.llama_runtime import VARIANT_ENV, cpu_description, wheel_description
+from lerobot_policy_recent.recent_plugin.infillers.llama_runtime import VARIANT_ENV, cpu_description, wheel_description
 
 START_TIMEOUT_S = 300.0  # loading a GGUF takes 1-3 s; this only bounds a child that hangs before answering
 
@@ -195,7 +195,7 @@ CALLS = ("tokenize", "generate", "speed", "info")
 
 def serve(conn: Connection, model_path: str, n_threads: int, n_ctx: int, seed: int) -> None:
     """Load the model, say ready with its info, then answer calls until told to close (or the parent goes)."""
-    from recent_plugin.infillers.llamacpp import LlamaSession
+    from lerobot_policy_recent.recent_plugin.infillers.llama_session import LlamaSession
 
     try:
         session = LlamaSession(model_path, n_threads=n_threads or None, n_ctx=n_ctx, seed=seed)

@@ -2,106 +2,27 @@
 
 llama-cpp-python 0.3.36's ``create_completion(suffix=...)`` uses the wrong token ids for FIM, so
 the FIM string is built here; its special markers are tokenized as special tokens. Decoding is
-greedy with prompt-lookup drafts (:mod:`~recent_plugin.infillers.lookup_decoding`).
+greedy with prompt-lookup drafts (:mod:`~lerobot_policy_recent.recent_plugin.infillers.lookup_decoding`).
 
-The model runs in a worker process (:mod:`~recent_plugin.infillers.llama_worker`) by default: a
+The model runs in a worker process (:mod:`~lerobot_policy_recent.recent_plugin.infillers.llama_worker`) by default: a
 crash of the native library then ends one LM call with :class:`LMWorkerCrashed` and an
 explanation, not the robot's process and its logs. :class:`LlamaSession` is the model itself, the
-part that runs inside that worker (or in-process, ``in_process=True``).
+part that runs inside that worker (or in-process, ``in_process=True``); it has a module of its own.
 """
 
 from __future__ import annotations
 
 import os
-import statistics
 import time
-from collections import OrderedDict
 from pathlib import Path
 
-from recent_plugin.grounding.fim_prompt import build_prompt
-from recent_plugin.grounding.units import RefactoringUnit
-from recent_plugin.infillers.base import Completion
-from recent_plugin.infillers.fim_formats import FORMATS
-from recent_plugin.infillers.llama_runtime import CpuKernels, load_cpu_kernels, wheel_description
-from recent_plugin.infillers.lookup_decoding import Decoded, LookupDecoder
+from lerobot_policy_recent.recent_plugin.infillers.base import Completion
+from lerobot_policy_recent.recent_plugin.infillers.fim_formats import FORMATS
+from lerobot_policy_recent.recent_plugin.infillers.llama_session import LlamaSession
+from lerobot_policy_recent.recent_plugin.refactoring.fim_prompt import build_prompt
+from lerobot_policy_recent.recent_plugin.refactoring.units import RefactoringUnit
 
 QWEN = FORMATS["qwen2.5-coder"]  # the GGUFs we provision are Qwen2.5-Coder
-GRAMMARS_KEPT = 8  # compiled GBNF grammars kept per session (the statement grammars recur; retry grammars do not)
-
-
-class LlamaSession:
-    """One loaded GGUF with its decoder: tokenize, generate, measure. Runs wherever it is built."""
-
-    def __init__(self, model_path: str, *, n_threads: int | None = None, n_ctx: int = 2048, seed: int = 0):
-        self.kernels: CpuKernels = load_cpu_kernels()  # before the model: it decides which kernels run
-        from llama_cpp import Llama
-
-        self.model = os.path.basename(model_path)
-        self.n_threads = n_threads or min(2, os.cpu_count() or 1)
-        self.llm = Llama(
-            model_path=model_path,
-            n_ctx=n_ctx,
-            n_threads=self.n_threads,
-            seed=seed,
-            verbose=False,
-            # llama.cpp repacks the Q4 weights for its CPU kernels; with the file mapped as well, both
-            # copies stay resident (1.76 GB for the 1.5B). Read into memory instead: 1.17 GB, ~1 s more load.
-            use_mmap=False,
-        )
-        self._grammars: OrderedDict[str, object] = OrderedDict()
-        self.decoder = LookupDecoder(self.llm)
-
-    def info(self) -> dict[str, object]:
-        """What runs: model, threads, CPU kernels and wheel (for logs, errors and benchmarks)."""
-        return {
-            "model": self.model,
-            "n_threads": self.n_threads,
-            "cpu_kernels": self.kernels.variant,
-            "cpu_kernels_path": self.kernels.path,
-            "cpu_kernel_scores": self.kernels.scores,
-            "left_out": list(self.kernels.left_out),
-            "wheel": wheel_description(),
-            "pid": os.getpid(),
-        }
-
-    def grammar(self, gbnf: str | None):
-        if gbnf is None:
-            return None
-        from llama_cpp import LlamaGrammar
-
-        if gbnf not in self._grammars:
-            self._grammars[gbnf] = LlamaGrammar.from_string(gbnf, verbose=False)
-            while len(self._grammars) > GRAMMARS_KEPT:
-                self._grammars.popitem(last=False)
-        self._grammars.move_to_end(gbnf)
-        return self._grammars[gbnf]
-
-    def tokenize(self, text: str, special: bool = False) -> list[int]:
-        return self.llm.tokenize(text.encode(), add_bos=False, special=special)
-
-    def generate(self, text: str, *, max_tokens: int, stops: tuple[str, ...], gbnf: str | None = None) -> Decoded:
-        """Greedy completion of ``text`` (FIM markers as special tokens) under the grammar ``gbnf``."""
-        tokens = self.tokenize(text, special=True)
-        return self.decoder.generate(tokens, max_tokens=max_tokens, stops=stops, grammar=self.grammar(gbnf))
-
-    def speed(self, prompt: str, *, repeats: int = 3, gen_tokens: int = 64) -> dict[str, float]:
-        """Prompt-evaluation and generation tokens/s on ``prompt`` (medians of ``repeats`` cold runs)."""
-        tokens = self.tokenize(prompt)
-        prefill, decode = [], []
-        for _ in range(repeats):
-            self.llm.reset()
-            started = time.perf_counter()
-            self.llm.eval(tokens)
-            prefill.append(len(tokens) / (time.perf_counter() - started))
-            started = time.perf_counter()
-            out = self.llm.create_completion(prompt, max_tokens=gen_tokens, temperature=0.0, top_k=1)
-            decode.append(out["usage"]["completion_tokens"] / (time.perf_counter() - started))  # prompt cached
-        self.llm.reset()
-        return {
-            "prompt_tokens": len(tokens),
-            "prefill_tok_s": statistics.median(prefill),
-            "decode_tok_s": statistics.median(decode),
-        }
 
 
 class LlamaCppInfiller:
@@ -115,7 +36,7 @@ class LlamaCppInfiller:
         if in_process:
             self.lm = LlamaSession(model_path, **options)
         else:
-            from recent_plugin.infillers.llama_worker import LlamaWorker
+            from lerobot_policy_recent.recent_plugin.infillers.llama_worker import LlamaWorker
 
             self.lm = LlamaWorker(str(Path(model_path)), **options)
 

@@ -10,11 +10,11 @@ from __future__ import annotations
 import logging
 import time
 
-from recent_plugin.grounding.fim_prompt import build_prompt
-from recent_plugin.grounding.units import RefactoringUnit
-from recent_plugin.infillers.base import Completion, approximate_tokens
-from recent_plugin.infillers.fim_formats import fim_format
-from recent_plugin.infillers.http import post_json
+from lerobot_policy_recent.recent_plugin.infillers.base import Completion
+from lerobot_policy_recent.recent_plugin.infillers.fim_formats import fim_format
+from lerobot_policy_recent.recent_plugin.infillers.http import post_json
+from lerobot_policy_recent.recent_plugin.refactoring.fim_prompt import approximate_tokens, build_prompt
+from lerobot_policy_recent.recent_plugin.refactoring.units import RefactoringUnit
 
 log = logging.getLogger(__name__)
 

@@ -9,9 +9,10 @@ from __future__ import annotations
 
 import time
 
-from recent_plugin.grounding.substitution import has_placeholders
-from recent_plugin.grounding.units import RefactoringUnit
-from recent_plugin.infillers.base import Completion, approximate_tokens
+from lerobot_policy_recent.recent_plugin.infillers.base import Completion
+from lerobot_policy_recent.recent_plugin.refactoring.fim_prompt import approximate_tokens
+from lerobot_policy_recent.recent_plugin.refactoring.substitution import has_placeholders
+from lerobot_policy_recent.recent_plugin.refactoring.units import RefactoringUnit
 
 
 class RuleInfiller:

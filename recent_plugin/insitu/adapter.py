@@ -9,45 +9,44 @@ before the segment — the steps already taken stay taken. Once a segment comple
 happen (a push that left the object short) is answered by statements inserted right after it
 that do it again from the current scene. A primitive that fails at run time is repaired
 the same way (:meth:`repair`): the span is the failed segment, the hint its failure. Every
-infiller call is recorded as an :class:`~recent_plugin.grounding.grounder.LMCall` (EI and IT are
+infiller call is recorded as an :class:`~lerobot_policy_recent.recent_plugin.grounding.grounder.LMCall` (EI and IT are
 sums over them) and every decision as an :class:`AdaptationEvent` for the loggers.
 """
 
 from __future__ import annotations
 
 import ast
-import difflib
 import logging
 import textwrap
 from collections import Counter
 from dataclasses import dataclass, field
 
-from logs.events import CheckVerdict, Emit, PatchApplied, ignore
-from ontology.diagnosis import Warning
-from ontology.specs import ApiSpec
-from recent_plugin.executor import RepairBudget, Segment, SkillExecutor, SkillFailure
-from recent_plugin.failures import FailureCategory
-from recent_plugin.grounding.grounder import GroundedSkill, LMCall, call_events, infill_until_valid
-from recent_plugin.grounding.units import Hints, RefactoringUnit, apply_unit, cut_unit
-from recent_plugin.grounding.validation import Verdict, validate_program
-from recent_plugin.infillers.base import Infiller
-from recent_plugin.insitu.checks import CHECKS, CheckInput, Derivation, SceneFacts, Violation, moved_reads
+from lerobot_policy_recent.logs.events import CheckVerdict, Emit, PatchApplied, ignore
+from lerobot_policy_recent.ontology.diagnosis import Warning
+from lerobot_policy_recent.ontology.specs import ApiSpec
+from lerobot_policy_recent.recent_plugin.executor import RepairBudget, Segment, SkillExecutor, SkillFailure
+from lerobot_policy_recent.recent_plugin.failures import FailureCategory
+from lerobot_policy_recent.recent_plugin.grounding.attempts import (
+    AdaptationEvent,
+    LMCall,
+    call_events,
+    infill_until_valid,
+    source_diff,
+)
+from lerobot_policy_recent.recent_plugin.grounding.gate import Verdict, validate_program
+from lerobot_policy_recent.recent_plugin.grounding.grounder import GroundedSkill
+from lerobot_policy_recent.recent_plugin.infillers.base import Infiller
+from lerobot_policy_recent.recent_plugin.insitu.checks import (
+    CHECKS,
+    CheckInput,
+    Derivation,
+    SceneFacts,
+    Violation,
+    moved_reads,
+)
+from lerobot_policy_recent.recent_plugin.refactoring.units import Hints, RefactoringUnit, apply_unit, cut_unit
 
 log = logging.getLogger(__name__)
-
-
-@dataclass(frozen=True)
-class AdaptationEvent:
-    """One run-time decision: a check that failed, and the patch (or none) that answered it."""
-
-    kind: str  # "revise" (a check failed before the segment) or "repair" (the segment failed)
-    skill: str
-    segment: int
-    checks: tuple[str, ...]
-    observation: str
-    before: str
-    after: str | None  # the accepted patch; None when no valid patch was found
-    attempts: int
 
 
 @dataclass
@@ -329,15 +328,6 @@ def _guards(warning: Warning, node: ast.stmt) -> bool:
     if warning.through is None:
         return first <= warning.span.line <= last
     return warning.span.line <= first <= warning.span.line + warning.through
-
-
-def source_diff(before: str, after: str) -> str:
-    """A patch as the logs show it: the skill before and after, as a unified diff."""
-    return "".join(
-        difflib.unified_diff(
-            before.splitlines(keepends=True), after.splitlines(keepends=True), "before", "after (patched)"
-        )
-    )
 
 
 def _bare(source: str, executor: SkillExecutor) -> str:

@@ -18,9 +18,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ontology.diagnosis import Warning
-from ontology.specs import PATH_ROLE, ApiSpec, Waypoint
-from robosuite_envs.observation import Observation
+from lerobot_policy_recent.ontology.diagnosis import Warning
+from lerobot_policy_recent.ontology.specs import PATH_ROLE, ApiSpec, Waypoint
+from lerobot_policy_recent.robosuite_envs.observation import Observation
 
 # metres an object may drift from where the skill read it before it counts as moved: above the sensing
 # noise (two reads with sigma 4 mm per axis differ by more than 2 cm once in ~170 checks, by 1.5 cm once

@@ -1,7 +1,7 @@
 """Offline code language models: which ones we know, and how they are provisioned."""
 
-from recent_plugin.models.fetch import ModelIntegrityError, ensure_model, fetch_model, model_path
-from recent_plugin.models.registry import MODELS, ModelSpec, get_model_spec
+from lerobot_policy_recent.recent_plugin.models.fetch import ModelIntegrityError, ensure_model, fetch_model, model_path
+from lerobot_policy_recent.recent_plugin.models.registry import MODELS, ModelSpec, get_model_spec
 
 __all__ = [
     "MODELS",

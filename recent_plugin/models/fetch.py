@@ -22,8 +22,8 @@ from collections.abc import Callable, Iterable
 from pathlib import Path
 from urllib.parse import urlparse
 
-from recent_plugin.cache import cache_dir
-from recent_plugin.models.registry import ModelSpec, get_model_spec
+from lerobot_policy_recent.recent_plugin.cache import cache_dir
+from lerobot_policy_recent.recent_plugin.models.registry import ModelSpec, get_model_spec
 
 log = logging.getLogger(__name__)
 

@@ -1,6 +1,6 @@
 """Gripper models added to robosuite's registry (importing this package registers them)."""
 
-from robosuite_envs.grippers.robotiq85 import LinkedRobotiq85Gripper
-from robosuite_envs.grippers.suction import SuctionGripper
+from lerobot_policy_recent.robosuite_envs.grippers.robotiq85 import LinkedRobotiq85Gripper
+from lerobot_policy_recent.robosuite_envs.grippers.suction import SuctionGripper
 
 __all__ = ["LinkedRobotiq85Gripper", "SuctionGripper"]

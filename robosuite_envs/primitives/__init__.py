@@ -10,7 +10,7 @@ import importlib
 import inspect
 from pathlib import Path
 
-from robosuite_envs.primitives.session import PrimitiveFailure, RobotSession, TaskContext
+from lerobot_policy_recent.robosuite_envs.primitives.session import PrimitiveFailure, RobotSession, TaskContext
 
 SPEC_DIR = Path(__file__).parent
 
@@ -32,7 +32,7 @@ def api_functions(api: str) -> dict[str, object]:
     """The primitives of ``robosuite_envs.primitives.<api>``: its ``__all__`` if it re-exports shared
     motions, else the public generator functions it defines."""
     api_spec_path(api)
-    module = importlib.import_module(f"robosuite_envs.primitives.{api}")
+    module = importlib.import_module(f"lerobot_policy_recent.robosuite_envs.primitives.{api}")
     names = getattr(module, "__all__", None) or [
         name
         for name, fn in vars(module).items()

@@ -12,8 +12,8 @@ from collections.abc import Generator, Sequence
 import numpy as np
 from robosuite.utils.transform_utils import mat2quat, quat2axisangle, quat2mat, quat_multiply
 
-from robosuite_envs.observation import ACTION_DIM
-from robosuite_envs.primitives.session import CONTROL_FREQ, PrimitiveFailure, RobotSession
+from lerobot_policy_recent.robosuite_envs.observation import ACTION_DIM
+from lerobot_policy_recent.robosuite_envs.primitives.session import CONTROL_FREQ, PrimitiveFailure, RobotSession
 
 Action = np.ndarray
 Steps = Generator[Action, None, None]

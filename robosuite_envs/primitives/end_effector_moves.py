@@ -10,8 +10,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from robosuite_envs.primitives import control
-from robosuite_envs.primitives.session import RobotSession, TaskContext
+from lerobot_policy_recent.robosuite_envs.primitives import control
+from lerobot_policy_recent.robosuite_envs.primitives.session import RobotSession, TaskContext
 
 # A drag (a drawer pulled against its damping) stalls 1-2 cm short of its goal. A move that has
 # stopped within DRAG_TOL has arrived; one still moving keeps going for POS_TOL.

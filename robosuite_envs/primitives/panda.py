@@ -1,6 +1,6 @@
 """Primitive API of the source robot: Franka Panda with its parallel-jaw hand.
 
-Each primitive is a generator of actions (see :mod:`robosuite_envs.primitives.control`);
+Each primitive is a generator of actions (see :mod:`lerobot_policy_recent.robosuite_envs.primitives.control`);
 ``primitives/panda.yaml`` describes them for the ontology.
 """
 
@@ -8,8 +8,8 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-from robosuite_envs.primitives import control
-from robosuite_envs.primitives.session import RobotSession, TaskContext
+from lerobot_policy_recent.robosuite_envs.primitives import control
+from lerobot_policy_recent.robosuite_envs.primitives.session import RobotSession, TaskContext
 
 
 def pick(env: RobotSession, task: TaskContext, target_pos: Sequence[float], approach_axis: str = "z") -> control.Steps:

@@ -6,14 +6,14 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from robosuite_envs.primitives import control
-from robosuite_envs.primitives.end_effector_moves import (
+from lerobot_policy_recent.robosuite_envs.primitives import control
+from lerobot_policy_recent.robosuite_envs.primitives.end_effector_moves import (
     move_gripper_to,
     move_parallel,
     move_to_position,
     rotate_gripper,
 )
-from robosuite_envs.primitives.session import RobotSession, TaskContext
+from lerobot_policy_recent.robosuite_envs.primitives.session import RobotSession, TaskContext
 
 __all__ = [
     "close_robotiq85",

@@ -10,7 +10,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from robosuite_envs.observation import Observation
+from lerobot_policy_recent.robosuite_envs.observation import Observation
 
 CONTROL_FREQ = 20  # Hz; one yielded action = one env step
 

@@ -4,15 +4,15 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-from robosuite_envs.primitives import control
-from robosuite_envs.primitives.end_effector_moves import (
+from lerobot_policy_recent.robosuite_envs.primitives import control
+from lerobot_policy_recent.robosuite_envs.primitives.end_effector_moves import (
     DRAG_TOL,
     check_pointing,
     move_gripper_to,
     move_parallel,
     rotate_gripper,
 )
-from robosuite_envs.primitives.session import RobotSession, TaskContext
+from lerobot_policy_recent.robosuite_envs.primitives.session import RobotSession, TaskContext
 
 __all__ = [
     "activate_vacuum",

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-from robosuite_envs.primitives import control
-from robosuite_envs.primitives.session import RobotSession, TaskContext
+from lerobot_policy_recent.robosuite_envs.primitives import control
+from lerobot_policy_recent.robosuite_envs.primitives.session import RobotSession, TaskContext
 
 
 def ur5_grasp_at(

@@ -13,9 +13,9 @@ from pathlib import Path
 
 import yaml
 
-from ontology.builder import build_ontology
-from ontology.diagnosis import diagnose
-from skills.repository import list_skills, load_skill
+from lerobot_policy_recent.ontology.builder import build_ontology
+from lerobot_policy_recent.ontology.diagnosis import diagnose
+from lerobot_policy_recent.skills.repository import list_skills, load_skill
 
 TABLE = Path(__file__).with_name("expected_diagnoses.yaml")
 

@@ -10,8 +10,8 @@ from __future__ import annotations
 import ast
 from dataclasses import dataclass
 
-from ontology.diagnosis import Conflict, ParameterMapping
-from recent_plugin.grounding.substitution import render_substitute_call
+from lerobot_policy_recent.ontology.diagnosis import Conflict, ParameterMapping
+from lerobot_policy_recent.recent_plugin.refactoring.substitution import render_substitute_call
 
 
 @dataclass(frozen=True)

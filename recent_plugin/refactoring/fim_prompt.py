@@ -11,11 +11,10 @@ import json
 import re
 from dataclasses import dataclass
 
-from ontology.diagnosis import ParameterMapping
-from recent_plugin.grounding.substitution import PLACEHOLDER
-from recent_plugin.grounding.units import Hints, RefactoringUnit
-from recent_plugin.grounding.validation import name_variables, variable_kinds
-from recent_plugin.infillers.base import approximate_tokens
+from lerobot_policy_recent.ontology.diagnosis import ParameterMapping
+from lerobot_policy_recent.ontology.skill_code import name_variables, variable_kinds
+from lerobot_policy_recent.recent_plugin.refactoring.substitution import PLACEHOLDER
+from lerobot_policy_recent.recent_plugin.refactoring.units import Hints, RefactoringUnit
 
 # GBNF grammars for the span: code statements, never comments (a small model otherwise sometimes
 # copies a hint line instead of writing the call). Backends without grammar support ignore them.
@@ -159,3 +158,11 @@ def build_prompt(unit: RefactoringUnit, span_tokens: int) -> FimPrompt:
         max_tokens=max(24, 2 * max(span_tokens, approximate_tokens(call or "")) + 16),
         grammar=grammar,
     )
+
+
+_CODE_TOKEN = re.compile(r"[A-Za-z_]+|\d+|\S")
+
+
+def approximate_tokens(text: str) -> int:
+    """A tokenizer-free count (identifiers, numbers, symbols) for backends without a model."""
+    return len(_CODE_TOKEN.findall(text))

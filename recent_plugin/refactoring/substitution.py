@@ -10,8 +10,8 @@ from __future__ import annotations
 import ast
 import re
 
-from ontology.diagnosis import Conflict, ParameterMapping
-from ontology.specs import PATH_ROLE
+from lerobot_policy_recent.ontology.diagnosis import Conflict, ParameterMapping
+from lerobot_policy_recent.ontology.specs import PATH_ROLE
 
 PLACEHOLDER = re.compile(r"<[a-z_]+>")
 

@@ -18,13 +18,15 @@ from pathlib import Path
 
 import yaml
 
-from ontology.specs import load_api_spec
-from recent_plugin.grounding.validation import validate_program
-from recent_plugin.infillers.http import post_json
-from robosuite_envs.primitives import TaskContext, api_spec_path, available_apis
-from robosuite_envs.subtasks import get_subtask
-from robosuite_envs.suites import SEEDS, validation_task
-from skills.repository import (
+from lerobot_policy_recent.ontology.specs import load_api_spec
+from lerobot_policy_recent.recent_plugin.authoring.sim_validation import validate
+from lerobot_policy_recent.recent_plugin.grounding.gate import validate_program
+from lerobot_policy_recent.recent_plugin.infillers.http import post_json
+from lerobot_policy_recent.robosuite_envs.primitives import TaskContext, api_spec_path, available_apis
+from lerobot_policy_recent.robosuite_envs.subtasks import get_subtask
+from lerobot_policy_recent.robosuite_envs.suites import SEEDS, validation_task
+from lerobot_policy_recent.skills.records import ValidationRecord, save_record
+from lerobot_policy_recent.skills.repository import (
     LIBRARY,
     Skill,
     derived_capabilities,
@@ -32,7 +34,6 @@ from skills.repository import (
     load_skill,
     records_dir,
 )
-from skills.validation import ValidationRecord, save_record, validate
 
 SOURCE = "Panda"
 EXAMPLE_SKILL = "put_in_bin"

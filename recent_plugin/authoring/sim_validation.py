@@ -1,4 +1,4 @@
-"""Validate(skill, Panda): run a reference skill on the source robot across the paper's seeds.
+"""Validate(skill, Panda) in simulation: run a reference skill on the source robot across the paper's seeds.
 
 A skill is served to grounding only with a record whose code hash matches the file and whose
 every seed passed: its precondition checks held at the start and its expected effects (the
@@ -8,60 +8,15 @@ subtask's success predicate among them) were observed at the end. Records are JS
 
 from __future__ import annotations
 
-import json
 import time
-from dataclasses import asdict, dataclass, field
-from pathlib import Path
 
-from recent_plugin.agent import AgentSettings, RecentAgent
-from recent_plugin.episode import run_episode
-from robosuite_envs.gym_env import RecentEnv
-from robosuite_envs.observation import Observation
-from robosuite_envs.suites import SEEDS, validation_task
-from skills.repository import LIBRARY, Skill, records_dir
-
-RECORDS = records_dir(LIBRARY)
-
-
-@dataclass
-class ValidationRecord:
-    skill: str
-    code_sha256: str
-    robot: str
-    task: str
-    seeds: list[int]
-    passed: list[int] = field(default_factory=list)
-    seconds: dict[str, float] = field(default_factory=dict)  # seed -> wall time of its episode
-    failures: dict[str, str] = field(default_factory=dict)  # seed -> reason
-    validated_at: str = ""
-
-    @property
-    def validated(self) -> bool:
-        return bool(self.seeds) and sorted(self.passed) == sorted(self.seeds)
-
-    def matches(self, skill: Skill) -> bool:
-        return self.validated and self.code_sha256 == skill.code_sha256
-
-
-def record_path(name: str, records: Path = RECORDS) -> Path:
-    return records / f"{name}.json"
-
-
-def load_record(name: str, records: Path = RECORDS) -> ValidationRecord | None:
-    path = record_path(name, records)
-    if not path.is_file():
-        return None
-    try:
-        return ValidationRecord(**json.loads(path.read_text()))
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"{path}: not a validation record ({exc})") from None
-
-
-def save_record(record: ValidationRecord, records: Path = RECORDS) -> Path:
-    path = record_path(record.skill, records)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(asdict(record), indent=2) + "\n")
-    return path
+from lerobot_policy_recent.recent_plugin.agent import AgentSettings, RecentAgent
+from lerobot_policy_recent.recent_plugin.episode import run_episode
+from lerobot_policy_recent.robosuite_envs.gym_env import RecentEnv
+from lerobot_policy_recent.robosuite_envs.observation import Observation
+from lerobot_policy_recent.robosuite_envs.suites import SEEDS, validation_task
+from lerobot_policy_recent.skills.records import ValidationRecord
+from lerobot_policy_recent.skills.repository import Skill
 
 
 # Testable conditions of skill metadata, read off an observation of the plan's objects.

@@ -12,9 +12,10 @@ import ast
 import builtins
 from dataclasses import dataclass
 
-from ontology.specs import ApiSpec, ParameterSpec
-from recent_plugin.failures import FailureCategory
-from robosuite_envs.primitives.session import TaskContext
+from lerobot_policy_recent.ontology.skill_code import name_variables, variable_kinds
+from lerobot_policy_recent.ontology.specs import ApiSpec, ParameterSpec
+from lerobot_policy_recent.recent_plugin.failures import FailureCategory
+from lerobot_policy_recent.robosuite_envs.primitives.session import TaskContext
 
 SAFE_HELPERS = frozenset(
     {
@@ -296,42 +297,6 @@ class _Checker(ast.NodeVisitor):
                 f"{name}() missing required keyword argument(s): {', '.join(missing)}",
                 node,
             )
-
-
-def variable_kinds(func: ast.FunctionDef) -> dict[str, str]:
-    """What simple variables hold: ``"position"`` (an object position or a 3-list), ``"name"`` (a string).
-
-    A variable assigned more than once with different kinds is left out (nothing is claimed about it).
-    """
-    kinds: dict[str, set[str]] = {}
-    args = func.args.args
-    for arg, default in zip(args[len(args) - len(func.args.defaults) :], func.args.defaults, strict=True):
-        if isinstance(default, ast.Constant) and isinstance(default.value, str):
-            kinds.setdefault(arg.arg, set()).add("name")
-    for node in ast.walk(func):
-        if isinstance(node, ast.Assign) and len(node.targets) == 1 and isinstance(node.targets[0], ast.Name):
-            kind = _expression_kind(node.value)
-            kinds.setdefault(node.targets[0].id, set()).add(kind or "unknown")
-    return {name: next(iter(k)) for name, k in kinds.items() if len(k) == 1 and "unknown" not in k}
-
-
-def name_variables(kinds: dict[str, str]) -> tuple[str, ...]:
-    """The variables of :func:`variable_kinds` that hold an object name, sorted."""
-    return tuple(sorted(n for n, kind in kinds.items() if kind == "name"))
-
-
-def _expression_kind(value: ast.expr) -> str | None:
-    if (
-        isinstance(value, ast.Call)
-        and isinstance(value.func, ast.Attribute)
-        and value.func.attr == "get_object_position"
-    ):
-        return "position"
-    if isinstance(value, ast.List | ast.Tuple) and len(value.elts) == 3:
-        return "position"
-    if isinstance(value, ast.Constant) and isinstance(value.value, str):
-        return "name"
-    return None
 
 
 def _variable_kind_problem(value: ast.expr, spec: ParameterSpec, kinds: dict[str, str]) -> str | None:

@@ -1,0 +1,160 @@
+"""The LM calls every method makes, and their records: the retry loop, LMCall and AdaptationEvent.
+
+RECENT's grounding and in-situ adaptation, its ablations and the baselines all ask an infiller
+for a span, judge it and retry with the rejection as feedback, and all are measured by the same
+records (GO, EI, IT and IGT are sums over :class:`LMCall`), so the loop and the records live here,
+below each of them.
+"""
+
+from __future__ import annotations
+
+import difflib
+import io
+import tokenize
+from collections.abc import Callable
+from dataclasses import dataclass
+
+from lerobot_policy_recent.logs.events import Event, InfillCall, ValidationVerdict
+from lerobot_policy_recent.recent_plugin.grounding.gate import Verdict
+from lerobot_policy_recent.recent_plugin.infillers.base import Infiller
+from lerobot_policy_recent.recent_plugin.refactoring.fim_prompt import build_prompt, hint_lines
+from lerobot_policy_recent.recent_plugin.refactoring.units import RefactoringUnit
+
+FILL = "<FILL>"  # where the span goes, in the prompts the logs record
+
+
+@dataclass(frozen=True)
+class LMCall:
+    """One infiller call; GO/EI/IT/IGT are sums over these records, never estimates."""
+
+    kind: str  # "ground" (before execution), "revise" (in-situ), "repair" (after a failure)
+    span_type: str
+    original: str
+    text: str
+    generated_tokens: int
+    seconds: float
+    accepted: bool
+    category: str | None = None
+    message: str = ""
+    span: str = ""  # the span the unit replaced (empty for an insertion)
+    hints: tuple[str, ...] = ()  # the hint comments as the model saw them
+    prompt: str = ""  # prefix + <FILL> + suffix, format-independent (the logs show it)
+    rendered: bool = False  # the fast path wrote it; a revise or repair so written is no interruption
+
+
+def call_events(skill: str, call: LMCall) -> list[Event]:
+    """An infiller call as the logs see it: the unit, prompt and completion, then the validation verdict."""
+    return [
+        InfillCall(
+            skill,
+            call.kind,
+            call.span_type,
+            call.span,
+            list(call.hints),
+            call.prompt,
+            call.text,
+            call.generated_tokens,
+            call.seconds,
+            call.rendered,
+        ),
+        ValidationVerdict(skill, call.kind, call.accepted, call.category or "", "" if call.accepted else call.message),
+    ]
+
+
+def strip_comments(text: str) -> str:
+    """Drop comments the LM appended to its code (they are prompt echoes, not part of the edit)."""
+    try:
+        tokens = [t for t in tokenize.generate_tokens(io.StringIO(text).readline) if t.type != tokenize.COMMENT]
+        return tokenize.untokenize(tokens)
+    except (tokenize.TokenError, SyntaxError, IndentationError):
+        return text  # broken code is reported by validation, as written
+
+
+def clean_completion(text: str, unit: RefactoringUnit) -> str:
+    """The span as it goes into the code: comments and trailing space dropped, later lines re-indented."""
+    lines = [line.rstrip() for line in strip_comments(text).strip().splitlines() if line.strip()]
+    if not lines:
+        return ""
+    # later lines already at (or inside) the body's indentation keep theirs: nested blocks stay nested
+    return "\n".join(
+        [lines[0], *(line if line.startswith(unit.indent) else unit.indent + line.lstrip() for line in lines[1:])]
+    )
+
+
+@dataclass(frozen=True)
+class Attempt:
+    """An accepted infill: the unit it answered, the cleaned span text and the program with it applied."""
+
+    unit: RefactoringUnit
+    text: str
+    candidate: str
+    verdict: Verdict
+
+
+def infill_until_valid(
+    infiller: Infiller,
+    make_unit: Callable[[str | None, int], RefactoringUnit],
+    judge: Callable[[RefactoringUnit, str], tuple[Verdict, str]],
+    *,
+    kind: str,
+    max_retries: int,
+    calls: list[LMCall],
+    retry_kind: str | None = None,
+) -> Attempt | None:
+    """Ask for a span, judge it, retry with the rejection as feedback; every call is recorded in ``calls``.
+
+    ``make_unit(feedback, attempt)`` cuts the unit; ``judge(unit, text)`` returns the verdict and
+    the candidate program. The one loop behind grounding, regeneration, revision and repair.
+    ``retry_kind`` records the retries under another kind (a baseline's answer to an error is a repair).
+    """
+    feedback = None
+    for attempt in range(max_retries + 1):
+        unit = make_unit(feedback, attempt)
+        completion = infiller.infill(unit)
+        text = clean_completion(completion.text, unit)
+        verdict, candidate = judge(unit, text)
+        prompt = build_prompt(unit, 0)
+        calls.append(
+            LMCall(
+                kind=kind if attempt == 0 or retry_kind is None else retry_kind,
+                span_type=unit.span_type,
+                original=unit.hints.original_call,
+                text=text,
+                generated_tokens=completion.generated_tokens,
+                seconds=completion.seconds,
+                accepted=verdict.ok,
+                category=None if verdict.ok else str(verdict.category),
+                message=verdict.message,
+                span=unit.span,
+                hints=tuple(hint_lines(unit.span_type, unit.hints)),
+                prompt=prompt.prefix + FILL + prompt.suffix,
+                rendered=completion.rendered,
+            )
+        )
+        if verdict.ok:
+            return Attempt(unit, text, candidate, verdict)
+        feedback = verdict.message
+    return None
+
+
+@dataclass(frozen=True)
+class AdaptationEvent:
+    """One run-time decision: a check that failed, and the patch (or none) that answered it."""
+
+    kind: str  # "revise" (a check failed before the segment) or "repair" (the segment failed)
+    skill: str
+    segment: int
+    checks: tuple[str, ...]
+    observation: str
+    before: str
+    after: str | None  # the accepted patch; None when no valid patch was found
+    attempts: int
+
+
+def source_diff(before: str, after: str) -> str:
+    """A patch as the logs show it: the skill before and after, as a unified diff."""
+    return "".join(
+        difflib.unified_diff(
+            before.splitlines(keepends=True), after.splitlines(keepends=True), "before", "after (patched)"
+        )
+    )
