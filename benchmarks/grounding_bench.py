@@ -22,10 +22,13 @@ import time
 from pathlib import Path
 
 import lerobot_policy_recent.robosuite_envs.runtime  # noqa: F401  (MuJoCo GL backend before robosuite loads)
-from lerobot_policy_recent.recent_plugin.agent import AgentSettings, RecentAgent, behind_fast_path
+from lerobot_policy_recent.recent_plugin.agent import RecentAgent
 from lerobot_policy_recent.recent_plugin.episode import run_episode
 from lerobot_policy_recent.recent_plugin.executor import TaskExecutor
 from lerobot_policy_recent.recent_plugin.infillers import make_infiller
+from lerobot_policy_recent.recent_plugin.infillers.configs import LlamaCppConfig, RuleConfig
+from lerobot_policy_recent.recent_plugin.methods import method_named
+from lerobot_policy_recent.recent_plugin.settings import RecentSettings
 from lerobot_policy_recent.robosuite_envs.gym_env import RecentEnv
 from lerobot_policy_recent.robosuite_envs.observation import Observation
 
@@ -110,9 +113,12 @@ def main() -> None:
     started = time.perf_counter()
     infiller = make_infiller("llamacpp", args.model, n_threads=args.threads)
     load_s = time.perf_counter() - started
-    settings = AgentSettings(model=args.model, n_threads=args.threads, fast_path=args.fast_path)
-    agent = RecentAgent(settings, infiller=behind_fast_path(infiller, settings))
-    rule_agent = RecentAgent(AgentSettings(backend="rule"), ontology=agent.ontology)
+    settings = RecentSettings(
+        infiller=LlamaCppConfig(model=args.model, n_threads=args.threads),
+        method=method_named("recent+fast-path" if args.fast_path else "recent"),
+    )
+    agent = RecentAgent(settings, infiller=infiller)
+    rule_agent = RecentAgent(RecentSettings(infiller=RuleConfig()), ontology=agent.ontology)
 
     cold, warm, go_pre = [], [], {"kinematic": [], "end_effector": []}
     for task_id, robot in TASKS:

@@ -19,8 +19,10 @@ import tempfile
 import time
 
 from lerobot_policy_recent.logs.recorder import SINKS, Recorder
-from lerobot_policy_recent.recent_plugin.agent import AgentSettings, RecentAgent
+from lerobot_policy_recent.recent_plugin.agent import RecentAgent
 from lerobot_policy_recent.recent_plugin.episode import run_episode
+from lerobot_policy_recent.recent_plugin.infillers.configs import RuleConfig
+from lerobot_policy_recent.recent_plugin.settings import RecentSettings
 
 SETTINGS = {  # name -> (sinks or None for no recorder, camera)
     "logging off": (None, False),
@@ -40,7 +42,7 @@ def main() -> None:
     parser.add_argument("--robot", default="UR5e")
     parser.add_argument("--episodes", type=int, default=4, help="episodes per setting (one run each)")
     args = parser.parse_args()
-    agent = RecentAgent(AgentSettings(backend="rule"))
+    agent = RecentAgent(RecentSettings(infiller=RuleConfig()))
     run_episode(agent, args.task, args.robot, seed=0)  # warm-up: imports, first env
     with tempfile.TemporaryDirectory() as tmp:
         recorders = {

@@ -70,6 +70,11 @@ class RecentPolicy(PreTrainedPolicy):
     def get_optim_params(self) -> dict:
         return {}
 
+    @property
+    def _log_seed(self) -> int:
+        """The seed the logs record: LeRobot does not hand the env's seed to the policy, so the LM's stands in."""
+        return self.config.lm_seed
+
     def reset(self):
         """End every batch element's episode (its result goes to the logs) before the next begins."""
         for episode in self._episodes:
@@ -77,7 +82,7 @@ class RecentPolicy(PreTrainedPolicy):
                 result = episode_result(
                     episode.executor,
                     episode.grounding,
-                    self.config.seed,
+                    self._log_seed,
                     None,  # the env's verdict is lerobot-eval's to report
                     None,
                     episode.log.frame_index,
@@ -113,7 +118,7 @@ class RecentPolicy(PreTrainedPolicy):
                 action = episode.executor.act(obs)
             except Exception as exc:  # the LM worker died, a bug: the log says so, and lerobot-eval sees the error
                 self._episodes[b] = None
-                _end_crashed(episode.log, task_id, robot, self.config.seed, episode.started, exc)
+                _end_crashed(episode.log, task_id, robot, self._log_seed, episode.started, exc)
                 raise
             if episode.log is not None:
                 episode.log.step(state, env_state, action)
@@ -124,11 +129,11 @@ class RecentPolicy(PreTrainedPolicy):
         started = time.perf_counter()
         log = None
         if self.recorder is not None:
-            log = self.recorder.start_episode(self.agent.started_event(task_id, robot, self.config.seed, text))
+            log = self.recorder.start_episode(self.agent.started_event(task_id, robot, self._log_seed, text))
         try:
             executor, report = self.agent.start_episode(task_id, robot, obs, emit=log.emit if log else ignore)
         except Exception as exc:
-            _end_crashed(log, task_id, robot, self.config.seed, started, exc)
+            _end_crashed(log, task_id, robot, self._log_seed, started, exc)
             raise
         self.groundings.append(report)
         return _Episode(executor, report, log, started)

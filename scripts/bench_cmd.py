@@ -44,9 +44,9 @@ def register(sub) -> None:
     )
     parser.add_argument("--no-log", action="store_true", help="no per-episode MCAP/Rerun/dataset logs")
     parser.add_argument("--log-sinks", default="mcap,rerun,dataset", help="sinks of the per-episode logs")
-    from lerobot_policy_recent.scripts.common import add_lm_arguments
+    from lerobot_policy_recent.scripts.common import add_settings_arguments
 
-    add_lm_arguments(parser, with_method=False)
+    add_settings_arguments(parser, with_method=False)
     parser.set_defaults(handler=_run)
     sub_bench = parser.add_subparsers(dest="bench_command", metavar="{report,compare}")
     report = sub_bench.add_parser("report", help="tables (markdown) and plots (PNG) from one or more run directories")
@@ -90,8 +90,10 @@ def _run(args) -> int:
     if unknown:
         raise ValueError(f"unknown suite(s) {', '.join(unknown)}; choose from {', '.join(SUITES)}")
     settings = settings_from_args(args)
-    if args.workers > 1 and settings.n_threads is None:  # share the cores instead of oversubscribing them
-        settings = replace(settings, n_threads=max(1, (os.cpu_count() or 2) // args.workers))
+    if args.workers > 1 and getattr(settings.infiller, "n_threads", 0) is None:  # share the cores, don't oversubscribe
+        settings = replace(
+            settings, infiller=replace(settings.infiller, n_threads=max(1, (os.cpu_count() or 2) // args.workers))
+        )
     config = BenchConfig(
         out=Path(args.out),
         suites=suites,
@@ -119,8 +121,9 @@ def _run(args) -> int:
         "command": command_line(config),
         "date": dt.datetime.now(dt.UTC).isoformat(timespec="seconds"),
         "git_commit": git_commit(),
-        "backend": settings.backend,
-        "model": settings.model,
+        "config": run_settings(config),
+        "backend": settings.infiller.backend,
+        "model": getattr(settings.infiller, "model", ""),
         "max_retries": settings.max_retries,
         "machine": machine(),
         "suites": list(config.suites),
@@ -154,16 +157,22 @@ def git_commit() -> str | None:
     return commit.stdout.strip() + ("+dirty" if dirty.stdout.strip() else "")
 
 
+def run_settings(config) -> dict:
+    """The resolved settings tree of a run, without ``method`` (the run's methods are listed by name)."""
+    return {key: value for key, value in config.agent.to_dict().items() if key != "method"}
+
+
 def command_line(config) -> str:
-    """The ``recent bench`` command that reproduces ``config`` (what results.json records)."""
-    s = config.agent
+    """The ``recent bench`` command that reproduces ``config`` (what results.json records): every setting, resolved."""
+    from lerobot_policy_recent.recent_plugin.settings import settings_flags
+
     words = ["recent", "bench", f"--suite={','.join(config.suites)}", f"--method={','.join(config.methods)}"]
     words += [f"--seeds={','.join(map(str, config.seeds))}", f"--variations={config.variations}"]
     words += [f"--target={','.join(config.targets)}"] if config.targets else []
     words += [f"--tasks={','.join(config.tasks)}"] if config.tasks else []
-    words += [f"--backend={s.backend}", f"--model={s.model}", f"--max-retries={s.max_retries}"]
-    words += [f"--base-url={s.base_url}"] if s.base_url else []
+    words += settings_flags(run_settings(config))
     words += [f"--workers={config.workers}", f"--out={config.out}"]
+    words += [f"--log-sinks={','.join(config.log_sinks)}"] if config.log_sinks else ["--no-log"]
     return shlex.join(words)
 
 

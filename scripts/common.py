@@ -1,62 +1,92 @@
-"""Options shared by the subcommands that ground skills."""
+"""The settings options of the subcommands that ground skills, generated from :class:`RecentSettings`.
+
+Every field of the tree is one ``--dotted.path`` option, the same path ``lerobot-eval`` takes
+under ``--policy.`` (``--infiller.type=rule`` here is ``--policy.infiller.type=rule`` there). A choice
+field (``infiller``, ``method``) gives ``--<field>.type`` with its registered names, and one option
+per field of any of its choices; draccus decodes the values into the typed tree.
+"""
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
+from collections.abc import Iterator
+from typing import get_type_hints
 
-from lerobot_policy_recent.recent_plugin.agent import MODES, AgentSettings, RecentAgent
-from lerobot_policy_recent.recent_plugin.infillers import BACKENDS
-from lerobot_policy_recent.recent_plugin.models.registry import DEFAULT_MODEL
+import draccus
+from draccus.wrappers.docstring import get_attribute_docstring
 
+from lerobot_policy_recent.recent_plugin.agent import RecentAgent
+from lerobot_policy_recent.recent_plugin.settings import RecentSettings, parse_settings
 
-def add_lm_arguments(parser: argparse.ArgumentParser, *, with_method: bool = True) -> None:
-    """LM options (and, ``with_method``, the method options: ``recent bench`` takes methods by name)."""
-    lm = parser.add_argument_group("code LM")
-    lm.add_argument("--backend", choices=BACKENDS, default="llamacpp", help="span generator (default: llamacpp)")
-    lm.add_argument(
-        "--model",
-        default=DEFAULT_MODEL,
-        help=f"model name, .gguf path, or (transformers) Hub id / model dir (default: {DEFAULT_MODEL})",
-    )
-    lm.add_argument("--threads", type=int, default=None, help="CPU threads for llama.cpp (default: up to 2)")
-    lm.add_argument("--max-retries", type=int, default=2, help="retries per rejected span (default: 2)")
-    lm.add_argument(
-        "--base-url", default=None, help="completions server for --backend openai, e.g. http://127.0.0.1:8000"
-    )
-    lm.add_argument(
-        "--fast-path", action="store_true", help="render spans the ontology fully decides without the LM (0 tokens)"
-    )
-    lm.add_argument("--device", default=None, help="transformers backend: cuda or cpu (default: CUDA when available)")
-    lm.add_argument("--dtype", default="auto", help="transformers backend: auto, float32, float16, bfloat16")
-    lm.add_argument("--quantization", default=None, choices=("8bit", "4bit"), help="transformers backend, CUDA only")
-    if not with_method:
-        return
-    method = parser.add_argument_group("method (the paper's ablations and baselines)")
-    method.add_argument(
-        "--mode",
-        choices=MODES,
-        default="recent",
-        help="how skills are grounded: RECENT, an ablation or a baseline (default: recent)",
-    )
-    method.add_argument("--no-insitu", action="store_true", help="no run-time checks; reactive repair only")
-    method.add_argument("--no-offline-validation", action="store_true", help="serve skills that were never validated")
+DEST = "settings."  # argparse dest prefix of the generated options
 
 
-def settings_from_args(args: argparse.Namespace) -> AgentSettings:
-    return AgentSettings(
-        backend=args.backend,
-        model=args.model,
-        n_threads=args.threads,
-        max_retries=args.max_retries,
-        base_url=args.base_url,
-        lm_device=args.device,
-        lm_dtype=args.dtype,
-        lm_quantization=args.quantization,
-        fast_path=args.fast_path,
-        mode=getattr(args, "mode", AgentSettings.mode),
-        insitu=not getattr(args, "no_insitu", False),
-        offline_validation=not getattr(args, "no_offline_validation", False),
-    )
+@dataclasses.dataclass(frozen=True)
+class SettingsOption:
+    path: str  # infiller.n_threads
+    help: str
+    choices: tuple[str, ...] | None = None
+
+
+def settings_options(
+    cls: type = RecentSettings, prefix: str = "", skip: tuple[str, ...] = ()
+) -> Iterator[SettingsOption]:
+    """One option per leaf of the tree under ``cls`` (fields named in ``skip`` left out)."""
+    types = get_type_hints(cls)
+    for f in dataclasses.fields(cls):
+        if f.name in skip:
+            continue
+        kind, path = types[f.name], prefix + f.name
+        doc = _doc(cls, f.name)
+        if isinstance(kind, type) and issubclass(kind, draccus.ChoiceRegistry):
+            choices = kind.get_known_choices()
+            yield SettingsOption(f"{path}.type", f"{doc} (default: {kind.default_choice_name()})", tuple(choices))
+            owners: dict[str, list[str]] = {}
+            for name, choice in choices.items():
+                for sub in dataclasses.fields(choice):
+                    owners.setdefault(sub.name, []).append(name)
+            for sub, names in owners.items():
+                owner = choices[names[0]]
+                yield SettingsOption(f"{path}.{sub}", f"[{_owners(names, list(choices))}] {_doc(owner, sub)}")
+        else:
+            yield SettingsOption(path, f"{doc} (default: {f.default})")
+
+
+def _owners(names: list[str], choices: list[str]) -> str:
+    """Which choices have a field: ``llamacpp, transformers``, or ``all but cap, repair, agentless``."""
+    others = [c for c in choices if c not in names]
+    if not others:
+        return "all"
+    return f"all but {', '.join(others)}" if len(others) < len(names) else ", ".join(names)
+
+
+def _doc(cls: type, name: str) -> str:
+    for klass in cls.__mro__:  # a field documented where it was first declared
+        if dataclasses.is_dataclass(klass) and name in getattr(klass, "__annotations__", {}):
+            doc = get_attribute_docstring(klass, name)
+            return (doc.comment_inline or doc.comment_above or doc.docstring_below or "").strip()
+    return ""
+
+
+def add_settings_arguments(parser: argparse.ArgumentParser, *, with_method: bool = True) -> None:
+    """The tree's options (without ``method.*`` where the command takes methods by name: ``recent bench``)."""
+    group = parser.add_argument_group("settings (the same tree as lerobot-eval's --policy.*)")
+    for option in settings_options(skip=() if with_method else ("method",)):
+        group.add_argument(
+            f"--{option.path}",
+            dest=DEST + option.path,
+            default=argparse.SUPPRESS,
+            choices=option.choices,
+            metavar=None if option.choices else "VALUE",
+            help=option.help.replace("%", "%%"),
+        )
+
+
+def settings_from_args(args: argparse.Namespace) -> RecentSettings:
+    """The typed tree from the options given (the rest keep their defaults)."""
+    given = {k.removeprefix(DEST): v for k, v in vars(args).items() if k.startswith(DEST)}
+    return parse_settings([f"--{path}={value}" for path, value in given.items()])
 
 
 def agent_from_args(args: argparse.Namespace) -> RecentAgent:

@@ -6,7 +6,7 @@ import json
 import sys
 
 from lerobot_policy_recent.recent_plugin.episode import run_episode
-from lerobot_policy_recent.scripts.common import add_lm_arguments, agent_from_args
+from lerobot_policy_recent.scripts.common import add_settings_arguments, agent_from_args
 from lerobot_policy_recent.scripts.ground_cmd import grounding_summary, print_grounding
 from lerobot_policy_recent.scripts.logs_cmd import add_log_arguments, recorder_from_args
 
@@ -25,7 +25,7 @@ def register(sub) -> None:
         "--variations", default="off", help="off, on (pose perturbation, sensing noise, obstacle), all, or a comma list"
     )
     parser.add_argument("--json", action="store_true", help="print one JSON object instead of text")
-    add_lm_arguments(parser)
+    add_settings_arguments(parser)
     add_log_arguments(parser)
     parser.set_defaults(handler=_run)
 

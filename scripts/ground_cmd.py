@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import json
 
-from lerobot_policy_recent.scripts.common import add_lm_arguments, agent_from_args
+from lerobot_policy_recent.scripts.common import add_settings_arguments, agent_from_args
 
 
 def register(sub) -> None:
@@ -12,7 +12,7 @@ def register(sub) -> None:
     parser.add_argument("--skill", required=True, help="skill name (see `recent skills list`)")
     parser.add_argument("--robot", required=True, help="target embodiment, e.g. UR5e")
     parser.add_argument("--json", action="store_true", help="print one JSON object instead of text")
-    add_lm_arguments(parser)
+    add_settings_arguments(parser)
     parser.set_defaults(handler=_run)
 
 

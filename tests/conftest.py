@@ -69,6 +69,8 @@ def rule_infiller():
 @pytest.fixture(scope="session")
 def panda_agent(ontology, rule_infiller):
     """Runs skills without an LM: on Panda they run unmodified, elsewhere the rule backend grounds them."""
-    from lerobot_policy_recent.recent_plugin.agent import AgentSettings, RecentAgent
+    from lerobot_policy_recent.recent_plugin.agent import RecentAgent
+    from lerobot_policy_recent.recent_plugin.infillers.configs import RuleConfig
+    from lerobot_policy_recent.recent_plugin.settings import RecentSettings
 
-    return RecentAgent(AgentSettings(backend="rule"), infiller=rule_infiller, ontology=ontology)
+    return RecentAgent(RecentSettings(infiller=RuleConfig()), infiller=rule_infiller, ontology=ontology)

@@ -4,27 +4,31 @@ from __future__ import annotations
 
 import pytest
 
-from lerobot_policy_recent.recent_plugin.agent import AgentSettings, RecentAgent
+from lerobot_policy_recent.recent_plugin.agent import RecentAgent
 from lerobot_policy_recent.recent_plugin.episode import run_episode
 from lerobot_policy_recent.recent_plugin.grounding.ablations import body_span, name_similarity_conflicts
 from lerobot_policy_recent.recent_plugin.grounding.grounder import ground_skill
+from lerobot_policy_recent.recent_plugin.infillers.configs import RuleConfig
 from lerobot_policy_recent.recent_plugin.infillers.rule import RuleInfiller
+from lerobot_policy_recent.recent_plugin.methods import Grounding, method_named
+from lerobot_policy_recent.recent_plugin.settings import RecentSettings
 
 
 @pytest.mark.parametrize(
-    ("settings", "grounds"),
+    ("method", "grounds"),
     [
-        ({"mode": "recent"}, True),
-        ({"mode": "full-regen"}, True),  # the rule renders every substitution into the whole body
-        ({"mode": "name-similarity"}, False),  # "pick" is nearest to a primitive with other arguments
-        ({"mode": "no-ontology"}, False),  # without the ontology there is nothing to render without an LM
-        ({"insitu": False}, True),
-        ({"offline_validation": False}, True),
+        ("recent", True),
+        ("recent-full-regen", True),  # the rule renders every substitution into the whole body
+        ("recent-name-similarity", False),  # "pick" is nearest to a primitive with other arguments
+        ("recent-no-ontology", False),  # without the ontology there is nothing to render without an LM
+        ("recent-no-insitu", True),
+        ("recent-no-offline-validation", True),
     ],
-    ids=lambda v: str(v),
 )
-def test_each_mode_runs_an_episode(ontology, settings, grounds):
-    agent = RecentAgent(AgentSettings(backend="rule", **settings), infiller=RuleInfiller(), ontology=ontology)
+def test_each_method_runs_an_episode(ontology, method, grounds):
+    agent = RecentAgent(
+        RecentSettings(infiller=RuleConfig(), method=method_named(method)), infiller=RuleInfiller(), ontology=ontology
+    )
     result = run_episode(agent, "kinematic/cube_in_bin", "UR5e", seed=0)
     assert all(s.valid for s in result.grounding.skills) == grounds
     assert result.success == grounds  # nothing that failed validation was executed
@@ -47,5 +51,5 @@ def test_whole_body_span_excludes_signature_and_docstring(put_in_bin):
 @pytest.mark.slow
 def test_full_regeneration_costs_more_tokens_than_localized_edits(ontology, put_in_bin, llama_infiller):
     recent = ground_skill(put_in_bin, "UR5e", ontology, llama_infiller)
-    regen = ground_skill(put_in_bin, "UR5e", ontology, llama_infiller, mode="full-regen", max_retries=0)
+    regen = method_named("recent-full-regen").ground(Grounding(put_in_bin, "UR5e", ontology, llama_infiller, None, 0))
     assert recent.valid and recent.go < regen.go

@@ -9,10 +9,13 @@ from __future__ import annotations
 import pytest
 from doubles import ScriptedInfiller
 
-from lerobot_policy_recent.recent_plugin.agent import AgentSettings, RecentAgent
+from lerobot_policy_recent.recent_plugin.agent import RecentAgent
 from lerobot_policy_recent.recent_plugin.baselines.program_prompt import PROGRAM, STATEMENT
 from lerobot_policy_recent.recent_plugin.episode import run_episode
+from lerobot_policy_recent.recent_plugin.infillers.configs import RuleConfig
+from lerobot_policy_recent.recent_plugin.methods import method_named
 from lerobot_policy_recent.recent_plugin.refactoring.fim_prompt import build_prompt
+from lerobot_policy_recent.recent_plugin.settings import RecentSettings
 from lerobot_policy_recent.robosuite_envs.suites import get_task
 
 UR5E_BODY = """obj_pos = task.get_object_position(obj)
@@ -26,7 +29,9 @@ PANDA_LINE = "open_gripper(env, task)"  # what a small model copies from the exa
 
 def _agent(ontology, method: str, texts: list[str]) -> tuple[RecentAgent, ScriptedInfiller]:
     infiller = ScriptedInfiller(texts)
-    return RecentAgent(AgentSettings(backend="rule", mode=method), ontology=ontology, infiller=infiller), infiller
+    return RecentAgent(
+        RecentSettings(infiller=RuleConfig(), method=method_named(method)), ontology=ontology, infiller=infiller
+    ), infiller
 
 
 def test_cap_prompt_shows_api_example_and_task_but_not_the_scene(ontology):
@@ -106,7 +111,7 @@ def test_a_run_time_failure_is_repaired_the_baselines_way(ontology, method, repa
 
 @pytest.mark.slow
 def test_real_lm_writes_a_cap_program(ontology, llama_infiller):
-    agent = RecentAgent(AgentSettings(mode="cap"), ontology=ontology, infiller=llama_infiller)
+    agent = RecentAgent(RecentSettings(method=method_named("cap")), ontology=ontology, infiller=llama_infiller)
     result = run_episode(agent, "cube_in_bin", "UR5e", seed=0)
     grounded = result.grounding.skills[0]
     assert grounded.calls and grounded.calls[0].kind == "ground" and grounded.calls[0].generated_tokens > 0

@@ -19,7 +19,7 @@ RUN = [
     "--method=recent,recent-no-insitu",
     "--seeds=0,1",
     "--variations=on",
-    "--backend=rule",
+    "--infiller.type=rule",
     "--log-sinks=mcap",
 ]
 
@@ -121,7 +121,7 @@ def test_unknown_methods_and_tasks_are_named():
     assert parse_methods("all")[0] == "recent" and "cap" in parse_methods("all")
     with pytest.raises(ValueError, match="unknown method.*capp"):
         parse_methods("recent,capp")
-    assert main(["bench", "--tasks=nope", "--backend=rule", "--out=/tmp/never"]) == 2
+    assert main(["bench", "--tasks=nope", "--infiller.type=rule", "--out=/tmp/never"]) == 2
 
 
 @pytest.mark.slow

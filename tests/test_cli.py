@@ -32,7 +32,7 @@ def test_every_subcommand_has_help(argv, capsys):
 
 
 def test_ground_json_has_the_documented_keys(capsys):
-    assert main(["ground", "--skill", "put_in_bin", "--robot", "UR5e", "--backend", "rule", "--json"]) == 0
+    assert main(["ground", "--skill", "put_in_bin", "--robot", "UR5e", "--infiller.type", "rule", "--json"]) == 0
     record = json.loads(capsys.readouterr().out)
     assert {"diff", "go", "generated_tokens", "skill_tokens", "lm_seconds", "retries", "valid"} <= set(record)
     assert record["valid"] and "+    ur5_grasp_at(env, task, grasp_pos=obj_pos)" in record["diff"]
@@ -44,7 +44,7 @@ def test_a_skill_that_cannot_be_grounded_says_so_not_that_it_is_compatible(capsy
     from lerobot_policy_recent.ontology.builder import Ontology
 
     monkeypatch.setattr(Ontology, "path_tracers", lambda self, source, primitive, target: [])
-    assert main(["ground", "--skill", "close_drawer", "--robot", "Robotiq85", "--backend", "rule"]) == 1
+    assert main(["ground", "--skill", "close_drawer", "--robot", "Robotiq85", "--infiller.type", "rule"]) == 1
     out = capsys.readouterr().out
     assert "no grounding of its conflicts passed validation" in out and "directly compatible" not in out
     assert "push -> (no primitive of Robotiq85 has its effects)" in out and "REJECTED" in out
@@ -63,7 +63,7 @@ def test_diagnose_json(capsys):
 
 
 def test_unknown_names_are_clear_errors(capsys):
-    assert main(["ground", "--skill", "juggle", "--robot", "UR5e", "--backend", "rule"]) == 2
+    assert main(["ground", "--skill", "juggle", "--robot", "UR5e", "--infiller.type", "rule"]) == 2
     assert "unknown skill 'juggle'; known skills: arrange_in_row, " in capsys.readouterr().err
     assert main(["ontology", "diagnose", "--skill", "put_in_bin", "--robot", "R2D2"]) == 2
     assert "known robots" in capsys.readouterr().err

@@ -4,12 +4,14 @@ from __future__ import annotations
 
 import pytest
 
-from lerobot_policy_recent.recent_plugin.agent import AgentSettings, RecentAgent
+from lerobot_policy_recent.recent_plugin.agent import RecentAgent
 from lerobot_policy_recent.recent_plugin.episode import run_episode
+from lerobot_policy_recent.recent_plugin.infillers.configs import RuleConfig
+from lerobot_policy_recent.recent_plugin.settings import RecentSettings
 
 
 def test_panda_runs_the_reference_skill_unmodified(ontology, rule_infiller):
-    agent = RecentAgent(AgentSettings(backend="rule"), infiller=rule_infiller, ontology=ontology)
+    agent = RecentAgent(RecentSettings(infiller=RuleConfig()), infiller=rule_infiller, ontology=ontology)
     result = run_episode(agent, "cube_in_bin", "Panda", seed=0)
     assert result.success, result.failures
     assert result.grounding.skills[0].diagnosis.compatible and result.generated_tokens == 0
@@ -17,7 +19,7 @@ def test_panda_runs_the_reference_skill_unmodified(ontology, rule_infiller):
 
 def test_grounded_episode_on_ur5e_with_the_real_lm(ontology, llama_infiller):
     """The README's main job: Panda skill → UR5e by FIM with the 1.5B GGUF, executed in robosuite."""
-    agent = RecentAgent(AgentSettings(), infiller=llama_infiller, ontology=ontology)
+    agent = RecentAgent(RecentSettings(), infiller=llama_infiller, ontology=ontology)
     result = run_episode(agent, "cube_in_bin", "UR5e", seed=0)
     assert result.success, (result.failures, result.grounding.skills[0].diff())
     assert result.generated_tokens > 0 and 0 < result.go_pre < 100
@@ -30,7 +32,7 @@ def test_grounded_episode_on_ur5e_with_the_real_lm(ontology, llama_infiller):
 
 def test_suction_gripper_really_holds_and_releases(ontology, rule_infiller):
     """The vacuum cup lifts the cube by contact + adhesion and drops it into the bin when switched off."""
-    agent = RecentAgent(AgentSettings(backend="rule"), infiller=rule_infiller, ontology=ontology)
+    agent = RecentAgent(RecentSettings(infiller=RuleConfig()), infiller=rule_infiller, ontology=ontology)
     result = run_episode(agent, "cube_in_bin", "Suction", seed=0)
     assert result.success, result.failures
     assert "attach_vacuum_handle(env, task, handle_pos=obj_pos)" in result.grounding.skills[0].code
@@ -48,7 +50,7 @@ def test_end_effector_targets_open_and_close_the_drawer_and_box(panda_agent, rob
 @pytest.mark.slow
 @pytest.mark.parametrize("robot", ["Sawyer", "Robotiq85", "Suction"])
 def test_grounded_episode_on_end_effector_targets_with_the_real_lm(ontology, llama_infiller, robot):
-    agent = RecentAgent(AgentSettings(), infiller=llama_infiller, ontology=ontology)
+    agent = RecentAgent(RecentSettings(), infiller=llama_infiller, ontology=ontology)
     result = run_episode(agent, "cube_in_bin", robot, seed=0)
     assert result.success, (result.failures, result.grounding.skills[0].diff())
 
@@ -89,5 +91,5 @@ def test_sawyer_presses_the_button_its_loose_tracking_would_stop_short_of(panda_
 @pytest.mark.slow
 @pytest.mark.parametrize("seed", [0, 1, 42, 123, 2024])
 def test_rule_grounding_succeeds_on_every_paper_seed(ontology, rule_infiller, seed):
-    agent = RecentAgent(AgentSettings(backend="rule"), infiller=rule_infiller, ontology=ontology)
+    agent = RecentAgent(RecentSettings(infiller=RuleConfig()), infiller=rule_infiller, ontology=ontology)
     assert run_episode(agent, "cube_in_bin", "UR5e", seed=seed).success

@@ -8,10 +8,11 @@ import numpy as np
 import pytest
 
 from lerobot_policy_recent.ontology.specs import load_api_spec
-from lerobot_policy_recent.recent_plugin.agent import AgentSettings, RecentAgent
+from lerobot_policy_recent.recent_plugin.agent import RecentAgent
 from lerobot_policy_recent.recent_plugin.episode import run_episode
 from lerobot_policy_recent.recent_plugin.executor import split_segments
 from lerobot_policy_recent.recent_plugin.infillers.base import Completion
+from lerobot_policy_recent.recent_plugin.infillers.configs import RuleConfig
 from lerobot_policy_recent.recent_plugin.infillers.rule import RuleInfiller
 from lerobot_policy_recent.recent_plugin.insitu.adapter import latest_definitions, recomputation
 from lerobot_policy_recent.recent_plugin.insitu.checks import (
@@ -24,7 +25,9 @@ from lerobot_policy_recent.recent_plugin.insitu.checks import (
     target_clear,
     within_reach,
 )
+from lerobot_policy_recent.recent_plugin.methods import method_named
 from lerobot_policy_recent.recent_plugin.refactoring.units import RefactoringUnit
+from lerobot_policy_recent.recent_plugin.settings import RecentSettings
 from lerobot_policy_recent.robosuite_envs.observation import ObjectState, Observation
 from lerobot_policy_recent.robosuite_envs.primitives import api_spec_path
 
@@ -41,7 +44,7 @@ class CountingInfiller(RuleInfiller):
 
 @pytest.fixture(scope="module")
 def counting_agent(ontology):
-    return RecentAgent(AgentSettings(backend="rule"), infiller=CountingInfiller(), ontology=ontology)
+    return RecentAgent(RecentSettings(infiller=RuleConfig()), infiller=CountingInfiller(), ontology=ontology)
 
 
 def test_obstacle_on_the_target_is_swept_off_by_a_patch_of_the_upcoming_segment_only(panda_agent):
@@ -75,7 +78,11 @@ def test_a_moved_tower_base_is_read_again_before_the_block_is_placed_on_it(panda
 
 
 def test_without_insitu_the_moved_object_is_repaired_after_the_grasp_fails(ontology):
-    agent = RecentAgent(AgentSettings(backend="rule", insitu=False), infiller=RuleInfiller(), ontology=ontology)
+    agent = RecentAgent(
+        RecentSettings(infiller=RuleConfig(), method=method_named("recent-no-insitu")),
+        infiller=RuleInfiller(),
+        ontology=ontology,
+    )
     result = run_episode(agent, "kinematic/cube_on_plate", "UR5e", seed=0, variations="pose_perturbation")
     assert [e.kind for e in result.adaptations] == ["repair"]  # no run-time checks, only the reactive path
     assert "obj_pos = task.get_object_position(obj)" in result.adaptations[0].after
@@ -104,7 +111,9 @@ def test_the_fast_path_renders_the_patches_a_check_writes_without_interrupting(o
     from lerobot_policy_recent.recent_plugin.infillers.fast_path import FastPathInfiller
 
     lm = CountingInfiller()
-    agent = RecentAgent(AgentSettings(fast_path=True), infiller=FastPathInfiller(lm), ontology=ontology)
+    agent = RecentAgent(
+        RecentSettings(method=method_named("recent+fast-path")), infiller=FastPathInfiller(lm), ontology=ontology
+    )
     result = run_episode(agent, "kinematic/cube_on_plate", "UR5e", seed=0, variations="on")
     assert result.success
     assert [e.checks for e in result.adaptations] == [("object_unmoved",), ("target_clear",)]
@@ -122,7 +131,7 @@ def test_igt_is_the_time_to_the_first_executable_code(counting_agent):
 
 @pytest.mark.slow
 def test_real_lm_writes_the_insitu_patches(ontology, llama_infiller):
-    agent = RecentAgent(AgentSettings(), infiller=llama_infiller, ontology=ontology)
+    agent = RecentAgent(RecentSettings(), infiller=llama_infiller, ontology=ontology)
     result = run_episode(agent, "kinematic/cube_on_plate", "UR5e", seed=0, variations="on")
     assert result.success, [(c.text, c.message) for c in result.runtime_calls]
     assert [e.checks for e in result.adaptations] == [("object_unmoved",), ("target_clear",)]
@@ -220,7 +229,7 @@ def test_an_obstacle_beside_the_grasp_is_swept_away_from_the_object_first():
 @pytest.mark.slow
 def test_the_slab_a_push_shoved_beside_the_cube_is_swept_away_before_the_grasp(ontology):
     """bench_routine on UR5e, seed 0: without the sweep, every grasp of the cube stopped on the slab."""
-    agent = RecentAgent(AgentSettings(backend="rule"), infiller=RuleInfiller(), ontology=ontology)
+    agent = RecentAgent(RecentSettings(infiller=RuleConfig()), infiller=RuleInfiller(), ontology=ontology)
     result = run_episode(agent, "kinematic/bench_routine", "UR5e", seed=0, variations="on")
     assert result.success
     (sweep,) = [e for e in result.adaptations if e.checks == ("fingers_clear",)]
@@ -322,7 +331,7 @@ def test_latest_definitions_skip_what_a_later_iteration_redefined():
 def test_a_push_that_failed_on_a_moved_cube_is_recomputed_and_retried_without_the_lm(ontology):
     """The UR5e's push timed out against a cube perturbed after its position was read: the observation
     explains the failure, so the recomputation is copied in (no LM call, no EI) and the push succeeds."""
-    agent = RecentAgent(AgentSettings(backend="rule"), infiller=CountingInfiller(), ontology=ontology)
+    agent = RecentAgent(RecentSettings(infiller=RuleConfig()), infiller=CountingInfiller(), ontology=ontology)
     result = run_episode(agent, "kinematic/push_cube", "UR5e", seed=42, variations="on")
     assert result.success and result.ei == 0 and result.it == 0
     stale = [e for e in result.adaptations if "failed (timeout" in e.observation]
@@ -334,7 +343,7 @@ def test_a_push_that_failed_on_a_moved_cube_is_recomputed_and_retried_without_th
 def test_a_traced_push_checks_the_object_before_each_move_up_to_the_contact(ontology):
     """On the 2F-85 the push becomes close + four moves: the object may move while the hand approaches,
     so its position is checked before the close and the two approach moves, not before the slide."""
-    agent = RecentAgent(AgentSettings(backend="rule"), ontology=ontology)
+    agent = RecentAgent(RecentSettings(infiller=RuleConfig()), ontology=ontology)
     result = run_episode(agent, "end_effector/sweep_blocks", "Robotiq85", seed=2024, variations="on")
     assert result.success
     revise = [e for e in result.adaptations if e.checks == ("object_unmoved",)]

@@ -25,7 +25,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("recent_plugin.executor",),
     ("recent_plugin.insitu", "recent_plugin.baselines"),  # run-time adaptation, RECENT's and the baselines'
     ("recent_plugin.methods",),  # RECENT, its ablations and the baselines as registered strategies
-    ("recent_plugin.target", "recent_plugin.agent"),
+    ("recent_plugin.settings", "recent_plugin.agent"),  # the settings tree; the agent that takes it
     ("recent_plugin.episode",),
     ("recent_plugin.configuration_recent", "recent_plugin.modeling_recent", "recent_plugin.processor_recent"),
     ("recent_plugin.evaluation", "recent_plugin.authoring"),  # run many episodes: benchmarks, skill validation

@@ -30,11 +30,12 @@ def test_policy_factory_builds_recent_and_returns_batched_actions():
 
     import lerobot_policy_recent  # noqa: F401
     from lerobot_policy_recent.recent_plugin.configuration_recent import RecentConfig
+    from lerobot_policy_recent.recent_plugin.infillers.configs import RuleConfig
     from lerobot_policy_recent.robosuite_envs.gym_env import RecentEnv
     from lerobot_policy_recent.robosuite_envs.lerobot_env import RecentEnvConfig
 
     env_cfg = RecentEnvConfig(task="cube_in_bin", robot="UR5e")
-    policy = make_policy(RecentConfig(backend="rule", log_dir=None), env_cfg=env_cfg)
+    policy = make_policy(RecentConfig(infiller=RuleConfig(), log_dir=None), env_cfg=env_cfg)
     pre, post = make_pre_post_processors(policy.config)
     env = RecentEnv(task="cube_in_bin", robot="UR5e", render_mode="none")
     obs, _ = env.reset(seed=0)
@@ -58,7 +59,7 @@ def test_lerobot_eval_runs_two_tasks_with_batch_size_two(tmp_path):
     cmd = [
         str(Path(sys.executable).with_name("lerobot-eval")),
         "--policy.type=recent",
-        "--policy.backend=rule",
+        "--policy.infiller.type=rule",
         "--env.type=recent",
         f"--env.task={','.join(tasks)}",
         "--env.robot=UR5e",

@@ -105,13 +105,14 @@ def test_an_episode_whose_lm_dies_ends_with_the_reason_in_logs_that_verify(gguf,
     from lerobot_policy_recent.logs.layout import LogLayout
     from lerobot_policy_recent.logs.recorder import Recorder
     from lerobot_policy_recent.logs.verify import verify
-    from lerobot_policy_recent.recent_plugin.agent import AgentSettings, RecentAgent
+    from lerobot_policy_recent.recent_plugin.agent import RecentAgent
     from lerobot_policy_recent.recent_plugin.episode import run_episode
     from lerobot_policy_recent.recent_plugin.infillers.llama_worker import LMWorkerCrashed
     from lerobot_policy_recent.recent_plugin.infillers.llamacpp import LlamaCppInfiller
+    from lerobot_policy_recent.recent_plugin.settings import RecentSettings
 
     infiller = LlamaCppInfiller(gguf)
-    agent = RecentAgent(AgentSettings(), infiller=infiller, ontology=ontology)
+    agent = RecentAgent(RecentSettings(), infiller=infiller, ontology=ontology)
     os.kill(infiller.lm.pid, signal.SIGKILL)
     for _ in range(100):  # bounded: SIGKILL is delivered within milliseconds
         if not infiller.lm.alive:

@@ -22,8 +22,10 @@ from doubles import ScriptedInfiller
 from lerobot_policy_recent.logs.layout import LogLayout
 from lerobot_policy_recent.logs.readers import decoded_protobuf, read_mcap, read_rrd, read_table
 from lerobot_policy_recent.logs.recorder import Recorder
-from lerobot_policy_recent.recent_plugin.agent import AgentSettings, RecentAgent
+from lerobot_policy_recent.recent_plugin.agent import RecentAgent
 from lerobot_policy_recent.recent_plugin.episode import run_episode
+from lerobot_policy_recent.recent_plugin.infillers.configs import RuleConfig
+from lerobot_policy_recent.recent_plugin.settings import RecentSettings
 
 TASK = "kinematic/cube_on_plate"
 
@@ -31,9 +33,9 @@ TASK = "kinematic/cube_on_plate"
 @pytest.fixture(scope="module")
 def run(tmp_path_factory, ontology):
     root = tmp_path_factory.mktemp("logs")
-    good = RecentAgent(AgentSettings(backend="rule"), ontology=ontology)
+    good = RecentAgent(RecentSettings(infiller=RuleConfig()), ontology=ontology)
     broken = RecentAgent(
-        AgentSettings(backend="rule", max_retries=2),
+        RecentSettings(infiller=RuleConfig(), max_retries=2),
         ontology=ontology,
         infiller=ScriptedInfiller(
             tokens=5,
@@ -232,7 +234,7 @@ class BrokenSink:
 
 
 def test_a_failing_sink_is_switched_off_and_the_episode_goes_on(tmp_path, ontology):
-    agent = RecentAgent(AgentSettings(backend="rule"), ontology=ontology)
+    agent = RecentAgent(RecentSettings(infiller=RuleConfig()), ontology=ontology)
     recorder = Recorder(tmp_path, ["mcap"])
     recorder.sinks.append(BrokenSink())
     with recorder:
@@ -247,10 +249,13 @@ def test_a_failing_sink_is_switched_off_and_the_episode_goes_on(tmp_path, ontolo
 CHILD = """
 import sys
 from lerobot_policy_recent.logs.recorder import Recorder
-from lerobot_policy_recent.recent_plugin.agent import AgentSettings, RecentAgent
+from lerobot_policy_recent.recent_plugin.agent import RecentAgent
+from lerobot_policy_recent.recent_plugin.infillers.configs import RuleConfig
+from lerobot_policy_recent.recent_plugin.methods import method_named
+from lerobot_policy_recent.recent_plugin.settings import RecentSettings
 from lerobot_policy_recent.recent_plugin.episode import run_episode
 recorder = Recorder(sys.argv[1])
-run_episode(RecentAgent(AgentSettings(backend="rule")), "kinematic/tidy_bench", "UR5e", seed=0, recorder=recorder)
+run_episode(RecentAgent(RecentSettings(infiller=RuleConfig())), "kinematic/tidy_bench", "UR5e", seed=0, recorder=recorder)
 """
 
 

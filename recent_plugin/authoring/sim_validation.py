@@ -10,8 +10,11 @@ from __future__ import annotations
 
 import time
 
-from lerobot_policy_recent.recent_plugin.agent import AgentSettings, RecentAgent
+from lerobot_policy_recent.recent_plugin.agent import RecentAgent
 from lerobot_policy_recent.recent_plugin.episode import run_episode
+from lerobot_policy_recent.recent_plugin.infillers.configs import RuleConfig
+from lerobot_policy_recent.recent_plugin.methods import method_named
+from lerobot_policy_recent.recent_plugin.settings import RecentSettings
 from lerobot_policy_recent.robosuite_envs.gym_env import RecentEnv
 from lerobot_policy_recent.robosuite_envs.observation import Observation
 from lerobot_policy_recent.robosuite_envs.suites import SEEDS, validation_task
@@ -37,7 +40,11 @@ EFFECT_CHECKS = {
 def validate(skill: Skill, seeds: tuple[int, ...] = SEEDS, *, agent=None, on_episode=None) -> ValidationRecord:
     """Run ``skill`` unmodified on its source robot in its subtask's task, once per seed."""
     library = str(skill.path.parent)  # the agent must serve this very file
-    agent = agent or RecentAgent(AgentSettings(backend="rule", offline_validation=False, skill_library=library))
+    agent = agent or RecentAgent(
+        RecentSettings(
+            infiller=RuleConfig(), method=method_named("recent-no-offline-validation"), skill_library=library
+        )
+    )
     task = validation_task(skill.subtask)
     objects = list(task.plan[0].args.values())
     record = ValidationRecord(skill.name, skill.code_sha256, skill.source_embodiment, task.task_id, list(seeds))

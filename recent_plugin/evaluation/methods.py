@@ -1,35 +1,18 @@
-"""The methods ``recent bench`` compares: each is a set of agent settings on the same LM backend and model."""
+"""The methods ``recent bench`` compares: the registered :class:`Method` classes, on the same LM backend and model."""
 
 from __future__ import annotations
 
 from dataclasses import replace
 
-from lerobot_policy_recent.recent_plugin.agent import AgentSettings
+from lerobot_policy_recent.recent_plugin.methods import Method, method_named, methods_of
+from lerobot_policy_recent.recent_plugin.settings import RecentSettings
 
-METHODS: dict[str, dict[str, object]] = {
-    "recent": {},
-    "recent+fast-path": {"fast_path": True},
-    "cap": {"mode": "cap"},
-    "repair": {"mode": "repair"},
-    "agentless": {"mode": "agentless"},
-    "recent-no-ontology": {"mode": "no-ontology"},
-    "recent-name-similarity": {"mode": "name-similarity"},
-    "recent-no-insitu": {"insitu": False},
-    "recent-full-regen": {"mode": "full-regen"},
-    "recent-no-offline-validation": {"offline_validation": False},
-}
-BASELINE_METHODS = ("cap", "repair", "agentless")
-ABLATION_METHODS = tuple(m for m in METHODS if m.startswith("recent-"))  # "recent+…" are variants, not ablations
-
-# What each ablation is expected to do to RECENT's numbers (the paper's ablation tables):
-# metric -> +1 (goes up) or -1 (goes down).
-EXPECTED: dict[str, dict[str, int]] = {
-    "recent-no-ontology": {"sr": -1, "ei": +1},
-    "recent-name-similarity": {"sr": -1, "ei": +1},
-    "recent-no-insitu": {"sr": -1},
-    "recent-full-regen": {"sr": -1, "go": +1},
-    "recent-no-offline-validation": {"sr": -1, "go": +1},
-}
+_FAMILY_ORDER = ("recent", "variant", "baseline", "ablation")  # how tables list them
+METHODS: tuple[str, ...] = tuple(name for family in _FAMILY_ORDER for name in methods_of(family))
+BASELINE_METHODS = methods_of("baseline")
+ABLATION_METHODS = methods_of("ablation")
+# What each ablation is expected to do to RECENT's numbers (the paper's ablation tables).
+EXPECTED: dict[str, dict[str, int]] = {name: dict(Method.get_choice_class(name).expected) for name in ABLATION_METHODS}
 
 
 def parse_methods(text: str) -> list[str]:
@@ -41,6 +24,6 @@ def parse_methods(text: str) -> list[str]:
     return names
 
 
-def settings_for(method: str, base: AgentSettings) -> AgentSettings:
-    """``base`` (backend, model, threads, retries) with what ``method`` changes."""
-    return replace(base, **METHODS[method])
+def settings_for(method: str, base: RecentSettings) -> RecentSettings:
+    """``base`` (LM, budgets) with ``method`` as its method."""
+    return replace(base, method=method_named(method))

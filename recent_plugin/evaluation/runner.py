@@ -20,9 +20,10 @@ from dataclasses import asdict, dataclass, field
 from multiprocessing import get_context
 from pathlib import Path
 
-from lerobot_policy_recent.recent_plugin.agent import AgentSettings, RecentAgent, behind_fast_path, infiller_for
+from lerobot_policy_recent.recent_plugin.agent import RecentAgent
 from lerobot_policy_recent.recent_plugin.evaluation.methods import settings_for
 from lerobot_policy_recent.recent_plugin.failures import FailureCategory
+from lerobot_policy_recent.recent_plugin.settings import RecentSettings
 from lerobot_policy_recent.robosuite_envs.suites import SEEDS, get_suite
 
 SUITE_TARGETS = {"kinematic": ("UR5e", "Sawyer"), "end_effector": ("Robotiq85", "Suction")}
@@ -56,7 +57,7 @@ class BenchConfig:
     variations: str = "on"
     workers: int = 1
     log_sinks: tuple[str, ...] = ("mcap", "rerun", "dataset")  # empty: no logs
-    agent: AgentSettings = field(default_factory=AgentSettings)
+    agent: RecentSettings = field(default_factory=RecentSettings)
 
     def jobs(self) -> list[Job]:
         """Every episode of the run, grouped by method then target so each worker reuses its groundings."""
@@ -96,7 +97,7 @@ _WORKER: dict[str, object] = {}
 def _init_worker(config: BenchConfig) -> None:
     """Load the LM once per worker process; agents of every method share it."""
     _WORKER["config"] = config
-    _WORKER["infiller"] = infiller_for(config.agent)
+    _WORKER["infiller"] = config.agent.infiller.build(config.agent.lm_seed)
     _WORKER["agents"] = {}
 
 
@@ -108,7 +109,7 @@ def _agent(method: str) -> RecentAgent:
         settings = settings_for(method, config.agent)
         agents[method] = RecentAgent(
             settings,
-            infiller=behind_fast_path(_WORKER["infiller"], settings),  # type: ignore[arg-type]
+            infiller=_WORKER["infiller"],  # type: ignore[arg-type]
             ontology=shared.ontology if shared else None,
         )
     return agents[method]

@@ -7,7 +7,8 @@
 * ``no-ontology`` — no diagnosis hints at all: the LM rewrites the whole body given only the target
   robot's API.
 
-(``no-insitu`` and ``no-offline-validation`` are agent settings: ``insitu`` and ``offline_validation``.)
+Each is a registered method (:mod:`lerobot_policy_recent.recent_plugin.methods.recent`), as are
+``recent-no-insitu`` and ``recent-no-offline-validation``, which change a setting of RECENT's.
 """
 
 from __future__ import annotations
@@ -20,9 +21,6 @@ from lerobot_policy_recent.ontology.diagnosis import Conflict, Diagnosis, Parame
 from lerobot_policy_recent.ontology.specs import ApiSpec, PrimitiveSpec
 from lerobot_policy_recent.recent_plugin.refactoring.substitution import has_placeholders, render_substitute_call
 from lerobot_policy_recent.recent_plugin.refactoring.units import Hints, RefactoringUnit, cut_unit
-
-GROUNDING_MODES = ("recent", "name-similarity", "full-regen", "no-ontology")
-WHOLE_SKILL_MODES = ("full-regen", "no-ontology")
 
 
 def _similarity(a: str, b: str) -> float:
@@ -79,11 +77,11 @@ def _has_docstring(func: ast.FunctionDef) -> bool:
 
 
 def whole_skill_unit(
-    code: str, entry: str, diagnosis: Diagnosis, robot: str, api: ApiSpec, mode: str, *, feedback=None, attempt=0
+    code: str, entry: str, diagnosis: Diagnosis, robot: str, api: ApiSpec, *, with_hints: bool, feedback=None, attempt=0
 ) -> RefactoringUnit:
-    """One unit spanning the whole body: with every conflict's hint (full-regen) or only the API (no-ontology)."""
+    """One unit spanning the whole body: with every conflict's hint (full-regen), or only the API (no-ontology)."""
     start, end = body_span(code, entry)
-    if mode == "full-regen":
+    if with_hints:
         rendered = _render_all(code, diagnosis)
         reason = "; ".join(
             f"line {c.span.line}: {c.reason}" + (f" ({c.substitute.signature()})" if c.substitute else "")

@@ -12,6 +12,7 @@ import ast
 import difflib
 import textwrap
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 
 from lerobot_policy_recent.logs.events import Event, PatchApplied, SkillDiagnosed, ValidationVerdict
@@ -19,12 +20,7 @@ from lerobot_policy_recent.ontology.builder import Ontology
 from lerobot_policy_recent.ontology.diagnosis import Conflict, Diagnosis, Warning, diagnose
 from lerobot_policy_recent.ontology.skill_code import CodeSpan
 from lerobot_policy_recent.recent_plugin.failures import FailureCategory
-from lerobot_policy_recent.recent_plugin.grounding.ablations import (
-    GROUNDING_MODES,
-    WHOLE_SKILL_MODES,
-    name_similarity_conflicts,
-    whole_skill_unit,
-)
+from lerobot_policy_recent.recent_plugin.grounding.ablations import whole_skill_unit
 from lerobot_policy_recent.recent_plugin.grounding.attempts import (
     LMCall,
     call_events,
@@ -150,21 +146,21 @@ def strip_imports(code: str) -> str:
 
 
 def ground_skill(
-    skill: Skill, robot: str, onto: Ontology, infiller: Infiller, *, max_retries: int = 2, mode: str = "recent"
+    skill: Skill,
+    robot: str,
+    onto: Ontology,
+    infiller: Infiller,
+    *,
+    max_retries: int = 2,
+    rediagnose: Callable[[Diagnosis], Diagnosis] | None = None,
 ) -> GroundedSkill:
-    """Ground ``skill`` for ``robot``; ``mode`` selects the method or one of the paper's ablations."""
-    if mode not in GROUNDING_MODES:
-        raise ValueError(f"unknown grounding mode {mode!r}; choose one of: {', '.join(GROUNDING_MODES)}")
+    """Ground ``skill`` for ``robot``: one localized edit per conflict the diagnosis (or ``rediagnose`` of it) names."""
     started = time.perf_counter()
     diagnosis = diagnose(onto, skill.name, skill.code, robot, source=skill.source_embodiment)
-    if mode == "name-similarity":
-        diagnosis = name_similarity_conflicts(diagnosis, onto.api(skill.source_embodiment), onto.api(robot))
+    if rediagnose is not None:
+        diagnosis = rediagnose(diagnosis)
     result = GroundedSkill.start(skill, robot, diagnosis, infiller)
     api, apis = onto.api(robot), onto.apis
-    if mode in WHOLE_SKILL_MODES:
-        _regenerate(result, skill, robot, infiller, api, apis, max_retries, mode)
-        result.seconds = time.perf_counter() - started
-        return result
     pending = list(diagnosis.conflicts)
     while pending:
         conflict = pending.pop()  # last first: earlier offsets stay valid
@@ -183,20 +179,39 @@ def ground_skill(
     return result
 
 
+def regenerate_skill(
+    skill: Skill,
+    robot: str,
+    onto: Ontology,
+    infiller: Infiller,
+    *,
+    max_retries: int = 2,
+    with_hints: bool,
+    needed: Callable[[GroundedSkill], bool],
+) -> GroundedSkill:
+    """The whole-body ablations: one span, the entire skill, regenerated until it validates.
+
+    ``with_hints``: every conflict's ontology hint in the prompt (else only the target's API);
+    ``needed(result)``, asked once the original is diagnosed and validated, says whether to regenerate.
+    """
+    started = time.perf_counter()
+    diagnosis = diagnose(onto, skill.name, skill.code, robot, source=skill.source_embodiment)
+    result = GroundedSkill.start(skill, robot, diagnosis, infiller)
+    api, apis = onto.api(robot), onto.apis
+    result.verdict = validate_program(skill.code, api, skill.entry, apis)
+    if needed(result):
+        _regenerate(result, skill, robot, infiller, api, apis, max_retries, with_hints)
+    result.seconds = time.perf_counter() - started
+    return result
+
+
 def unrecoverable(result: GroundedSkill, message: str) -> Verdict:
     """The verdict of a skill no attempt could ground: the category of its last rejected call."""
     category = result.calls[-1].category if result.calls else None
     return Verdict.reject(FailureCategory(category or FailureCategory.EMPTY_CONTINUATION), message)
 
 
-def _regenerate(result: GroundedSkill, skill: Skill, robot, infiller, api, apis, max_retries, mode) -> None:
-    """The whole-body ablations: one span, the entire skill, regenerated until it validates."""
-    result.verdict = validate_program(skill.code, api, skill.entry, apis)
-    if result.verdict.ok and not result.diagnosis.warnings and mode == "no-ontology":
-        return
-    if not result.diagnosis.conflicts and mode == "full-regen":
-        return
-
+def _regenerate(result: GroundedSkill, skill: Skill, robot, infiller, api, apis, max_retries, with_hints) -> None:
     def judge(unit: RefactoringUnit, text: str) -> tuple[Verdict, str]:
         candidate = apply_unit(skill.code, unit, text)
         if not text:
@@ -206,7 +221,14 @@ def _regenerate(result: GroundedSkill, skill: Skill, robot, infiller, api, apis,
     accepted = infill_until_valid(
         infiller,
         lambda feedback, attempt: whole_skill_unit(
-            skill.code, skill.entry, result.diagnosis, robot, api, mode, feedback=feedback, attempt=attempt
+            skill.code,
+            skill.entry,
+            result.diagnosis,
+            robot,
+            api,
+            with_hints=with_hints,
+            feedback=feedback,
+            attempt=attempt,
         ),
         judge,
         kind="ground",

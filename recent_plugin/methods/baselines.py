@@ -1,0 +1,70 @@
+"""The baselines RECENT is compared with, as registered methods (``recent_plugin/baselines/`` holds their prompts).
+
+Each writes the whole program from a prompt that shows the task, and answers a failure its own
+way (see :mod:`lerobot_policy_recent.recent_plugin.baselines`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import ClassVar
+
+from lerobot_policy_recent.recent_plugin.baselines.adapter import BaselineAdapter
+from lerobot_policy_recent.recent_plugin.baselines.generate import generate_skill
+from lerobot_policy_recent.recent_plugin.baselines.program_prompt import ProgramContext
+from lerobot_policy_recent.recent_plugin.executor import Adapter
+from lerobot_policy_recent.recent_plugin.grounding.grounder import GroundedSkill
+from lerobot_policy_recent.recent_plugin.methods.base import Adaptation, Grounding, Method
+from lerobot_policy_recent.robosuite_envs.tasks import TaskSpec
+
+
+@dataclass
+class Baseline(Method):
+    family: ClassVar[str] = "baseline"
+
+    def grounding_key(self, task: TaskSpec | None) -> str:
+        return task.task_id if task is not None else ""  # the prompt shows the task
+
+    def ground(self, g: Grounding) -> GroundedSkill:
+        return generate_skill(
+            g.skill, g.robot, g.ontology, g.infiller, self.name, program_context(g.task), max_retries=g.max_retries
+        )
+
+    def adapter(self, a: Adaptation) -> Adapter:
+        return BaselineAdapter(
+            method=self.name,
+            robot=a.robot,
+            api=a.ontology.api(a.robot),
+            apis=a.ontology.apis,
+            infiller=a.infiller,
+            context=program_context(a.task),
+            skills={step.skill: a.skill(step.skill) for step in a.task.plan},
+            max_retries=a.max_retries,
+            max_repairs=a.max_repairs,
+            emit=a.emit,
+        )
+
+
+@Method.register_subclass("cap")
+@dataclass
+class CodeAsPolicies(Baseline):
+    """Code-as-Policies: the whole program; on a failure, the whole program again with the error appended."""
+
+
+@Method.register_subclass("repair")
+@dataclass
+class RepairAgent(Baseline):
+    """RepairAgent-style: generate as ``cap``, then rewrite the failing statement with the error and the scene."""
+
+
+@Method.register_subclass("agentless")
+@dataclass
+class Agentless(Baseline):
+    """A constraint-aware prompt; on a failure the failing line first, then the whole function."""
+
+
+def program_context(task: TaskSpec | None) -> ProgramContext:
+    """What a baseline's prompt shows of the task: its instruction and the scene's objects."""
+    if task is None:
+        return ProgramContext(instruction="")
+    return ProgramContext(task.instruction, tuple(f"{o.name} ({o.kind})" for o in task.objects))

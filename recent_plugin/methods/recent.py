@@ -1,0 +1,148 @@
+"""RECENT (the paper's method), its variants, and its grounding ablations.
+
+RECENT grounds each determined conflict with one localized FIM edit before execution and adapts
+during execution with in-situ checks. The variants change one setting; the ablations change what
+the infiller is asked before execution (``grounding/ablations.py``) and keep in-situ adaptation.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import ClassVar
+
+from lerobot_policy_recent.recent_plugin.executor import Adapter
+from lerobot_policy_recent.recent_plugin.grounding.ablations import name_similarity_conflicts
+from lerobot_policy_recent.recent_plugin.grounding.grounder import GroundedSkill, ground_skill, regenerate_skill
+from lerobot_policy_recent.recent_plugin.infillers.base import Infiller
+from lerobot_policy_recent.recent_plugin.insitu.adapter import InSituAdapter
+from lerobot_policy_recent.recent_plugin.insitu.checks import SceneFacts
+from lerobot_policy_recent.recent_plugin.methods.base import Adaptation, Grounding, Method
+from lerobot_policy_recent.robosuite_envs.embodiments import ROBOT_BASE_XY
+
+
+@Method.register_subclass("recent")
+@dataclass
+class Recent(Method):
+    insitu: bool = True  # run-time checks patch upcoming segments (False: reactive repair only)
+    offline_validation: bool = True  # serve only skills validated in simulation
+    fast_path: bool = False  # render spans the ontology or a run-time check fully decides, without the LM
+
+    @property
+    def label(self) -> str:
+        return self.name if self.insitu else f"{self.name} (no in-situ)"
+
+    def require_validated(self) -> bool:
+        return self.offline_validation
+
+    def infiller(self, lm: Infiller) -> Infiller:
+        if not self.fast_path or lm.name == "rule":
+            return lm
+        from lerobot_policy_recent.recent_plugin.infillers.fast_path import FastPathInfiller
+
+        return FastPathInfiller(lm)
+
+    def ground(self, g: Grounding) -> GroundedSkill:
+        return ground_skill(g.skill, g.robot, g.ontology, g.infiller, max_retries=g.max_retries)
+
+    def adapter(self, a: Adaptation) -> Adapter:
+        scene = SceneFacts(
+            kinds={o.name: o.kind for o in a.task.objects},
+            sizes={o.name: tuple(o.size) for o in a.task.objects if o.size is not None},
+            base_xy=ROBOT_BASE_XY,
+            reach=a.ontology.arms[a.robot].reach,
+            push_path=a.ontology.path_of("push_object"),
+        )
+        return InSituAdapter(
+            robot=a.robot,
+            api=a.ontology.api(a.robot),
+            apis=a.ontology.apis,
+            infiller=a.infiller,
+            scene=scene,
+            insitu=self.insitu,
+            max_retries=a.max_retries,
+            max_repairs=a.max_repairs,
+            emit=a.emit,
+        )
+
+
+@Method.register_subclass("recent+fast-path")
+@dataclass
+class RecentFastPath(Recent):
+    family: ClassVar[str] = "variant"
+    fast_path: bool = True
+
+
+@Method.register_subclass("recent-no-insitu")
+@dataclass
+class NoInsitu(Recent):
+    """The paper's "w/o in-situ adaptation": no run-time checks, reactive repair only."""
+
+    family: ClassVar[str] = "ablation"
+    expected: ClassVar[dict[str, int]] = {"sr": -1}
+    insitu: bool = False
+
+
+@Method.register_subclass("recent-no-offline-validation")
+@dataclass
+class NoOfflineValidation(Recent):
+    """The paper's "w/o offline validation": skills are served without a passing validation record."""
+
+    family: ClassVar[str] = "ablation"
+    expected: ClassVar[dict[str, int]] = {"sr": -1, "go": +1}
+    offline_validation: bool = False
+
+
+@Method.register_subclass("recent-name-similarity")
+@dataclass
+class NameSimilarity(Recent):
+    """Substitutes and parameter mappings by API-name similarity instead of the ontology; edits stay localized."""
+
+    family: ClassVar[str] = "ablation"
+    expected: ClassVar[dict[str, int]] = {"sr": -1, "ei": +1}
+
+    def ground(self, g: Grounding) -> GroundedSkill:
+        def by_name(diagnosis):
+            source = g.ontology.api(g.skill.source_embodiment)
+            return name_similarity_conflicts(diagnosis, source, g.ontology.api(g.robot))
+
+        return ground_skill(g.skill, g.robot, g.ontology, g.infiller, max_retries=g.max_retries, rediagnose=by_name)
+
+
+@Method.register_subclass("recent-full-regen")
+@dataclass
+class FullRegen(Recent):
+    """Every conflict's ontology hint, but the LM rewrites the whole body instead of one span per conflict."""
+
+    family: ClassVar[str] = "ablation"
+    expected: ClassVar[dict[str, int]] = {"sr": -1, "go": +1}
+
+    def ground(self, g: Grounding) -> GroundedSkill:
+        return regenerate_skill(
+            g.skill,
+            g.robot,
+            g.ontology,
+            g.infiller,
+            max_retries=g.max_retries,
+            with_hints=True,
+            needed=lambda result: bool(result.diagnosis.conflicts),
+        )
+
+
+@Method.register_subclass("recent-no-ontology")
+@dataclass
+class NoOntology(Recent):
+    """No diagnosis hints: the LM rewrites the whole body given only the target robot's API."""
+
+    family: ClassVar[str] = "ablation"
+    expected: ClassVar[dict[str, int]] = {"sr": -1, "ei": +1}
+
+    def ground(self, g: Grounding) -> GroundedSkill:
+        return regenerate_skill(
+            g.skill,
+            g.robot,
+            g.ontology,
+            g.infiller,
+            max_retries=g.max_retries,
+            with_hints=False,
+            needed=lambda result: not (result.verdict.ok and not result.diagnosis.warnings),
+        )

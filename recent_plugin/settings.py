@@ -1,0 +1,53 @@
+"""``RecentSettings``: the one settings tree of grounding and execution.
+
+The ``recent`` CLI builds its options from these dataclasses (``--infiller.type=rule``,
+``--method.type=cap``, ``--max_retries=3``), and ``RecentConfig`` extends them with LeRobot's
+policy fields, so ``lerobot-eval --policy.infiller.type=rule`` is the same option. A run records
+``draccus.encode`` of the resolved tree, and :func:`settings_flags` turns that dump back into the
+flags that reproduce it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, fields
+from typing import get_type_hints
+
+import draccus
+
+from lerobot_policy_recent.recent_plugin.infillers.configs import InfillerConfig, LlamaCppConfig
+from lerobot_policy_recent.recent_plugin.methods import Method
+from lerobot_policy_recent.recent_plugin.methods.recent import Recent
+
+
+@dataclass
+class RecentSettings:
+    """Which LM, which method, and the budgets of grounding and execution."""
+
+    infiller: InfillerConfig = field(default_factory=LlamaCppConfig)  # the LM that fills the units, or rule
+    method: Method = field(default_factory=Recent)  # RECENT, one of its ablations, or a baseline
+    max_retries: int = 2  # retries per rejected span
+    max_repairs: int = 2  # reactive repairs of failed segments, per skill
+    lm_seed: int = 0  # the LM's sampling seed (the episode seed is the env's)
+    max_skill_steps: int = 3000  # control steps a skill may take before it is stopped
+    skill_library: str | None = None  # a directory of skills (+ validation/); None: the bundled Panda skills
+
+    def to_dict(self) -> dict:
+        """The resolved tree as plain data (what a run records)."""
+        types = get_type_hints(RecentSettings)
+        return {f.name: draccus.encode(getattr(self, f.name), types[f.name]) for f in fields(RecentSettings)}
+
+
+def settings_flags(tree: dict, prefix: str = "") -> list[str]:
+    """``{"infiller": {"type": "rule"}, "max_retries": 2}`` → ``["--infiller.type=rule", "--max_retries=2"]``."""
+    flags = []
+    for key, value in tree.items():
+        if isinstance(value, dict):
+            flags += settings_flags(value, f"{prefix}{key}.")
+        elif value is not None:
+            flags.append(f"--{prefix}{key}={str(value).lower() if isinstance(value, bool) else value}")
+    return flags
+
+
+def parse_settings(flags: list[str]) -> RecentSettings:
+    """The tree from ``--path=value`` flags (draccus decodes and checks types and choices)."""
+    return draccus.parse(RecentSettings, args=flags)
