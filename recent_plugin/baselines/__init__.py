@@ -1,4 +1,4 @@
-"""The baselines RECENT is compared with, run on the same infiller backend and model.
+"""The baselines RECENT is compared with (registered as methods in ``recent_plugin/methods/baselines.py``).
 
 They share RECENT's FIM infiller, validation gate and executor, and differ in what the LM is asked
 and in how failures are handled (the paper's appendix "Baseline Implementations"):
@@ -15,9 +15,3 @@ Generated code still passes validation before it runs (no LM output is ever exec
 a program the gate rejects is what would have raised at run time, so it is answered the way the
 baseline answers an execution error, and counted as one (EI, IT).
 """
-
-from __future__ import annotations
-
-BASELINES = ("cap", "repair", "agentless")
-
-__all__ = ["BASELINES"]

@@ -13,7 +13,12 @@ from dataclasses import dataclass, field
 
 from lerobot_policy_recent.logs.events import Emit, PatchApplied, ignore
 from lerobot_policy_recent.ontology.specs import ApiSpec
-from lerobot_policy_recent.recent_plugin.baselines.program_prompt import EMPTY, ProgramContext, ProgramPrompt
+from lerobot_policy_recent.recent_plugin.baselines.program_prompt import (
+    EMPTY,
+    BaselineStyle,
+    ProgramContext,
+    ProgramPrompt,
+)
 from lerobot_policy_recent.recent_plugin.executor import RepairBudget, Segment, SkillExecutor, SkillFailure
 from lerobot_policy_recent.recent_plugin.grounding.attempts import (
     AdaptationEvent,
@@ -32,7 +37,7 @@ from lerobot_policy_recent.skills.repository import Skill
 
 @dataclass
 class BaselineAdapter:
-    method: str
+    style: BaselineStyle
     robot: str
     api: ApiSpec
     apis: dict[str, ApiSpec]
@@ -65,11 +70,11 @@ class BaselineAdapter:
         skill = self.skills[name]
         error = f"line {failure.line}: {failure.category}: {failure.message}"
         observation = describe_scene(executor.session.obs)
-        whole = self.method == "cap" or (self.method == "agentless" and self._budget.used[name] > 1)
+        whole = self.style.rewrites_whole(self._budget.used[name])
         code = executor.source()
         segment = executor.segments[failure.segment]
 
-        prompt = ProgramPrompt(skill, self.robot, self.api, self.method, self.context)
+        prompt = ProgramPrompt(skill, self.robot, self.api, self.style, self.context)
 
         def feedback(rejected: str | None) -> str:
             return error if rejected is None else f"{error}; then rejected: {rejected}"

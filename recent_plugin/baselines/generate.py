@@ -14,6 +14,7 @@ from lerobot_policy_recent.ontology.builder import Ontology
 from lerobot_policy_recent.ontology.diagnosis import Diagnosis
 from lerobot_policy_recent.recent_plugin.baselines.program_prompt import (
     EMPTY,
+    BaselineStyle,
     ProgramContext,
     ProgramPrompt,
     statement_span,
@@ -31,21 +32,21 @@ def generate_skill(
     robot: str,
     onto: Ontology,
     infiller: Infiller,
-    method: str,
+    style: BaselineStyle,
     context: ProgramContext,
     *,
     max_retries: int = 2,
 ) -> GroundedSkill:
-    """The baseline ``method``'s program for ``skill`` on ``robot`` (validated, or with the reason it is not)."""
+    """The baseline's program for ``skill`` on ``robot`` (validated, or with the reason it is not)."""
     started = time.perf_counter()
     api, apis = onto.api(robot), onto.apis
     result = GroundedSkill.start(skill, robot, Diagnosis(skill.name, robot), infiller)  # no ontology consulted
-    prompt = ProgramPrompt(skill, robot, api, method, context)
+    prompt = ProgramPrompt(skill, robot, api, style, context)
     last: dict[str, object] = {"code": None, "verdict": None}  # the previous candidate and why it failed
 
     def make_unit(feedback: str | None, attempt: int) -> RefactoringUnit:
         verdict: Verdict | None = last["verdict"]  # type: ignore[assignment]
-        if attempt and method != "cap" and verdict is not None and verdict.line is not None:
+        if attempt and not style.rewrites_whole(1) and verdict is not None and verdict.line is not None:
             span = statement_span(last["code"], skill.entry, verdict.line)
             if span[0] < span[1]:  # the error points at a statement of the body: rewrite that one
                 last["base"] = last["code"]
@@ -65,7 +66,7 @@ def generate_skill(
     if accepted is None:
         result.code = last["code"] or skill.code  # type: ignore[assignment]
         result.verdict = unrecoverable(
-            result, f"unrecoverable: no valid {method} program after {max_retries + 1} attempts"
+            result, f"unrecoverable: no valid {style.name} program after {max_retries + 1} attempts"
         )
     else:
         result.code, result.verdict = accepted.candidate, accepted.verdict

@@ -29,6 +29,21 @@ STATEMENT = "localized_repair"  # one failing statement, rewritten in place
 
 
 @dataclass(frozen=True)
+class BaselineStyle:
+    """Where the baselines differ: what the prompt shows, and how much of the program an error rewrites."""
+
+    name: str
+    constraints: bool = False  # describe each primitive, the scene's objects and the workspace bounds
+    # Failures of a skill answered by rewriting the failing statement before the whole program is
+    # regenerated: 0 regenerates at once (cap), None never does (repair).
+    statement_repairs: int | None = 0
+
+    def rewrites_whole(self, failures: int) -> bool:
+        """Whether the ``failures``-th failure of a skill (1 for the first) regenerates the whole program."""
+        return self.statement_repairs is not None and failures > self.statement_repairs
+
+
+@dataclass(frozen=True)
 class ProgramContext:
     """What a baseline's prompt shows besides the skill: the task instruction and the scene."""
 
@@ -43,12 +58,12 @@ class ProgramPrompt:
     skill: Skill
     robot: str
     api: ApiSpec
-    method: str
+    style: BaselineStyle
     context: ProgramContext
 
     def header(self) -> str:
         """Comment lines (and the example program) that precede the skill's signature in every prompt."""
-        described = self.method == "agentless"
+        described = self.style.constraints
         example = re.sub(
             rf"\bdef {re.escape(self.skill.entry)}\(",
             f"def {self.skill.entry}_{self.skill.source_embodiment.lower()}(",

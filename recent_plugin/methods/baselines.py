@@ -11,7 +11,7 @@ from typing import ClassVar
 
 from lerobot_policy_recent.recent_plugin.baselines.adapter import BaselineAdapter
 from lerobot_policy_recent.recent_plugin.baselines.generate import generate_skill
-from lerobot_policy_recent.recent_plugin.baselines.program_prompt import ProgramContext
+from lerobot_policy_recent.recent_plugin.baselines.program_prompt import BaselineStyle, ProgramContext
 from lerobot_policy_recent.recent_plugin.executor import Adapter
 from lerobot_policy_recent.recent_plugin.grounding.grounder import GroundedSkill
 from lerobot_policy_recent.recent_plugin.methods.base import Adaptation, Grounding, Method
@@ -21,18 +21,19 @@ from lerobot_policy_recent.robosuite_envs.tasks import TaskSpec
 @dataclass
 class Baseline(Method):
     family: ClassVar[str] = "baseline"
+    style: ClassVar[BaselineStyle]
 
     def grounding_key(self, task: TaskSpec | None) -> str:
         return task.task_id if task is not None else ""  # the prompt shows the task
 
     def ground(self, g: Grounding) -> GroundedSkill:
         return generate_skill(
-            g.skill, g.robot, g.ontology, g.infiller, self.name, program_context(g.task), max_retries=g.max_retries
+            g.skill, g.robot, g.ontology, g.infiller, self.style, program_context(g.task), max_retries=g.max_retries
         )
 
     def adapter(self, a: Adaptation) -> Adapter:
         return BaselineAdapter(
-            method=self.name,
+            style=self.style,
             robot=a.robot,
             api=a.ontology.api(a.robot),
             apis=a.ontology.apis,
@@ -50,17 +51,23 @@ class Baseline(Method):
 class CodeAsPolicies(Baseline):
     """Code-as-Policies: the whole program; on a failure, the whole program again with the error appended."""
 
+    style: ClassVar[BaselineStyle] = BaselineStyle("cap", constraints=False, statement_repairs=0)
+
 
 @Method.register_subclass("repair")
 @dataclass
 class RepairAgent(Baseline):
     """RepairAgent-style: generate as ``cap``, then rewrite the failing statement with the error and the scene."""
 
+    style: ClassVar[BaselineStyle] = BaselineStyle("repair", constraints=False, statement_repairs=None)
+
 
 @Method.register_subclass("agentless")
 @dataclass
 class Agentless(Baseline):
     """A constraint-aware prompt; on a failure the failing line first, then the whole function."""
+
+    style: ClassVar[BaselineStyle] = BaselineStyle("agentless", constraints=True, statement_repairs=1)
 
 
 def program_context(task: TaskSpec | None) -> ProgramContext:
