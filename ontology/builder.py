@@ -25,6 +25,7 @@ from lerobot_policy_recent.ontology.specs import (
     load_api_spec,
     load_conditions,
 )
+from lerobot_policy_recent.ontology.target import Target
 
 RC = "https://w3id.org/recent/ontology#"
 INST = "https://w3id.org/recent/instance/"
@@ -102,6 +103,10 @@ class Ontology:
             return self.apis[robot]
         except KeyError:
             raise KeyError(f"unknown robot {robot!r}; known robots: {', '.join(self.apis)}") from None
+
+    def target(self, robot: str) -> Target:
+        """``robot`` resolved once into the facts grounding and execution use (unknown robots listed)."""
+        return Target(robot, self.api(robot), self.arms[robot], self.grippers[robot])
 
     def substitutes(self, source: str, primitive: str, target: str) -> list[PrimitiveSpec]:
         """Primitives of ``target`` that ``source.primitive`` is ``substitutableBy`` (SPARQL over the graph)."""

@@ -15,14 +15,13 @@ from pathlib import Path
 
 from lerobot_policy_recent.logs.events import Emit, EpisodeStarted, ignore
 from lerobot_policy_recent.ontology.builder import Ontology, build_ontology
+from lerobot_policy_recent.ontology.target import Target
 from lerobot_policy_recent.recent_plugin.executor import Adapter, PlannedSkill, TaskExecutor
 from lerobot_policy_recent.recent_plugin.grounding.grounder import GroundedSkill
 from lerobot_policy_recent.recent_plugin.infillers import Infiller
 from lerobot_policy_recent.recent_plugin.methods import Adaptation, Grounding
 from lerobot_policy_recent.recent_plugin.settings import RecentSettings
-from lerobot_policy_recent.robosuite_envs.embodiments import get_embodiment
 from lerobot_policy_recent.robosuite_envs.observation import Observation
-from lerobot_policy_recent.robosuite_envs.primitives import api_functions
 from lerobot_policy_recent.robosuite_envs.suites import get_task
 from lerobot_policy_recent.robosuite_envs.tasks import TaskSpec
 from lerobot_policy_recent.skills.repository import LIBRARY, Skill, serve_skill
@@ -62,18 +61,20 @@ class RecentAgent:
         self._cache: dict[tuple[str, ...], GroundedSkill] = {}
         self.library = Path(s.skill_library) if s.skill_library else LIBRARY
 
-    def ground(self, skill_name: str, robot: str, task: TaskSpec | None = None) -> tuple[GroundedSkill, bool]:
-        """Ground ``skill_name`` for ``robot`` the configured method's way, reusing a cached result.
+    def ground(self, skill_name: str, robot: str | Target, task: TaskSpec | None = None) -> tuple[GroundedSkill, bool]:
+        """Ground ``skill_name`` for ``robot`` (a name, or a target already resolved) the configured
+        method's way, reusing a cached result.
 
         The cache key holds everything that could change the result: the code, the ontology, the
         LM and the method (a baseline's prompt also shows ``task``).
         """
+        target = robot if isinstance(robot, Target) else self.ontology.target(robot)
         skill = self.skill(skill_name)
         method = self.settings.method
         key = (
             skill.name,
             skill.code_sha256,
-            robot,
+            target.name,
             self._ontology_hash,
             self.infiller.name,
             self.infiller.model,
@@ -83,7 +84,7 @@ class RecentAgent:
         if key in self._cache:
             return self._cache[key], True
         grounded = method.ground(
-            Grounding(skill, robot, self.ontology, self.infiller, task, max_retries=self.settings.max_retries)
+            Grounding(skill, target, self.ontology, self.infiller, task, max_retries=self.settings.max_retries)
         )
         if grounded.valid:
             self._cache[key] = grounded
@@ -91,7 +92,7 @@ class RecentAgent:
             log.warning(
                 "grounding %s for %s failed: %s",
                 skill_name,
-                robot,
+                target.name,
                 grounded.verdict.message if grounded.verdict else "",
             )
         return grounded, False
@@ -102,11 +103,11 @@ class RecentAgent:
         """Ground the task's skills (the events of grounding go to ``emit`` once IGT is measured)."""
         started = time.perf_counter()
         task = get_task(task_id)
-        embodiment = get_embodiment(robot)
+        target = self.ontology.target(robot)  # resolved once: grounding, adaptation and execution share it
         report = EpisodeGrounding(task_id=task_id, robot=robot)
         plan, cached = [], []
         for step in task.plan:
-            grounded, hit = self.ground(step.skill, robot, task)
+            grounded, hit = self.ground(step.skill, target, task)
             cached.append(hit)
             report.skills.append(grounded)
             plan.append(PlannedSkill(grounded, dict(step.args)))
@@ -118,11 +119,10 @@ class RecentAgent:
         runnable = list(takewhile(lambda p: p.grounded.valid, plan))  # run what can run, then hold still
         executor = TaskExecutor(
             runnable,
-            api_functions(embodiment.api),
+            target,
             first_obs,
-            embodiment.name,
             max_steps=self.settings.max_skill_steps,
-            adapter=self.adapter(task, robot, emit),
+            adapter=self.adapter(task, target, emit),
             emit=emit,
         )
         return executor, report
@@ -146,11 +146,11 @@ class RecentAgent:
         """The repository's skill ``name`` as this agent serves it (validated unless the ablation says not)."""
         return serve_skill(name, self.library, require_validated=self.settings.method.require_validated())
 
-    def adapter(self, task: TaskSpec, robot: str, emit: Emit = ignore) -> Adapter:
+    def adapter(self, task: TaskSpec, target: Target, emit: Emit = ignore) -> Adapter:
         """A fresh run-time adapter for one episode (its calls and events are that episode's), the method's own."""
         return self.settings.method.adapter(
             Adaptation(
-                robot=robot,
+                target=target,
                 ontology=self.ontology,
                 infiller=self.infiller,
                 task=task,

@@ -22,6 +22,7 @@ import numpy as np
 
 from lerobot_policy_recent.logs.events import Emit, SegmentEnded, SegmentFailed, SegmentStarted, ignore
 from lerobot_policy_recent.ontology.diagnosis import Warning
+from lerobot_policy_recent.ontology.target import Target
 from lerobot_policy_recent.recent_plugin.failures import PRIMITIVE_FAILURE_CATEGORY, FailureCategory
 from lerobot_policy_recent.recent_plugin.grounding.gate import SAFE_HELPERS
 from lerobot_policy_recent.recent_plugin.grounding.grounder import GroundedSkill
@@ -311,19 +312,18 @@ class TaskExecutor:
     def __init__(
         self,
         plan: list[PlannedSkill],
-        primitives: dict[str, Callable[..., Generator]],
+        target: Target,
         first_obs: Observation,
-        embodiment: str,
         *,
         max_steps: int = 3000,
         adapter: Adapter | None = None,
         emit: Emit = ignore,
     ):
-        self.session = RobotSession(embodiment, first_obs)
+        self.session = RobotSession(target.name, first_obs)
         self.emit = emit
         self.adapter = adapter
         self.plan = plan
-        self.primitives = primitives
+        self.primitives: dict[str, Callable[..., Generator]] = target.primitives()  # type: ignore[assignment]
         self.max_steps = max_steps
         self.index = 0
         self.current: SkillExecutor | None = None

@@ -35,7 +35,7 @@ def test_each_method_runs_an_episode(ontology, method, grounds):
 
 
 def test_name_similarity_picks_substitutes_by_name_not_by_effect(ontology, put_in_bin):
-    recent = ground_skill(put_in_bin, "UR5e", ontology, RuleInfiller())
+    recent = ground_skill(put_in_bin, ontology.target("UR5e"), ontology, RuleInfiller())
     by_name = name_similarity_conflicts(recent.diagnosis, ontology.api("Panda"), ontology.api("UR5e"))
     ontology_choice = {c.original: c.substitute.name for c in recent.diagnosis.conflicts}
     name_choice = {c.original: c.substitute.name for c in by_name.conflicts}
@@ -50,6 +50,8 @@ def test_whole_body_span_excludes_signature_and_docstring(put_in_bin):
 
 @pytest.mark.slow
 def test_full_regeneration_costs_more_tokens_than_localized_edits(ontology, put_in_bin, llama_infiller):
-    recent = ground_skill(put_in_bin, "UR5e", ontology, llama_infiller)
-    regen = method_named("recent-full-regen").ground(Grounding(put_in_bin, "UR5e", ontology, llama_infiller, None, 0))
+    recent = ground_skill(put_in_bin, ontology.target("UR5e"), ontology, llama_infiller)
+    regen = method_named("recent-full-regen").ground(
+        Grounding(put_in_bin, ontology.target("UR5e"), ontology, llama_infiller, None, 0)
+    )
     assert recent.valid and recent.go < regen.go

@@ -26,7 +26,7 @@ def _obs(eef=(0.0, 0.0, 1.0), cube=(0.0, -0.1, 0.82)) -> Observation:
 
 @pytest.fixture
 def grounded(ontology, put_in_bin, rule_infiller):
-    return ground_skill(put_in_bin, "UR5e", ontology, rule_infiller)
+    return ground_skill(put_in_bin, ontology.target("UR5e"), ontology, rule_infiller)
 
 
 def test_segments_are_top_level_statements_without_docstring(grounded):

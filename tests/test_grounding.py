@@ -82,7 +82,9 @@ def test_a_traced_push_is_one_move_per_waypoint_and_its_retry_is_held_to_all_of_
     from lerobot_policy_recent.skills.repository import load_skill
 
     wipe, close = load_skill("wipe_area"), load_skill("close_drawer")
-    grounded = ground_skill(wipe, "Suction", ontology, rule_infiller)  # the push's positions are list literals
+    grounded = ground_skill(
+        wipe, ontology.target("Suction"), ontology, rule_infiller
+    )  # the push's positions are list literals
     assert grounded.valid and grounded.generated_tokens == 0
     moves = [line.strip() for line in grounded.code.splitlines() if "move_to_position" in line]
     assert moves == [
@@ -110,7 +112,7 @@ def test_a_traced_push_is_one_move_per_waypoint_and_its_retry_is_held_to_all_of_
 
 
 def test_rule_backend_grounds_with_zero_tokens(ontology, put_in_bin, rule_infiller):
-    grounded = ground_skill(put_in_bin, "UR5e", ontology, rule_infiller)
+    grounded = ground_skill(put_in_bin, ontology.target("UR5e"), ontology, rule_infiller)
     assert grounded.valid
     changed = {
         line for line in grounded.diff().splitlines() if line[:1] in "+-" and not line.startswith(("+++", "---"))
@@ -131,7 +133,7 @@ def test_rejected_span_is_retried_with_feedback_then_accepted(ontology, put_in_b
             "open_ur5_ee(env, task)",
         ]
     )
-    grounded = ground_skill(put_in_bin, "UR5e", ontology, infiller, max_retries=3)
+    grounded = ground_skill(put_in_bin, ontology.target("UR5e"), ontology, infiller, max_retries=3)
     assert grounded.valid
     assert [c.category for c in grounded.calls] == [
         None,
@@ -152,19 +154,21 @@ def test_interface_rewiring_leaves_the_undecided_argument_to_the_lm(ontology, pu
     unit = unit_from_conflict(put_in_bin.code, conflict, "Sawyer")
     assert unit.span_type == "interface_rewiring" and unit.hints.unfilled == ("target_object",)
     assert unit.hints.substitute_call == "sawyer_pick(env, task, target_object=<object_name>, target_pos=obj_pos)"
-    grounded = ground_skill(put_in_bin, "Sawyer", ontology, rule_infiller)
+    grounded = ground_skill(put_in_bin, ontology.target("Sawyer"), ontology, rule_infiller)
     assert not grounded.valid and grounded.calls[-1].category == "empty_continuation"
 
 
 def test_same_role_literals_are_translated(ontology, put_in_bin, rule_infiller):
     """approach_axis='z' (Panda) and pointing_to='down' (Robotiq85) share a role; the value is mapped too."""
-    grounded = ground_skill(put_in_bin, "Robotiq85", ontology, rule_infiller)
+    grounded = ground_skill(put_in_bin, ontology.target("Robotiq85"), ontology, rule_infiller)
     assert grounded.valid
     assert "pick_robotiq85(env, task, target_pos=obj_pos, pointing_to='down')" in grounded.code
 
 
 def test_unrecoverable_after_retry_limit(ontology, put_in_bin):
-    grounded = ground_skill(put_in_bin, "UR5e", ontology, ScriptedInfiller(["import os"] * 3), max_retries=2)
+    grounded = ground_skill(
+        put_in_bin, ontology.target("UR5e"), ontology, ScriptedInfiller(["import os"] * 3), max_retries=2
+    )
     assert not grounded.valid
     assert str(grounded.verdict.category) == "non_executable" and "unrecoverable" in grounded.verdict.message
     assert len(grounded.calls) == 3
@@ -178,7 +182,7 @@ def test_llamacpp_tokenizes_fim_markers_as_special_tokens(llama_infiller):
 @pytest.mark.parametrize("robot", ["UR5e", "Sawyer", "Robotiq85", "Suction"])
 def test_real_lm_grounds_put_in_bin(ontology, put_in_bin, llama_infiller, robot):
     """The 1.5B GGUF fills each conflicting span; the result passes validation and only those lines change."""
-    grounded = ground_skill(put_in_bin, robot, ontology, llama_infiller)
+    grounded = ground_skill(put_in_bin, ontology.target(robot), ontology, llama_infiller)
     assert grounded.valid, [c.message for c in grounded.calls]
     removed = [line for line in grounded.diff().splitlines() if line.startswith("-") and not line.startswith("---")]
     assert len(removed) == 3
@@ -193,7 +197,9 @@ def test_small_model_runs_the_same_pipeline(ontology, put_in_bin):
     """The 0.5B is part of the model-size ablation; it may fail to ground, but must never run unvalidated code."""
     from lerobot_policy_recent.recent_plugin.infillers import make_infiller
 
-    grounded = ground_skill(put_in_bin, "UR5e", ontology, make_infiller("llamacpp", "qwen2.5-coder-0.5b"))
+    grounded = ground_skill(
+        put_in_bin, ontology.target("UR5e"), ontology, make_infiller("llamacpp", "qwen2.5-coder-0.5b")
+    )
     assert grounded.valid or grounded.verdict.category is not None
 
 
@@ -202,9 +208,9 @@ def test_fast_path_renders_decided_spans_and_asks_the_lm_only_for_the_rest(ontol
 
     lm = ScriptedInfiller(["sawyer_pick(env, task, target_object=obj, target_pos=obj_pos)"])
     fast = FastPathInfiller(lm)
-    ur5e = ground_skill(put_in_bin, "UR5e", ontology, fast)
+    ur5e = ground_skill(put_in_bin, ontology.target("UR5e"), ontology, fast)
     assert ur5e.valid and ur5e.generated_tokens == 0 and not lm.units  # the ontology decided all three spans
-    sawyer = ground_skill(put_in_bin, "Sawyer", ontology, fast)
+    sawyer = ground_skill(put_in_bin, ontology.target("Sawyer"), ontology, fast)
     assert sawyer.valid and [u.span_type for u in lm.units] == ["interface_rewiring"]  # target_object: the LM's
     assert sawyer.generated_tokens == 7 and fast.rendered == 5
     assert "sawyer_pick(env, task, target_object=obj, target_pos=obj_pos)" in sawyer.code
@@ -220,7 +226,7 @@ def test_a_span_that_changes_a_carried_over_argument_is_rejected(ontology):
     approach = lift.replace("3.0", "6.0")
     texts = [lift, lift, press_down, approach, "close_ur5_ee(env, task)"]  # last line first
     infiller = ScriptedInfiller(texts)
-    grounded = ground_skill(press, "UR5e", ontology, infiller)
+    grounded = ground_skill(press, ontology.target("UR5e"), ontology, infiller)
     assert grounded.valid
     assert [c.accepted for c in grounded.calls] == [True, False, True, True, True]
     assert "keep target_pos=[cap_pos[0], cap_pos[1], cap_pos[2] + 0.01]" in grounded.calls[1].message
@@ -240,7 +246,7 @@ def test_a_multiline_span_without_the_substitute_is_rejected(ontology):
         "sawyer_push(env, task, from_pos=[area_pos[0] - 0.09, area_pos[1] + dy, area_pos[2] + 0.02], "
         "to_pos=[area_pos[0] + 0.09, area_pos[1] + dy, area_pos[2] + 0.02])"
     )
-    grounded = ground_skill(wipe, "Sawyer", ontology, ScriptedInfiller([moves_instead, push]))
+    grounded = ground_skill(wipe, ontology.target("Sawyer"), ontology, ScriptedInfiller([moves_instead, push]))
     assert grounded.valid and [c.accepted for c in grounded.calls] == [False, True]
     assert "substitutes sawyer_push() here, but the span calls ['sawyer_move_to']" in grounded.calls[0].message
 

@@ -336,5 +336,5 @@ def test_a_substitute_needing_a_robot_state_gets_a_preparatory_step(tmp_path, pu
     from lerobot_policy_recent.recent_plugin.grounding.grounder import ground_skill
     from lerobot_policy_recent.recent_plugin.infillers.rule import RuleInfiller
 
-    grounded = ground_skill(put_in_bin, "Kuka", onto, RuleInfiller())
+    grounded = ground_skill(put_in_bin, onto.target("Kuka"), onto, RuleInfiller())
     assert "    kuka_align(env, task)\n    kuka_take(env, task, where=obj_pos)\n" in grounded.code

@@ -37,7 +37,7 @@ def server():
 
 def test_grounds_through_a_completions_server(server, ontology, put_in_bin):
     infiller = make_infiller("openai", "Qwen/Qwen2.5-Coder-7B", base_url=server)
-    grounded = ground_skill(put_in_bin, "UR5e", ontology, infiller)
+    grounded = ground_skill(put_in_bin, ontology.target("UR5e"), ontology, infiller)
     assert grounded.valid, [c.message for c in grounded.calls]
     completions = [r for r in REQUESTS if r["path"] == "/v1/completions"]
     assert len(completions) == 3
@@ -59,7 +59,7 @@ def test_grounds_through_a_completions_server(server, ontology, put_in_bin):
 def test_unreachable_server_is_a_clear_error(ontology, put_in_bin):
     infiller = make_infiller("openai", "Qwen/Qwen2.5-Coder-7B", base_url="http://127.0.0.1:9")
     with pytest.raises(RuntimeError, match="cannot reach the server"):
-        ground_skill(put_in_bin, "UR5e", ontology, infiller)
+        ground_skill(put_in_bin, ontology.target("UR5e"), ontology, infiller)
 
 
 @pytest.mark.parametrize(

@@ -70,7 +70,7 @@ def test_random_weights_are_rejected_by_validation_not_executed(tiny_model_dir, 
     from lerobot_policy_recent.recent_plugin.grounding.grounder import ground_skill
 
     infiller = make_infiller("transformers", str(tiny_model_dir), device="cpu")
-    grounded = ground_skill(put_in_bin, "UR5e", ontology, infiller, max_retries=1)
+    grounded = ground_skill(put_in_bin, ontology.target("UR5e"), ontology, infiller, max_retries=1)
     assert not grounded.valid and grounded.calls and not any(c.accepted for c in grounded.calls)
     assert grounded.generated_tokens == sum(c.generated_tokens for c in grounded.calls) > 0
 
@@ -119,6 +119,6 @@ def test_real_gguf_through_transformers_grounds_put_in_bin(ontology, put_in_bin)
     from lerobot_policy_recent.recent_plugin.grounding.grounder import ground_skill
 
     infiller = make_infiller("transformers", "qwen2.5-coder-1.5b", device="cpu", n_threads=2)
-    grounded = ground_skill(put_in_bin, "UR5e", ontology, infiller)
+    grounded = ground_skill(put_in_bin, ontology.target("UR5e"), ontology, infiller)
     assert grounded.valid, grounded.verdict
     assert "ur5_grasp_at(" in grounded.code and "pick(" not in grounded.code

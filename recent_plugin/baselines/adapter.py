@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 
 from lerobot_policy_recent.logs.events import Emit, PatchApplied, ignore
 from lerobot_policy_recent.ontology.specs import ApiSpec
+from lerobot_policy_recent.ontology.target import Target
 from lerobot_policy_recent.recent_plugin.baselines.program_prompt import (
     EMPTY,
     BaselineStyle,
@@ -38,9 +39,8 @@ from lerobot_policy_recent.skills.repository import Skill
 @dataclass
 class BaselineAdapter:
     style: BaselineStyle
-    robot: str
-    api: ApiSpec
-    apis: dict[str, ApiSpec]
+    target: Target
+    apis: dict[str, ApiSpec]  # every robot's: a call of another robot's primitive is named as such
     infiller: Infiller
     context: ProgramContext
     skills: dict[str, Skill]  # the plan's skills by name (their prompts' examples)
@@ -74,7 +74,7 @@ class BaselineAdapter:
         code = executor.source()
         segment = executor.segments[failure.segment]
 
-        prompt = ProgramPrompt(skill, self.robot, self.api, self.style, self.context)
+        prompt = ProgramPrompt(skill, self.target, self.style, self.context)
 
         def feedback(rejected: str | None) -> str:
             return error if rejected is None else f"{error}; then rejected: {rejected}"
@@ -96,7 +96,7 @@ class BaselineAdapter:
         def judge(unit: RefactoringUnit, text: str) -> tuple[Verdict, str]:
             candidate = apply_unit(base, unit, text)
             return (
-                validate_program(candidate, self.api, executor.grounded.entry, self.apis) if text else EMPTY
+                validate_program(candidate, self.target.api, executor.grounded.entry, self.apis) if text else EMPTY
             ), candidate
 
         before = len(self.calls)

@@ -12,6 +12,7 @@ import time
 
 from lerobot_policy_recent.ontology.builder import Ontology
 from lerobot_policy_recent.ontology.diagnosis import Diagnosis
+from lerobot_policy_recent.ontology.target import Target
 from lerobot_policy_recent.recent_plugin.baselines.program_prompt import (
     EMPTY,
     BaselineStyle,
@@ -29,7 +30,7 @@ from lerobot_policy_recent.skills.repository import Skill
 
 def generate_skill(
     skill: Skill,
-    robot: str,
+    target: Target,
     onto: Ontology,
     infiller: Infiller,
     style: BaselineStyle,
@@ -37,11 +38,11 @@ def generate_skill(
     *,
     max_retries: int = 2,
 ) -> GroundedSkill:
-    """The baseline's program for ``skill`` on ``robot`` (validated, or with the reason it is not)."""
+    """The baseline's program for ``skill`` on ``target`` (validated, or with the reason it is not)."""
     started = time.perf_counter()
-    api, apis = onto.api(robot), onto.apis
+    robot, api, apis = target.name, target.api, onto.apis
     result = GroundedSkill.start(skill, robot, Diagnosis(skill.name, robot), infiller)  # no ontology consulted
-    prompt = ProgramPrompt(skill, robot, api, style, context)
+    prompt = ProgramPrompt(skill, target, style, context)
     last: dict[str, object] = {"code": None, "verdict": None}  # the previous candidate and why it failed
 
     def make_unit(feedback: str | None, attempt: int) -> RefactoringUnit:

@@ -13,7 +13,7 @@ import ast
 import re
 from dataclasses import dataclass, replace
 
-from lerobot_policy_recent.ontology.specs import ApiSpec
+from lerobot_policy_recent.ontology.target import Target
 from lerobot_policy_recent.recent_plugin.failures import FailureCategory
 from lerobot_policy_recent.recent_plugin.grounding.ablations import body_span
 from lerobot_policy_recent.recent_plugin.grounding.gate import Verdict
@@ -56,8 +56,7 @@ class ProgramPrompt:
     """What one baseline shows the LM for one skill on one robot; it cuts that skill's units."""
 
     skill: Skill
-    robot: str
-    api: ApiSpec
+    target: Target
     style: BaselineStyle
     context: ProgramContext
 
@@ -75,9 +74,9 @@ class ProgramPrompt:
             "",
         ]
         lines.append(
-            f"# The {self.robot} robot has other primitives (env and task are always the first two arguments):"
+            f"# The {self.target.name} robot has other primitives (env and task are always the first two arguments):"
         )
-        for primitive in self.api.primitives:
+        for primitive in self.target.api.primitives:
             about = f"  -- {primitive.description}" if described and primitive.description else ""
             lines.append(f"#   {primitive.signature()}{about}")
         lines.append("# Scene queries: " + ", ".join(f"task.{q}(...)" for q in TaskContext.QUERIES))
@@ -90,7 +89,7 @@ class ProgramPrompt:
             )
         lines.append(f"# Task: {self.context.instruction}")
         lines.append(
-            f"# This step: {self.skill.intent} Write it for {self.robot}, calling only the {self.robot} primitives."
+            f"# This step: {self.skill.intent} Write it for {self.target.name}, calling only the {self.target.name} primitives."
         )
         return "\n".join(lines) + "\n"
 
@@ -98,7 +97,7 @@ class ProgramPrompt:
         """The whole entry body of the skill as one span, the header and signature before it."""
         code = self.skill.code
         start, end = body_span(code, self.skill.entry)
-        hints = Hints(robot=self.robot, original_call=code[start:end], feedback=feedback, attempt=attempt)
+        hints = Hints(robot=self.target.name, original_call=code[start:end], feedback=feedback, attempt=attempt)
         return self._headed(cut_unit(code, start, end, PROGRAM, hints))
 
     def statement_unit(
@@ -113,7 +112,11 @@ class ProgramPrompt:
         """One statement of ``code`` (its character range ``span``) as the span, the header before the function."""
         start, end = span
         hints = Hints(
-            robot=self.robot, original_call=code[start:end], feedback=feedback, attempt=attempt, observation=observation
+            robot=self.target.name,
+            original_call=code[start:end],
+            feedback=feedback,
+            attempt=attempt,
+            observation=observation,
         )
         return self._headed(cut_unit(code, start, end, STATEMENT, hints))
 

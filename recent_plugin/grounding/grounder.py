@@ -19,6 +19,7 @@ from lerobot_policy_recent.logs.events import Event, PatchApplied, SkillDiagnose
 from lerobot_policy_recent.ontology.builder import Ontology
 from lerobot_policy_recent.ontology.diagnosis import Conflict, Diagnosis, Warning, diagnose
 from lerobot_policy_recent.ontology.skill_code import CodeSpan
+from lerobot_policy_recent.ontology.target import Target
 from lerobot_policy_recent.recent_plugin.failures import FailureCategory
 from lerobot_policy_recent.recent_plugin.grounding.ablations import whole_skill_unit
 from lerobot_policy_recent.recent_plugin.grounding.attempts import (
@@ -147,20 +148,20 @@ def strip_imports(code: str) -> str:
 
 def ground_skill(
     skill: Skill,
-    robot: str,
+    target: Target,
     onto: Ontology,
     infiller: Infiller,
     *,
     max_retries: int = 2,
     rediagnose: Callable[[Diagnosis], Diagnosis] | None = None,
 ) -> GroundedSkill:
-    """Ground ``skill`` for ``robot``: one localized edit per conflict the diagnosis (or ``rediagnose`` of it) names."""
+    """Ground ``skill`` for ``target``: one localized edit per conflict the diagnosis (or ``rediagnose`` of it) names."""
     started = time.perf_counter()
+    robot, api, apis = target.name, target.api, onto.apis
     diagnosis = diagnose(onto, skill.name, skill.code, robot, source=skill.source_embodiment)
     if rediagnose is not None:
         diagnosis = rediagnose(diagnosis)
     result = GroundedSkill.start(skill, robot, diagnosis, infiller)
-    api, apis = onto.api(robot), onto.apis
     pending = list(diagnosis.conflicts)
     while pending:
         conflict = pending.pop()  # last first: earlier offsets stay valid
@@ -181,7 +182,7 @@ def ground_skill(
 
 def regenerate_skill(
     skill: Skill,
-    robot: str,
+    target: Target,
     onto: Ontology,
     infiller: Infiller,
     *,
@@ -195,9 +196,9 @@ def regenerate_skill(
     ``needed(result)``, asked once the original is diagnosed and validated, says whether to regenerate.
     """
     started = time.perf_counter()
+    robot, api, apis = target.name, target.api, onto.apis
     diagnosis = diagnose(onto, skill.name, skill.code, robot, source=skill.source_embodiment)
     result = GroundedSkill.start(skill, robot, diagnosis, infiller)
-    api, apis = onto.api(robot), onto.apis
     result.verdict = validate_program(skill.code, api, skill.entry, apis)
     if needed(result):
         _regenerate(result, skill, robot, infiller, api, apis, max_retries, with_hints)

@@ -24,6 +24,7 @@ from dataclasses import dataclass, field
 from lerobot_policy_recent.logs.events import CheckVerdict, Emit, PatchApplied, ignore
 from lerobot_policy_recent.ontology.diagnosis import Warning
 from lerobot_policy_recent.ontology.specs import ApiSpec
+from lerobot_policy_recent.ontology.target import Target
 from lerobot_policy_recent.recent_plugin.executor import RepairBudget, Segment, SkillExecutor, SkillFailure
 from lerobot_policy_recent.recent_plugin.failures import FailureCategory
 from lerobot_policy_recent.recent_plugin.grounding.attempts import (
@@ -51,9 +52,8 @@ log = logging.getLogger(__name__)
 
 @dataclass
 class InSituAdapter:
-    robot: str
-    api: ApiSpec
-    apis: dict[str, ApiSpec]
+    target: Target
+    apis: dict[str, ApiSpec]  # every robot's: a call of another robot's primitive is named as such
     infiller: Infiller
     scene: SceneFacts
     insitu: bool = True  # False: the paper's "w/o in-situ adaptation" (reactive repair only)
@@ -147,7 +147,7 @@ class InSituAdapter:
             ),
             None,
         )
-        spec = self.api.get(warning.primitive)
+        spec = self.target.api.get(warning.primitive)
         if call is None or spec is None:
             return None
         arguments = {k.arg: _value(k.value, executor) for k in call.keywords if k.arg}
@@ -166,7 +166,7 @@ class InSituAdapter:
                 for s in latest_definitions(executor.segments[: segment.index], set(executor.primitives))
             ),
             scene=self.scene,
-            api=self.api,
+            api=self.target.api,
         )
         return CHECKS[warning.check](inp)
 
@@ -269,7 +269,9 @@ class InSituAdapter:
             AdaptationEvent(kind, executor.grounded.skill, at, checks, observation, segment.source, after, attempts)
         )
         if accepted is None:
-            log.warning("%s: no valid %s patch for segment %d of %s", self.robot, kind, at, executor.grounded.skill)
+            log.warning(
+                "%s: no valid %s patch for segment %d of %s", self.target.name, kind, at, executor.grounded.skill
+            )
             return False
         if accepted:
             before = executor.source()
@@ -288,7 +290,7 @@ class InSituAdapter:
 
         def make_unit(feedback: str | None, attempt: int) -> RefactoringUnit:
             hints = Hints(
-                robot=self.robot,
+                robot=self.target.name,
                 original_call=segment.source,
                 substitute_call=suggestion,
                 reason=reason,
@@ -306,7 +308,7 @@ class InSituAdapter:
             if called != wanted:
                 message = f"the patch must call {sorted(wanted)}, it calls {sorted(called)}"
                 return Verdict.reject(FailureCategory.HALLUCINATED_API, message), candidate
-            return validate_program(candidate, self.api, executor.grounded.entry, self.apis), candidate
+            return validate_program(candidate, self.target.api, executor.grounded.entry, self.apis), candidate
 
         before = len(self.calls)
         accepted = infill_until_valid(

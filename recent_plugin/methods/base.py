@@ -15,6 +15,7 @@ import draccus
 
 from lerobot_policy_recent.logs.events import Emit, ignore
 from lerobot_policy_recent.ontology.builder import Ontology
+from lerobot_policy_recent.ontology.target import Target
 from lerobot_policy_recent.recent_plugin.executor import Adapter
 from lerobot_policy_recent.recent_plugin.grounding.grounder import GroundedSkill
 from lerobot_policy_recent.recent_plugin.infillers.base import Infiller
@@ -24,10 +25,10 @@ from lerobot_policy_recent.skills.repository import Skill
 
 @dataclass(frozen=True)
 class Grounding:
-    """What a method grounds with: the skill, the robot, the ontology, the LM and the task it serves."""
+    """What a method grounds with: the skill, the resolved robot, the ontology, the LM and the task it serves."""
 
     skill: Skill
-    robot: str
+    target: Target
     ontology: Ontology
     infiller: Infiller
     task: TaskSpec | None
@@ -38,7 +39,7 @@ class Grounding:
 class Adaptation:
     """What a method adapts with during one episode (its calls and events are that episode's)."""
 
-    robot: str
+    target: Target
     ontology: Ontology
     infiller: Infiller
     task: TaskSpec

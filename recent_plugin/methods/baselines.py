@@ -28,14 +28,13 @@ class Baseline(Method):
 
     def ground(self, g: Grounding) -> GroundedSkill:
         return generate_skill(
-            g.skill, g.robot, g.ontology, g.infiller, self.style, program_context(g.task), max_retries=g.max_retries
+            g.skill, g.target, g.ontology, g.infiller, self.style, program_context(g.task), max_retries=g.max_retries
         )
 
     def adapter(self, a: Adaptation) -> Adapter:
         return BaselineAdapter(
             style=self.style,
-            robot=a.robot,
-            api=a.ontology.api(a.robot),
+            target=a.target,
             apis=a.ontology.apis,
             infiller=a.infiller,
             context=program_context(a.task),

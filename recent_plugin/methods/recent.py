@@ -42,19 +42,18 @@ class Recent(Method):
         return FastPathInfiller(lm)
 
     def ground(self, g: Grounding) -> GroundedSkill:
-        return ground_skill(g.skill, g.robot, g.ontology, g.infiller, max_retries=g.max_retries)
+        return ground_skill(g.skill, g.target, g.ontology, g.infiller, max_retries=g.max_retries)
 
     def adapter(self, a: Adaptation) -> Adapter:
         scene = SceneFacts(
             kinds={o.name: o.kind for o in a.task.objects},
             sizes={o.name: tuple(o.size) for o in a.task.objects if o.size is not None},
             base_xy=ROBOT_BASE_XY,
-            reach=a.ontology.arms[a.robot].reach,
+            reach=a.target.arm.reach,
             push_path=a.ontology.path_of("push_object"),
         )
         return InSituAdapter(
-            robot=a.robot,
-            api=a.ontology.api(a.robot),
+            target=a.target,
             apis=a.ontology.apis,
             infiller=a.infiller,
             scene=scene,
@@ -103,9 +102,9 @@ class NameSimilarity(Recent):
     def ground(self, g: Grounding) -> GroundedSkill:
         def by_name(diagnosis):
             source = g.ontology.api(g.skill.source_embodiment)
-            return name_similarity_conflicts(diagnosis, source, g.ontology.api(g.robot))
+            return name_similarity_conflicts(diagnosis, source, g.target.api)
 
-        return ground_skill(g.skill, g.robot, g.ontology, g.infiller, max_retries=g.max_retries, rediagnose=by_name)
+        return ground_skill(g.skill, g.target, g.ontology, g.infiller, max_retries=g.max_retries, rediagnose=by_name)
 
 
 @Method.register_subclass("recent-full-regen")
@@ -119,7 +118,7 @@ class FullRegen(Recent):
     def ground(self, g: Grounding) -> GroundedSkill:
         return regenerate_skill(
             g.skill,
-            g.robot,
+            g.target,
             g.ontology,
             g.infiller,
             max_retries=g.max_retries,
@@ -139,7 +138,7 @@ class NoOntology(Recent):
     def ground(self, g: Grounding) -> GroundedSkill:
         return regenerate_skill(
             g.skill,
-            g.robot,
+            g.target,
             g.ontology,
             g.infiller,
             max_retries=g.max_retries,

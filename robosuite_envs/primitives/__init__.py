@@ -14,7 +14,15 @@ from lerobot_policy_recent.robosuite_envs.primitives.session import PrimitiveFai
 
 SPEC_DIR = Path(__file__).parent
 
-__all__ = ["PrimitiveFailure", "RobotSession", "TaskContext", "api_functions", "api_spec_path", "available_apis"]
+__all__ = [
+    "PrimitiveFailure",
+    "RobotSession",
+    "TaskContext",
+    "api_functions",
+    "api_spec_path",
+    "available_apis",
+    "module_functions",
+]
 
 
 def available_apis() -> list[str]:
@@ -29,10 +37,15 @@ def api_spec_path(api: str) -> Path:
 
 
 def api_functions(api: str) -> dict[str, object]:
-    """The primitives of ``robosuite_envs.primitives.<api>``: its ``__all__`` if it re-exports shared
-    motions, else the public generator functions it defines."""
+    """The primitives of the bundled API ``<api>`` (``robosuite_envs/primitives/<api>.py``)."""
     api_spec_path(api)
-    module = importlib.import_module(f"lerobot_policy_recent.robosuite_envs.primitives.{api}")
+    return module_functions(f"lerobot_policy_recent.robosuite_envs.primitives.{api}")
+
+
+def module_functions(module_name: str) -> dict[str, object]:
+    """The primitives of a primitive module (the ``module:`` of its YAML): its ``__all__`` if it
+    re-exports shared motions, else the public generator functions it defines."""
+    module = importlib.import_module(module_name)
     names = getattr(module, "__all__", None) or [
         name
         for name, fn in vars(module).items()
