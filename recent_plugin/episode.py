@@ -3,7 +3,8 @@
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from collections import Counter
+from dataclasses import dataclass, field, fields
 
 from lerobot_policy_recent.logs.events import EpisodeEnded, SubtaskSucceeded, ignore
 from lerobot_policy_recent.logs.recorder import Recorder
@@ -108,26 +109,49 @@ class EpisodeResult:
             return str(FailureCategory.TIMEOUT if not self.finished else FailureCategory.SUBTASK_FAILED), ""
         return "", ""
 
+    def to_record(self) -> dict:
+        """The episode's numbers in one shape: ``recent run --json``, the bench records and the ``EpisodeEnded`` event.
+
+        Every figure is a sum over the recorded LM calls and the env's verdicts, never an estimate.
+        """
+        category, message = self.first_failure() if self.success is not True else ("", "")
+        calls = [c for s in self.grounding.skills for c in s.calls] + list(self.runtime_calls)
+        first = self.grounding.skills[0] if self.grounding.skills else None
+        return {
+            "task_id": self.task_id,
+            "robot": self.robot,
+            "seed": self.seed,
+            "success": self.success,
+            "gc": self.gc,
+            "subtasks": len(self.grounding.skills),
+            "steps": self.steps,
+            "wall_seconds": round(self.wall_seconds, 3),
+            "generated_tokens": self.generated_tokens,
+            "skill_tokens": self.skill_tokens,
+            "adaptation_tokens": self.adaptation_tokens,
+            "go": round(self.go, 3),
+            "go_pre": round(self.go_pre, 3),
+            "ei": self.ei,
+            "patches": self.patches,  # run-time patch calls, the fast path's rendered ones included
+            "it": round(self.it, 4),
+            "igt": round(self.igt, 4),
+            # what grounding took when it was not served from the cache: the time to first code of a cold start
+            "igt_cold": round(sum(s.seconds for s in self.grounding.skills), 4),
+            "grounding_cached": self.grounding.cached,
+            "lm_seconds": round(self.lm_seconds, 4),
+            "lm_calls": len(calls),
+            "valid": all(s.valid for s in self.grounding.skills),
+            "failure_category": category,
+            "failure_message": message[:500],
+            "rejected": dict(Counter(c.category for c in calls if not c.accepted and c.category)),
+            "failed_segments": dict(Counter(str(f.category) for f in self.failures)),
+            "backend": first.backend if first else "",
+            "model": first.model if first else "",
+        }
+
     def ended_event(self) -> EpisodeEnded:
-        category, message = self.first_failure()
-        return EpisodeEnded(
-            self.task_id,
-            self.robot,
-            self.seed,
-            self.success,
-            self.gc,
-            self.steps,
-            self.wall_seconds,
-            self.generated_tokens,
-            self.skill_tokens,
-            self.go,
-            self.go_pre,
-            self.ei,
-            self.it,
-            self.igt,
-            category,
-            message,
-        )
+        record = self.to_record()
+        return EpisodeEnded(**{f.name: record[f.name] for f in fields(EpisodeEnded)})
 
 
 def run_episode(

@@ -58,23 +58,7 @@ def _run(args) -> int:
             recorder.close()
     summaries = [grounding_summary(g) for g in result.grounding.skills]
     record = {
-        "task": result.task_id,
-        "robot": result.robot,
-        "seed": result.seed,
-        "success": result.success,
-        "gc": round(result.gc, 3),
-        "steps": result.steps,
-        "wall_seconds": round(result.wall_seconds, 2),
-        "igt_seconds": round(result.grounding.igt_seconds, 3),
-        "generated_tokens": result.generated_tokens,
-        "skill_tokens": result.skill_tokens,
-        "adaptation_tokens": result.adaptation_tokens,
-        "go": round(result.go, 2),
-        "go_pre": round(result.go_pre, 2),
-        "lm_seconds": round(result.lm_seconds, 3),
-        "ei": result.ei,
-        "patches": result.patches,
-        "it_seconds": round(result.it, 3),
+        **result.to_record(),
         "adaptations": [
             {
                 "kind": a.kind,

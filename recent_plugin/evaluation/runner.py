@@ -13,7 +13,6 @@ import json
 import os
 import platform
 import time
-from collections import Counter
 from collections.abc import Callable, Iterable
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import asdict, dataclass, field
@@ -143,39 +142,11 @@ def run_job(job: Job) -> dict:
 
 
 def episode_record(job: Job, result, log_dir: Path | None) -> dict:
-    """The numbers of one episode, from its recorded LM calls and the env's verdicts."""
-    category, message = result.first_failure()
-    calls = [c for s in result.grounding.skills for c in s.calls] + list(result.runtime_calls)
-    return {
-        **asdict(job),
-        "success": bool(result.success),
-        "gc": float(result.gc or 0.0),
-        "subtasks": len(result.grounding.skills),
-        "steps": result.steps,
-        "wall_seconds": round(result.wall_seconds, 3),
-        "generated_tokens": result.generated_tokens,
-        "skill_tokens": result.skill_tokens,
-        "adaptation_tokens": result.adaptation_tokens,
-        "go": round(result.go, 3),
-        "go_pre": round(result.go_pre, 3),
-        "ei": result.ei,
-        "patches": result.patches,  # run-time patch calls, the fast path's rendered ones included
-        "it": round(result.it, 4),
-        "igt": round(result.igt, 4),
-        # what grounding took when it was not served from the cache: the time to first code of a cold start
-        "igt_cold": round(sum(s.seconds for s in result.grounding.skills), 4),
-        "grounding_cached": result.grounding.cached,
-        "lm_seconds": round(result.lm_seconds, 4),
-        "lm_calls": len(calls),
-        "valid": all(s.valid for s in result.grounding.skills),
-        "failure_category": category if result.success is False else "",
-        "failure_message": message[:500] if result.success is False else "",
-        "rejected": dict(Counter(c.category for c in calls if not c.accepted and c.category)),
-        "failed_segments": dict(Counter(str(f.category) for f in result.failures)),
-        "backend": result.grounding.skills[0].backend if result.grounding.skills else "",
-        "model": result.grounding.skills[0].model if result.grounding.skills else "",
-        "log_dir": str(log_dir) if log_dir else None,
-    }
+    """One bench record: the job, then the episode's own record (the same one ``recent run --json`` prints)."""
+    record = {**asdict(job), **result.to_record(), "log_dir": str(log_dir) if log_dir else None}
+    record["success"] = bool(record["success"])
+    record["gc"] = float(record["gc"] or 0.0)
+    return record
 
 
 # ---------------------------------------------------------------------------------------------- the run
