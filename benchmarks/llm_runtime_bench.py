@@ -1,7 +1,7 @@
 """LM runtime benchmark: the portable llama.cpp build against other builds, side by side, and the worker's cost.
 
     .venv/bin/python -m benchmarks.llm_runtime_bench [--compare native=/tmp/native-site] [--variants all] \\
-        [--rounds 5] [--threads 2] [--json benchmarks/results/llm_runtime.json]
+        [--rounds 5] [--threads 2] [--json benchmarks/measured/llm_runtime.json]
 
 Kernels: every configuration runs in its own LM worker process (the one the agent uses), all of
 them loaded at once and measured in interleaved rounds, so a slower moment of the machine falls on

@@ -12,6 +12,7 @@ from dataclasses import replace
 from pathlib import Path
 
 from lerobot_policy_recent.recent_plugin.evaluation.methods import METHODS, parse_methods
+from lerobot_policy_recent.recent_plugin.evaluation.runner import PACKED
 from lerobot_policy_recent.robosuite_envs.suites import SEEDS, SUITES
 
 
@@ -48,7 +49,7 @@ def register(sub) -> None:
 
     add_settings_arguments(parser, with_method=False)
     parser.set_defaults(handler=_run)
-    sub_bench = parser.add_subparsers(dest="bench_command", metavar="{report,compare}")
+    sub_bench = parser.add_subparsers(dest="bench_command", metavar="{report,compare,pack}")
     report = sub_bench.add_parser("report", help="tables (markdown) and plots (PNG) from one or more run directories")
     report.add_argument("dirs", nargs="+", help="run directories written by `recent bench`")
     report.add_argument(
@@ -62,9 +63,17 @@ def register(sub) -> None:
         "GO and tokens must be identical (the simulation is seeded, decoding greedy); IT and IGT are reported "
         "as ratios (the host's speed). Exit status 1 when an episode's outcome differs.",
     )
-    compare.add_argument("reference", help="the run to reproduce, e.g. benchmarks/results/snapshot")
+    compare.add_argument("reference", help="the run to reproduce, e.g. results/snapshot")
     compare.add_argument("rerun", help="a `recent bench --out` directory re-running some of its episodes")
     compare.set_defaults(handler=_compare)
+    pack = sub_bench.add_parser(
+        "pack",
+        help="put a finished run's per-episode records into one compressed file (how results/ commits runs)",
+        description=f"Write DIR/{PACKED} from DIR/episodes/ and remove the per-episode files; report, compare "
+        "and resume read either form. The per-episode logs (DIR/logs) are not touched: they belong in a dataset.",
+    )
+    pack.add_argument("dir", help="a `recent bench --out` directory")
+    pack.set_defaults(handler=_pack)
 
 
 def _csv(text: str) -> tuple[str, ...]:
@@ -183,6 +192,17 @@ def _report(args) -> int:
     path = render_report(dirs, Path(args.report_out) if args.report_out else dirs[0])
     print(path.read_text())
     print(f"written: {path} (+ sr_vs_go.png, failures_by_method.png)")
+    return 0
+
+
+def _pack(args) -> int:
+    from lerobot_policy_recent.recent_plugin.evaluation.runner import has_records, pack_records
+
+    out = Path(args.dir)
+    if not has_records(out):
+        raise FileNotFoundError(f"{out} holds no episode records: is it a `recent bench --out` directory?")
+    count = pack_records(out)
+    print(f"{count} episode records -> {out / PACKED}")
     return 0
 
 

@@ -156,3 +156,18 @@ def test_the_headline_targets_are_checked_for_recent_and_its_fast_path():
         "(recent+fast-path): margin over cap +100.0 pp SR" in line and "GO 0 against cap's 200.0%" in line
         for line in lines
     )
+
+
+def test_a_packed_run_reads_resumes_and_compares_as_the_files_did(bench_dir, tmp_path, capsys):
+    import shutil
+
+    packed = tmp_path / "packed"
+    shutil.copytree(bench_dir, packed, ignore=shutil.ignore_patterns("logs"))
+    assert main(["bench", "pack", str(packed)]) == 0
+    assert not (packed / "episodes").exists() and (packed / "episodes.jsonl.gz").is_file()
+    key = lambda r: (r["method"], r["seed"])  # noqa: E731
+    assert sorted(load_records(packed), key=key) == sorted(load_records(bench_dir), key=key)
+    assert main([*RUN, f"--out={packed}"]) == 0
+    assert "4 episodes (4 already done)" in capsys.readouterr().err
+    assert main(["bench", "compare", str(bench_dir), str(packed)]) == 0
+    assert main(["bench", "pack", str(tmp_path / "nowhere")]) == 2

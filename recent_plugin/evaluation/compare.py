@@ -14,7 +14,7 @@ import statistics
 from dataclasses import dataclass
 from pathlib import Path
 
-from lerobot_policy_recent.recent_plugin.evaluation.runner import load_records
+from lerobot_policy_recent.recent_plugin.evaluation.runner import has_records, load_records
 
 OUTCOME = ("success", "gc", "steps", "failure_category", "go", "go_pre", "ei", "patches", "generated_tokens")
 TIMINGS = ("it", "igt_cold")
@@ -86,7 +86,7 @@ def render_comparison(comparisons: list[EpisodeComparison], reference: Path, rer
 
 def compare_dirs(reference: Path, rerun: Path) -> tuple[list[EpisodeComparison], str]:
     for d in (reference, rerun):
-        if not (d / "episodes").is_dir():
-            raise FileNotFoundError(f"{d} holds no episodes/ directory: is it a `recent bench --out` directory?")
+        if not has_records(d):
+            raise FileNotFoundError(f"{d} holds no episode records: is it a `recent bench --out` directory?")
     comparisons = compare_records(load_records(reference), load_records(rerun))
     return comparisons, render_comparison(comparisons, reference, rerun)

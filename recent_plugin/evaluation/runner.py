@@ -9,13 +9,15 @@ episode under ``DIR/logs/`` (MCAP, Rerun, LeRobotDataset, grounding events).
 
 from __future__ import annotations
 
+import gzip
 import json
 import os
 import platform
+import shutil
 import time
 from collections.abc import Callable, Iterable
 from concurrent.futures import ProcessPoolExecutor, as_completed
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, astuple, dataclass, field
 from multiprocessing import get_context
 from pathlib import Path
 
@@ -153,7 +155,11 @@ def episode_record(job: Job, result, log_dir: Path | None) -> dict:
 def pending(config: BenchConfig) -> tuple[list[Job], list[Job]]:
     """(all jobs, the ones without a record yet): what a restarted run still has to do."""
     jobs = config.jobs()
-    return jobs, [j for j in jobs if not j.record_path(config.out).exists()]
+    fields = ("method", "suite", "task_id", "target", "seed")
+    packed = (
+        {tuple(r[f] for f in fields) for r in load_records(config.out)} if (config.out / PACKED).is_file() else set()
+    )
+    return jobs, [j for j in jobs if not j.record_path(config.out).exists() and astuple(j) not in packed]
 
 
 def run_bench(config: BenchConfig, *, on_record: Callable[[dict], None] | None = None) -> list[dict]:
@@ -199,6 +205,31 @@ def load_record(path: Path) -> dict:
     return json.loads(path.read_text())
 
 
+PACKED = "episodes.jsonl.gz"  # a committed run's records, one file instead of one JSON per episode
+
+
 def load_records(out: Path) -> list[dict]:
-    """Every episode record of a benchmark directory."""
-    return [load_record(p) for p in sorted((out / "episodes").glob("*/*/*.json"))]
+    """Every episode record of a benchmark directory: its ``episodes/`` files and its packed file."""
+    records = [load_record(p) for p in sorted((out / "episodes").glob("*/*/*.json"))]
+    if (out / PACKED).is_file():
+        with gzip.open(out / PACKED, "rt") as packed:
+            records += [json.loads(line) for line in packed if line.strip()]
+    return records
+
+
+def has_records(out: Path) -> bool:
+    return (out / "episodes").is_dir() or (out / PACKED).is_file()
+
+
+def pack_records(out: Path) -> int:
+    """Move every episode record of ``out`` into its packed file (for committing a finished run); how many."""
+    records = load_records(out)
+    key = ("method", "suite", "task_id", "target", "seed")
+    records.sort(key=lambda r: tuple(str(r.get(k)) for k in key))
+    tmp = out / (PACKED + ".tmp")
+    with open(tmp, "wb") as raw, gzip.GzipFile(fileobj=raw, mode="wb", mtime=0) as packed:  # same bytes each time
+        packed.write("".join(json.dumps(r, sort_keys=True, default=str) + "\n" for r in records).encode())
+    os.replace(tmp, out / PACKED)
+    if (out / "episodes").is_dir():
+        shutil.rmtree(out / "episodes")
+    return len(records)
