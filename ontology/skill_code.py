@@ -1,8 +1,16 @@
-"""Static analysis of skill code: the primitive call sites the ontology reasons about."""
+"""Static analysis of skill code, in one place: parsing, character spans, functions and their
+statements, segments (with literal loops unrolled) and the data flow between statements.
+
+Offsets are character offsets into the source string. ``ast`` reports columns as UTF-8 byte
+offsets, so every span goes through :func:`span_of`, which converts them (a skill with a
+non-ASCII string or comment before a statement on its line keeps correct spans).
+"""
 
 from __future__ import annotations
 
 import ast
+import copy
+import textwrap
 from dataclasses import dataclass
 
 
@@ -43,7 +51,8 @@ class SkillCodeError(ValueError):
     pass
 
 
-def _offsets(code: str) -> list[int]:
+def line_starts(code: str) -> list[int]:
+    """Character offset of each line's start, and of the end of the code (1-based line ``n`` starts at ``[n - 1]``)."""
     starts, total = [], 0
     for line in code.splitlines(keepends=True):
         starts.append(total)
@@ -52,9 +61,12 @@ def _offsets(code: str) -> list[int]:
     return starts
 
 
-def span_of(node: ast.AST, code: str, line_starts: list[int] | None = None) -> CodeSpan:
-    """Character span of ``node`` (lines and columns from ``ast``; columns are UTF-8 byte offsets)."""
-    starts = line_starts or _offsets(code)
+def span_of(node: ast.AST, code: str, starts: list[int] | None = None) -> CodeSpan:
+    """Character span of ``node`` (lines and columns from ``ast``; columns are UTF-8 byte offsets).
+
+    ``starts``: :func:`line_starts` of ``code``, when the caller already has them.
+    """
+    starts = starts or line_starts(code)
     lines = code.splitlines(keepends=True)
 
     def char(line: int, col_bytes: int) -> int:
@@ -79,7 +91,7 @@ def parse_skill(code: str, filename: str = "<skill>") -> ast.Module:
 def call_sites(code: str, filename: str = "<skill>") -> list[CallSite]:
     """Every statement of the form ``f(...)`` or ``x = f(...)`` inside a skill function, in source order."""
     tree = parse_skill(code, filename)
-    starts = _offsets(code)
+    starts = line_starts(code)
     sites = []
     for func in (n for n in tree.body if isinstance(n, ast.FunctionDef)):
         for stmt, context in _statements(func.body, "body"):
@@ -114,7 +126,7 @@ def _statements(body: list[ast.stmt], context: str):
 def position_bindings(code: str) -> dict[str, PositionBinding]:
     """Variables that hold an object position read from the task, with where they were read."""
     tree = parse_skill(code)
-    starts = _offsets(code)
+    starts = line_starts(code)
     found = {}
     for node in ast.walk(tree):
         if (
@@ -165,3 +177,189 @@ def _expression_kind(value: ast.expr) -> str | None:
     if isinstance(value, ast.Constant) and isinstance(value.value, str):
         return "name"
     return None
+
+
+# ------------------------------------------------------------------------------------------ functions
+
+
+def entry_function(code: str | ast.Module, entry: str) -> ast.FunctionDef:
+    """The top-level function ``entry`` (a skill's entry point)."""
+    tree = ast.parse(code) if isinstance(code, str) else code
+    found = next((n for n in tree.body if isinstance(n, ast.FunctionDef) and n.name == entry), None)
+    if found is None:
+        raise SkillCodeError(f"no top-level function {entry!r}")
+    return found
+
+
+def body_statements(func: ast.FunctionDef) -> list[ast.stmt]:
+    """The function's statements, its docstring excluded."""
+    first = func.body[0]
+    docstring = (
+        isinstance(first, ast.Expr) and isinstance(first.value, ast.Constant) and isinstance(first.value.value, str)
+    )
+    return func.body[1:] if docstring else func.body
+
+
+def enclosing_function(code: str, offset: int) -> tuple[int, int]:
+    """Character range of the whole lines of the top-level function containing ``offset`` (all of ``code`` if none)."""
+    starts = line_starts(code)
+    for node in ast.parse(code).body:
+        if isinstance(node, ast.FunctionDef):
+            first = node.decorator_list[0].lineno if node.decorator_list else node.lineno
+            lo, hi = starts[first - 1], starts[node.end_lineno]
+            if lo <= offset < hi:
+                return lo, hi
+    return 0, len(code)
+
+
+def body_span(code: str, entry: str) -> tuple[int, int]:
+    """Character range of the entry function's statements (its docstring excluded)."""
+    func = entry_function(code, entry)
+    body = body_statements(func) or func.body  # a function that is only a docstring: the docstring
+    starts = line_starts(code)
+    return span_of(body[0], code, starts).start, span_of(body[-1], code, starts).end
+
+
+def statement_span(code: str, entry: str, line: int) -> tuple[int, int]:
+    """Character range of the entry body's top-level statement covering ``line`` ((0, 0) if none, or no parse)."""
+    try:
+        func = entry_function(code, entry)
+    except (SyntaxError, SkillCodeError):
+        return 0, 0
+    for stmt in func.body:
+        if stmt.lineno <= line <= (stmt.end_lineno or stmt.lineno):
+            span = span_of(stmt, code)
+            return span.start, span.end
+    return 0, 0
+
+
+# ------------------------------------------------------------------------------------------- segments
+
+
+def segment_statements(code: str, func: ast.FunctionDef) -> list[tuple[ast.stmt, str]]:
+    """The statements a skill executes one at a time, with their source: the body's top-level
+    statements, and each iteration of a loop over a literal list (:func:`unroll`) as statements of its own.
+
+    A statement's later lines keep the body's indentation; its first line is bare.
+    """
+    body = body_statements(func)
+    indent = " " * body[0].col_offset if body else ""
+    statements: list[tuple[ast.stmt, str]] = []
+    for stmt in body:
+        iterations = unroll(stmt)
+        if iterations is None:
+            statements.append((stmt, ast.get_source_segment(code, stmt) or ast.unparse(stmt)))
+        else:
+            for bind, nodes in iterations:
+                statements += [(bind, ast.unparse(bind)), *((n, _nested_source(code, n, indent)) for n in nodes)]
+    return statements
+
+
+def unroll(stmt: ast.stmt) -> list[tuple[ast.Assign, list[ast.stmt]]] | None:
+    """``for x in [a, b]: body`` as iterations ``(x = a, body)``, ``(x = b, body)``; None for any other statement.
+
+    Only loops whose iterations are fixed before they start: a literal list or tuple of
+    expressions without calls whose names the loop does not rebind (evaluating them one iteration
+    later gives the same values), no ``else`` and no ``break``/``continue``. Unrolled statements keep the loop's line numbers.
+    """
+    if not (isinstance(stmt, ast.For) and isinstance(stmt.iter, ast.List | ast.Tuple)) or stmt.orelse:
+        return None
+    if any(isinstance(n, ast.Starred | ast.Call) for e in stmt.iter.elts for n in ast.walk(e)):
+        return None
+    if any(isinstance(n, ast.Break | ast.Continue) for s in stmt.body for n in ast.walk(s)):
+        return None
+    items = {n.id for e in stmt.iter.elts for n in ast.walk(e) if isinstance(n, ast.Name)}
+    if any(isinstance(n, ast.Name) and isinstance(n.ctx, ast.Store) and n.id in items for n in ast.walk(stmt)):
+        return None  # the body (or the loop variable) rebinds a name an item reads: items are evaluated once, up front
+    iterations = []
+    for element in stmt.iter.elts:
+        bind = ast.Assign(targets=[copy.deepcopy(stmt.target)], value=copy.deepcopy(element))
+        bind.lineno, bind.end_lineno = stmt.lineno, stmt.lineno  # the ``for`` line, not the whole loop
+        bind.col_offset, bind.end_col_offset = stmt.col_offset, stmt.iter.end_col_offset
+        iterations.append((ast.fix_missing_locations(bind), [copy.deepcopy(s) for s in stmt.body]))
+    return iterations
+
+
+def _nested_source(code: str, node: ast.stmt, indent: str) -> str:
+    """A statement from inside a loop as segments keep it: first line bare, later lines at ``indent``."""
+    text = textwrap.dedent(ast.get_source_segment(code, node, padded=True) or ast.unparse(node))
+    return text.replace("\n", "\n" + indent)
+
+
+# ------------------------------------------------------------------------------------------ data flow
+
+
+def loads(node: ast.AST) -> set[str]:
+    """Names the node reads."""
+    return {n.id for n in ast.walk(node) if isinstance(n, ast.Name) and isinstance(n.ctx, ast.Load)}
+
+
+def stores(node: ast.AST) -> set[str]:
+    """Names the node assigns (on some path)."""
+    return {n.id for n in ast.walk(node) if isinstance(n, ast.Name) and isinstance(n.ctx, ast.Store)}
+
+
+def reads_before_assigning(body: list[ast.stmt], assigned: frozenset[str] = frozenset()) -> set[str]:
+    """Names a block reads before it assigns them itself (a branch's ``sign`` set and then used is not)."""
+    out: set[str] = set()
+    for stmt in body:
+        if isinstance(stmt, ast.If):
+            out |= (
+                (loads(stmt.test) - assigned)
+                | reads_before_assigning(stmt.body, assigned)
+                | reads_before_assigning(stmt.orelse, assigned)
+            )
+        else:
+            out |= loads(stmt) - assigned
+        assigned = assigned | always_assigned([stmt])
+    return out
+
+
+def always_assigned(body: list[ast.stmt]) -> set[str]:
+    """Names a block assigns on every path through it (an augmented assignment reads its old value)."""
+    names: set[str] = set()
+    for stmt in body:
+        if isinstance(stmt, ast.Assign | ast.AnnAssign):
+            targets = stmt.targets if isinstance(stmt, ast.Assign) else [stmt.target]
+            names |= {n.id for t in targets for n in ast.walk(t) if isinstance(n, ast.Name)}
+        elif isinstance(stmt, ast.If) and stmt.orelse:
+            names |= always_assigned(stmt.body) & always_assigned(stmt.orelse)
+    return names
+
+
+def computes(stmt: ast.stmt, primitives: set[str]) -> bool:
+    """An assignment, or a branch of them, that moves nothing (no primitive call): safe to run again."""
+    if not isinstance(stmt, ast.Assign | ast.AugAssign | ast.AnnAssign | ast.If):
+        return False
+    calls = {n.func.id for n in ast.walk(stmt) if isinstance(n, ast.Call) and isinstance(n.func, ast.Name)}
+    return not calls & primitives
+
+
+def dependency_indices(earlier: list[ast.stmt], node: ast.AST, primitives: set[str]) -> list[int]:
+    """Which of the ``earlier`` statements (assignments and branches of them, no primitive calls)
+    ``node`` depends on, in order.
+
+    Only the latest definition of a value is taken: once a statement is chosen, what it assigns on
+    every path is no longer needed from further back.
+    """
+    needed = loads(node)
+    chosen = []
+    for index in range(len(earlier) - 1, -1, -1):
+        stmt = earlier[index]
+        if not computes(stmt, primitives) or not stores(stmt) & needed:
+            continue
+        chosen.append(index)
+        needed = (needed - always_assigned([stmt])) | reads_before_assigning([stmt])
+    return chosen[::-1]
+
+
+def definition_indices(earlier: list[ast.stmt], primitives: set[str]) -> list[int]:
+    """Which of the ``earlier`` assignments (and branches of them, no primitive calls) still define a value, in order."""
+    chosen, defined = [], set()
+    for index in range(len(earlier) - 1, -1, -1):
+        stmt = earlier[index]
+        if not computes(stmt, primitives) or not stores(stmt) - defined:
+            continue
+        chosen.append(index)
+        defined |= always_assigned([stmt])
+    return chosen[::-1]

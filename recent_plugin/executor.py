@@ -22,6 +22,7 @@ import numpy as np
 
 from lerobot_policy_recent.logs.events import Emit, SegmentEnded, SegmentFailed, SegmentStarted, ignore
 from lerobot_policy_recent.ontology.diagnosis import Warning
+from lerobot_policy_recent.ontology.skill_code import entry_function, segment_statements
 from lerobot_policy_recent.ontology.target import Target
 from lerobot_policy_recent.recent_plugin.failures import PRIMITIVE_FAILURE_CATEGORY, FailureCategory
 from lerobot_policy_recent.recent_plugin.grounding.gate import SAFE_HELPERS
@@ -90,66 +91,15 @@ class _YieldFromPrimitives(ast.NodeTransformer):
         return node
 
 
-def entry_function(code: str, entry: str) -> ast.FunctionDef:
-    return next(n for n in ast.parse(code).body if isinstance(n, ast.FunctionDef) and n.name == entry)
-
-
 def split_segments(code: str, entry: str | ast.FunctionDef) -> list[Segment]:
-    """Top-level statements of the entry function (its docstring excluded), in order.
+    """The entry function's statements as segments, in order (:func:`~lerobot_policy_recent.ontology.skill_code.segment_statements`).
 
-    A loop over a literal list is unrolled (:func:`unroll`): each iteration's statements are
-    segments of their own, so the checks that guard a call inside the loop run before every
-    iteration's call, on what the world looks like then, and a patch touches one iteration only.
+    A loop over a literal list is unrolled: each iteration's statements are segments of their own,
+    so the checks that guard a call inside the loop run before every iteration's call, on what the
+    world looks like then, and a patch touches one iteration only.
     """
     func = entry if isinstance(entry, ast.FunctionDef) else entry_function(code, entry)
-    body = (
-        func.body[1:]
-        if func.body
-        and isinstance(func.body[0], ast.Expr)
-        and isinstance(getattr(func.body[0], "value", None), ast.Constant)
-        else func.body
-    )
-    indent = " " * body[0].col_offset if body else ""
-    statements = []
-    for stmt in body:
-        iterations = unroll(stmt)
-        if iterations is None:
-            statements.append((stmt, ast.get_source_segment(code, stmt) or ast.unparse(stmt)))
-        else:
-            for bind, nodes in iterations:
-                statements += [(bind, ast.unparse(bind)), *((n, _nested_source(code, n, indent)) for n in nodes)]
-    return [Segment(i, stmt.lineno, source, stmt) for i, (stmt, source) in enumerate(statements)]
-
-
-def unroll(stmt: ast.stmt) -> list[tuple[ast.Assign, list[ast.stmt]]] | None:
-    """``for x in [a, b]: body`` as iterations ``(x = a, body)``, ``(x = b, body)``; None for any other statement.
-
-    Only loops whose iterations are fixed before they start: a literal list or tuple of
-    expressions without calls whose names the loop does not rebind (evaluating them one iteration
-    later gives the same values), no ``else`` and no ``break``/``continue``. Unrolled statements keep the loop's line numbers.
-    """
-    if not (isinstance(stmt, ast.For) and isinstance(stmt.iter, ast.List | ast.Tuple)) or stmt.orelse:
-        return None
-    if any(isinstance(n, ast.Starred | ast.Call) for e in stmt.iter.elts for n in ast.walk(e)):
-        return None
-    if any(isinstance(n, ast.Break | ast.Continue) for s in stmt.body for n in ast.walk(s)):
-        return None
-    items = {n.id for e in stmt.iter.elts for n in ast.walk(e) if isinstance(n, ast.Name)}
-    if any(isinstance(n, ast.Name) and isinstance(n.ctx, ast.Store) and n.id in items for n in ast.walk(stmt)):
-        return None  # the body (or the loop variable) rebinds a name an item reads: items are evaluated once, up front
-    iterations = []
-    for element in stmt.iter.elts:
-        bind = ast.Assign(targets=[copy.deepcopy(stmt.target)], value=copy.deepcopy(element))
-        bind.lineno, bind.end_lineno = stmt.lineno, stmt.lineno  # the ``for`` line, not the whole loop
-        bind.col_offset, bind.end_col_offset = stmt.col_offset, stmt.iter.end_col_offset
-        iterations.append((ast.fix_missing_locations(bind), [copy.deepcopy(s) for s in stmt.body]))
-    return iterations
-
-
-def _nested_source(code: str, node: ast.stmt, indent: str) -> str:
-    """A statement from inside a loop as segments keep it: first line bare, later lines at ``indent``."""
-    text = textwrap.dedent(ast.get_source_segment(code, node, padded=True) or ast.unparse(node))
-    return text.replace("\n", "\n" + indent)
+    return [Segment(i, stmt.lineno, source, stmt) for i, (stmt, source) in enumerate(segment_statements(code, func))]
 
 
 class SkillExecutor:

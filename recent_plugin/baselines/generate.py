@@ -12,13 +12,13 @@ import time
 
 from lerobot_policy_recent.ontology.builder import Ontology
 from lerobot_policy_recent.ontology.diagnosis import Diagnosis
+from lerobot_policy_recent.ontology.skill_code import statement_span
 from lerobot_policy_recent.ontology.target import Target
 from lerobot_policy_recent.recent_plugin.baselines.program_prompt import (
     EMPTY,
     BaselineStyle,
     ProgramContext,
     ProgramPrompt,
-    statement_span,
 )
 from lerobot_policy_recent.recent_plugin.grounding.attempts import infill_until_valid
 from lerobot_policy_recent.recent_plugin.grounding.gate import Verdict, validate_program

@@ -9,13 +9,12 @@ bounds (``agentless``). The span is the whole body (program synthesis) or one fa
 
 from __future__ import annotations
 
-import ast
 import re
 from dataclasses import dataclass, replace
 
+from lerobot_policy_recent.ontology.skill_code import body_span
 from lerobot_policy_recent.ontology.target import Target
 from lerobot_policy_recent.recent_plugin.failures import FailureCategory
-from lerobot_policy_recent.recent_plugin.grounding.ablations import body_span
 from lerobot_policy_recent.recent_plugin.grounding.gate import Verdict
 from lerobot_policy_recent.recent_plugin.refactoring.units import Hints, RefactoringUnit, cut_unit
 from lerobot_policy_recent.robosuite_envs.primitives.session import TaskContext
@@ -122,21 +121,3 @@ class ProgramPrompt:
 
     def _headed(self, unit: RefactoringUnit) -> RefactoringUnit:
         return replace(unit, prefix=self.header() + unit.prefix)
-
-
-def statement_span(code: str, entry: str, line: int) -> tuple[int, int]:
-    """Character range of the entry body's top-level statement covering ``line`` (empty if none)."""
-    try:
-        tree = ast.parse(code)
-    except SyntaxError:
-        return 0, 0
-    func = next((n for n in tree.body if isinstance(n, ast.FunctionDef) and n.name == entry), None)
-    if func is None:
-        return 0, 0
-    starts = [0]
-    for text in code.splitlines(keepends=True):
-        starts.append(starts[-1] + len(text))
-    for stmt in func.body:
-        if stmt.lineno <= line <= (stmt.end_lineno or stmt.lineno):
-            return starts[stmt.lineno - 1] + stmt.col_offset, starts[stmt.end_lineno - 1] + stmt.end_col_offset
-    return 0, 0

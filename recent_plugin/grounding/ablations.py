@@ -13,11 +13,11 @@ Each is a registered method (:mod:`lerobot_policy_recent.recent_plugin.methods.r
 
 from __future__ import annotations
 
-import ast
 import difflib
 from dataclasses import replace
 
 from lerobot_policy_recent.ontology.diagnosis import Conflict, Diagnosis, ParameterMapping
+from lerobot_policy_recent.ontology.skill_code import body_span
 from lerobot_policy_recent.ontology.specs import ApiSpec, PrimitiveSpec
 from lerobot_policy_recent.recent_plugin.refactoring.substitution import has_placeholders, render_substitute_call
 from lerobot_policy_recent.recent_plugin.refactoring.units import Hints, RefactoringUnit, cut_unit
@@ -58,22 +58,6 @@ def _rename_mapping(conflict: Conflict, original: PrimitiveSpec, substitute: Pri
         preparatory=(),
         reason=f"no {conflict.original}; the most similar name is {substitute.name}",
     )
-
-
-def body_span(code: str, entry: str) -> tuple[int, int]:
-    """Character range of the entry function's statements (its docstring excluded)."""
-    func = next(n for n in ast.parse(code).body if isinstance(n, ast.FunctionDef) and n.name == entry)
-    body = func.body[1:] if _has_docstring(func) and len(func.body) > 1 else func.body
-    starts = [0]
-    for line in code.splitlines(keepends=True):
-        starts.append(starts[-1] + len(line))
-    first, last = body[0], body[-1]
-    return starts[first.lineno - 1] + first.col_offset, starts[last.end_lineno - 1] + last.end_col_offset
-
-
-def _has_docstring(func: ast.FunctionDef) -> bool:
-    first = func.body[0]
-    return isinstance(first, ast.Expr) and isinstance(first.value, ast.Constant) and isinstance(first.value.value, str)
 
 
 def whole_skill_unit(

@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 
 from lerobot_policy_recent.logs.events import CheckVerdict, Emit, PatchApplied, ignore
 from lerobot_policy_recent.ontology.diagnosis import Warning
+from lerobot_policy_recent.ontology.skill_code import definition_indices, dependency_indices, loads, stores
 from lerobot_policy_recent.ontology.specs import ApiSpec
 from lerobot_policy_recent.ontology.target import Target
 from lerobot_policy_recent.recent_plugin.executor import RepairBudget, Segment, SkillExecutor, SkillFailure
@@ -152,7 +153,7 @@ class InSituAdapter:
             return None
         arguments = {k.arg: _value(k.value, executor) for k in call.keywords if k.arg}
         chain = dependencies(executor.segments[: segment.index], call, set(executor.primitives))
-        stale = _position_reads(executor, _loads(call).union(*(_loads(s.node) for s in chain)))
+        stale = _position_reads(executor, loads(call).union(*(loads(s.node) for s in chain)))
         named = frozenset(v for v in executor.namespace.values() if isinstance(v, str) and v in self.scene.kinds)
         inp = CheckInput(
             warning=warning,
@@ -162,7 +163,7 @@ class InSituAdapter:
             named=named,
             stale_reads=stale,
             derived=tuple(
-                Derivation(s.source, frozenset(_loads(s.node)), frozenset(_stored(s.node)))
+                Derivation(s.source, frozenset(loads(s.node)), frozenset(stores(s.node)))
                 for s in latest_definitions(executor.segments[: segment.index], set(executor.primitives))
             ),
             scene=self.scene,
@@ -219,7 +220,7 @@ class InSituAdapter:
         explains the failure, and the fix is determined — read again, recompute, retry — so the
         recomputation is copied in (no LM call), as a violated effect's rerun is."""
         chain = dependencies(executor.segments[: segment.index], segment.node, set(executor.primitives))
-        stale = _position_reads(executor, _loads(segment.node).union(*(_loads(s.node) for s in chain)))
+        stale = _position_reads(executor, loads(segment.node).union(*(loads(s.node) for s in chain)))
         moved = [f"{name} moved since {var} was read" for var, name, _, _ in moved_reads(stale, executor.session.obs)]
         if not moved or not chain:
             return False
@@ -384,45 +385,21 @@ def recomputation(earlier: list[Segment], node: ast.AST, primitives: set[str]) -
 
 
 def dependencies(earlier: list[Segment], node: ast.AST, primitives: set[str]) -> list[Segment]:
-    """Earlier assignments and branches of them (no primitive calls) that the statement depends on, in order.
+    """Earlier segments (assignments and branches of them, no primitive calls) the statement depends on, in order.
 
-    Only the latest definition of a value is taken: once a statement is chosen, what it assigns on
-    every path is no longer needed from further back (a second repair copies the first one's
+    Only the latest definition of a value is taken (a second repair copies the first one's
     recomputation, not the original's as well).
     """
-    needed = _loads(node)
-    chosen = []
-    for segment in reversed(earlier):
-        stmt = segment.node
-        if not _computes(stmt, primitives) or not _stored(stmt) & needed:
-            continue
-        chosen.append(segment)
-        needed = (needed - _always_assigned([stmt])) | _reads([stmt])
-    return chosen[::-1]
+    return [earlier[i] for i in dependency_indices([s.node for s in earlier], node, primitives)]
 
 
 def latest_definitions(earlier: list[Segment], primitives: set[str]) -> list[Segment]:
-    """The earlier assignments (and branches of them, no primitive calls) that still define a value, in order.
+    """The earlier segments that still define a value, in order.
 
     What a re-read must recompute comes from these: everything still derived from the old value,
     whether or not the next call uses it (``goal`` as well as ``start``).
     """
-    chosen, defined = [], set()
-    for segment in reversed(earlier):
-        stmt = segment.node
-        if not _computes(stmt, primitives) or not _stored(stmt) - defined:
-            continue
-        chosen.append(segment)
-        defined |= _always_assigned([stmt])
-    return chosen[::-1]
-
-
-def _computes(stmt: ast.stmt, primitives: set[str]) -> bool:
-    """An assignment, or a branch of them, that moves nothing (no primitive call): safe to run again."""
-    if not isinstance(stmt, ast.Assign | ast.AugAssign | ast.AnnAssign | ast.If):
-        return False
-    calls = {n.func.id for n in ast.walk(stmt) if isinstance(n, ast.Call) and isinstance(n.func, ast.Name)}
-    return not calls & primitives
+    return [earlier[i] for i in definition_indices([s.node for s in earlier], primitives)]
 
 
 def _position_reads(executor: SkillExecutor, names: set[str]) -> dict[str, tuple[str, list[float]]]:
@@ -435,35 +412,3 @@ def _position_reads(executor: SkillExecutor, names: set[str]) -> dict[str, tuple
         for name, read in reads
         if value is read
     }
-
-
-def _loads(node: ast.AST) -> set[str]:
-    return {n.id for n in ast.walk(node) if isinstance(n, ast.Name) and isinstance(n.ctx, ast.Load)}
-
-
-def _stored(node: ast.AST) -> set[str]:
-    return {n.id for n in ast.walk(node) if isinstance(n, ast.Name) and isinstance(n.ctx, ast.Store)}
-
-
-def _reads(body: list[ast.stmt], assigned: frozenset[str] = frozenset()) -> set[str]:
-    """Names a block reads before it assigns them itself (a branch's ``sign`` set and then used is not)."""
-    out: set[str] = set()
-    for stmt in body:
-        if isinstance(stmt, ast.If):
-            out |= (_loads(stmt.test) - assigned) | _reads(stmt.body, assigned) | _reads(stmt.orelse, assigned)
-        else:
-            out |= _loads(stmt) - assigned
-        assigned = assigned | _always_assigned([stmt])
-    return out
-
-
-def _always_assigned(body: list[ast.stmt]) -> set[str]:
-    """Names a block assigns on every path through it (an augmented assignment reads its old value)."""
-    names: set[str] = set()
-    for stmt in body:
-        if isinstance(stmt, ast.Assign | ast.AnnAssign):
-            targets = stmt.targets if isinstance(stmt, ast.Assign) else [stmt.target]
-            names |= {n.id for t in targets for n in ast.walk(t) if isinstance(n, ast.Name)}
-        elif isinstance(stmt, ast.If) and stmt.orelse:
-            names |= _always_assigned(stmt.body) & _always_assigned(stmt.orelse)
-    return names

@@ -7,10 +7,10 @@ ontology's cues for this one edit, rendered later as comments before the span.
 
 from __future__ import annotations
 
-import ast
 from dataclasses import dataclass
 
 from lerobot_policy_recent.ontology.diagnosis import Conflict, ParameterMapping
+from lerobot_policy_recent.ontology.skill_code import enclosing_function
 from lerobot_policy_recent.recent_plugin.refactoring.substitution import render_substitute_call
 
 
@@ -42,21 +42,6 @@ class RefactoringUnit:
     span_type: str  # ρ
     hints: Hints  # κ
     substitute: str | None = None
-
-
-def enclosing_function(code: str, offset: int) -> tuple[int, int]:
-    """Character range of the top-level function containing ``offset`` (whole code if none)."""
-    lines = code.splitlines(keepends=True)
-    starts = [0]
-    for line in lines:
-        starts.append(starts[-1] + len(line))
-    for node in ast.parse(code).body:
-        if isinstance(node, ast.FunctionDef):
-            first = node.decorator_list[0].lineno if node.decorator_list else node.lineno
-            lo, hi = starts[first - 1], starts[node.end_lineno]
-            if lo <= offset < hi:
-                return lo, hi
-    return 0, len(code)
 
 
 def unit_from_conflict(

@@ -1,0 +1,47 @@
+"""The skill-code module: spans are character offsets even where a line holds non-ASCII text
+(``ast`` columns are UTF-8 bytes), and segments and data flow come from one place."""
+
+from __future__ import annotations
+
+from lerobot_policy_recent.ontology.skill_code import (
+    body_span,
+    dependency_indices,
+    entry_function,
+    segment_statements,
+    statement_span,
+)
+
+CODE = (
+    "def f(env, task):\n"
+    '    """Docstring: Würfel."""\n'
+    '    name = "Würfel"; pos = task.get_object_position(name)\n'
+    "    goal = [pos[0], pos[1], pos[2] + 0.1]\n"
+    '    for n in ["a", "b"]:\n'
+    "        pick(env, task, target_pos=goal)\n"
+)
+
+
+def test_spans_count_characters_not_utf8_bytes():
+    start, end = body_span(CODE, "f")
+    assert CODE[start:end].startswith('name = "Würfel";') and CODE[start:end].endswith("target_pos=goal)")
+    start, end = statement_span(CODE, "f", 3)
+    assert CODE[start:end] == 'name = "Würfel"'
+    start, end = statement_span(CODE, "f", 4)
+    assert CODE[start:end] == "goal = [pos[0], pos[1], pos[2] + 0.1]"
+
+
+def test_segments_unroll_literal_loops_and_data_flow_finds_what_a_call_needs():
+    statements = segment_statements(CODE, entry_function(CODE, "f"))
+    sources = [source for _, source in statements]
+    assert sources == [
+        'name = "Würfel"',
+        "pos = task.get_object_position(name)",
+        "goal = [pos[0], pos[1], pos[2] + 0.1]",
+        "n = 'a'",
+        "pick(env, task, target_pos=goal)",
+        "n = 'b'",
+        "pick(env, task, target_pos=goal)",
+    ]
+    nodes = [node for node, _ in statements]
+    # the last pick needs goal, which needs pos (a task query, no primitive), which needs name
+    assert dependency_indices(nodes[:-1], nodes[-1], {"pick"}) == [0, 1, 2]
