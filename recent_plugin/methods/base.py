@@ -48,6 +48,17 @@ class Adaptation:
     max_repairs: int
     emit: Emit = ignore
 
+    def adapter_fields(self) -> dict[str, object]:
+        """What every run-time adapter is built with: the robot, every API, the LM, the budgets, the log."""
+        return {
+            "target": self.target,
+            "apis": self.ontology.apis,
+            "infiller": self.infiller,
+            "max_retries": self.max_retries,
+            "max_repairs": self.max_repairs,
+            "emit": self.emit,
+        }
+
 
 @dataclass
 class Method(draccus.ChoiceRegistry):

@@ -33,15 +33,10 @@ class Baseline(Method):
 
     def adapter(self, a: Adaptation) -> Adapter:
         return BaselineAdapter(
+            **a.adapter_fields(),
             style=self.style,
-            target=a.target,
-            apis=a.ontology.apis,
-            infiller=a.infiller,
             context=program_context(a.task),
             skills={step.skill: a.skill(step.skill) for step in a.task.plan},
-            max_retries=a.max_retries,
-            max_repairs=a.max_repairs,
-            emit=a.emit,
         )
 
 

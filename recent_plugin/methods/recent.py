@@ -52,16 +52,7 @@ class Recent(Method):
             reach=a.target.arm.reach,
             push_path=a.ontology.path_of("push_object"),
         )
-        return InSituAdapter(
-            target=a.target,
-            apis=a.ontology.apis,
-            infiller=a.infiller,
-            scene=scene,
-            insitu=self.insitu,
-            max_retries=a.max_retries,
-            max_repairs=a.max_repairs,
-            emit=a.emit,
-        )
+        return InSituAdapter(**a.adapter_fields(), scene=scene, insitu=self.insitu)
 
 
 @Method.register_subclass("recent+fast-path")
@@ -107,13 +98,16 @@ class NameSimilarity(Recent):
         return ground_skill(g.skill, g.target, g.ontology, g.infiller, max_retries=g.max_retries, rediagnose=by_name)
 
 
-@Method.register_subclass("recent-full-regen")
 @dataclass
-class FullRegen(Recent):
-    """Every conflict's ontology hint, but the LM rewrites the whole body instead of one span per conflict."""
+class WholeBodyRegeneration(Recent):
+    """The whole-body ablations: one span, the entire skill, regenerated until it validates."""
 
     family: ClassVar[str] = "ablation"
-    expected: ClassVar[dict[str, int]] = {"sr": -1, "go": +1}
+    with_hints: ClassVar[bool]  # every conflict's ontology hint in the prompt, or only the target's API
+
+    def needed(self, result: GroundedSkill) -> bool:
+        """Whether the diagnosed and validated original must be regenerated at all."""
+        raise NotImplementedError
 
     def ground(self, g: Grounding) -> GroundedSkill:
         return regenerate_skill(
@@ -122,26 +116,30 @@ class FullRegen(Recent):
             g.ontology,
             g.infiller,
             max_retries=g.max_retries,
-            with_hints=True,
-            needed=lambda result: bool(result.diagnosis.conflicts),
+            with_hints=self.with_hints,
+            needed=self.needed,
         )
+
+
+@Method.register_subclass("recent-full-regen")
+@dataclass
+class FullRegen(WholeBodyRegeneration):
+    """Every conflict's ontology hint, but the LM rewrites the whole body instead of one span per conflict."""
+
+    expected: ClassVar[dict[str, int]] = {"sr": -1, "go": +1}
+    with_hints: ClassVar[bool] = True
+
+    def needed(self, result: GroundedSkill) -> bool:
+        return bool(result.diagnosis.conflicts)
 
 
 @Method.register_subclass("recent-no-ontology")
 @dataclass
-class NoOntology(Recent):
+class NoOntology(WholeBodyRegeneration):
     """No diagnosis hints: the LM rewrites the whole body given only the target robot's API."""
 
-    family: ClassVar[str] = "ablation"
     expected: ClassVar[dict[str, int]] = {"sr": -1, "ei": +1}
+    with_hints: ClassVar[bool] = False
 
-    def ground(self, g: Grounding) -> GroundedSkill:
-        return regenerate_skill(
-            g.skill,
-            g.target,
-            g.ontology,
-            g.infiller,
-            max_retries=g.max_retries,
-            with_hints=False,
-            needed=lambda result: not (result.verdict.ok and not result.diagnosis.warnings),
-        )
+    def needed(self, result: GroundedSkill) -> bool:
+        return not (result.verdict.ok and not result.diagnosis.warnings)
