@@ -61,7 +61,7 @@ def event_row(stamped: Stamped) -> dict:
 def result_row(result: Stamped, start: EpisodeStarted, num_frames: int) -> dict:
     """The episode's row in ``results/``: its EpisodeEnded fields plus how it was run."""
     row = {"episode_index": result.episode_index, "num_frames": num_frames, **result.event.payload()}
-    row.update(backend=start.backend, model=start.model, mode=start.mode, variations=start.variations)
+    row.update(backend=start.backend, model=start.model, method=start.method, variations=start.variations)
     return row
 
 

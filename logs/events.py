@@ -39,12 +39,12 @@ class EpisodeStarted(Event):
     task: str = ""
     backend: str = ""
     model: str = ""
-    mode: str = ""
+    method: str = ""  # the registered method (RECENT, an ablation or a baseline), as it labels itself
     variations: str = ""
     object_names: list[str] = field(default_factory=list)
 
     def summary(self) -> str:
-        return f"episode: {self.task_id} on {self.robot} (seed {self.seed}, {self.backend}/{self.model}, {self.mode})"
+        return f"episode: {self.task_id} on {self.robot} (seed {self.seed}, {self.backend}/{self.model}, {self.method})"
 
 
 @dataclass(frozen=True)
