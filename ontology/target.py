@@ -9,7 +9,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from lerobot_policy_recent.ontology.mjcf import ArmFacts, GripperFacts
-from lerobot_policy_recent.ontology.specs import ApiSpec
+from lerobot_policy_recent.ontology.specs import ApiSpec, SpecError
 from lerobot_policy_recent.robosuite_envs.primitives import module_functions
 
 
@@ -24,4 +24,7 @@ class Target:
 
     def primitives(self) -> dict[str, object]:
         """The callables the executor binds into skill code (the API's ``module``)."""
-        return module_functions(self.api.module)
+        try:
+            return module_functions(self.api.module)
+        except ModuleNotFoundError as error:
+            raise SpecError(self.api.path, "module", f"{self.api.module!r} cannot be imported ({error})") from None

@@ -338,3 +338,20 @@ def test_a_substitute_needing_a_robot_state_gets_a_preparatory_step(tmp_path, pu
 
     grounded = ground_skill(put_in_bin, onto.target("Kuka"), onto, RuleInfiller())
     assert "    kuka_align(env, task)\n    kuka_take(env, task, where=obj_pos)\n" in grounded.code
+
+
+def test_a_target_is_resolved_once_with_its_api_arm_and_primitives(ontology):
+    import dataclasses
+
+    import pytest
+
+    from lerobot_policy_recent.ontology.specs import SpecError
+
+    target = ontology.target("UR5e")
+    assert target.api is ontology.api("UR5e") and target.arm.reach == ontology.arms["UR5e"].reach
+    assert set(target.primitives()) == {p.name for p in target.api.primitives}
+    with pytest.raises(KeyError, match="known robots"):
+        ontology.target("Kuka")
+    broken = dataclasses.replace(target, api=dataclasses.replace(target.api, module="no.such.module"))
+    with pytest.raises(SpecError, match="ur5e.yaml: module: 'no.such.module' cannot be imported"):
+        broken.primitives()
