@@ -8,7 +8,9 @@ one's blueprint and entity layout (and works for datasets downloaded from the Hu
 from __future__ import annotations
 
 import json
+import os
 import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -77,9 +79,34 @@ def default_output(root: str | Path, episode: int) -> Path:
     return Path(root) / "replay" / f"{episode_name(episode)}.rrd"
 
 
-def open_viewer(path: Path) -> subprocess.Popen:
-    """Open a recording (``.rrd`` or ``.mcap``) in the Rerun viewer, without waiting for it."""
-    return subprocess.Popen([rerun_executable(), str(path)])
+class ViewerError(RuntimeError):
+    """The Rerun viewer could not be opened (no display, or it exited at once)."""
+
+
+VIEWER_GRACE_S = 3.0  # a viewer that cannot open a window exits within this
+
+
+def open_viewer(path: Path, *, env: dict[str, str] | None = None) -> subprocess.Popen:
+    """Open a recording (``.rrd`` or ``.mcap``) in the Rerun viewer; it keeps running on its own.
+
+    Raises :class:`ViewerError` where no display is set, or where the viewer exits during its first
+    seconds (it did not open), with what it printed.
+    """
+    env = dict(os.environ if env is None else env)
+    if not (env.get("DISPLAY") or env.get("WAYLAND_DISPLAY")) and sys.platform.startswith("linux"):
+        raise ViewerError(
+            "no display (DISPLAY and WAYLAND_DISPLAY are unset): the Rerun viewer needs one; "
+            f"copy {path} to a machine with a display and run `rerun {path.name}` there"
+        )
+    viewer = subprocess.Popen(
+        [rerun_executable(), str(path)], env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True
+    )
+    try:
+        code = viewer.wait(timeout=VIEWER_GRACE_S)
+    except subprocess.TimeoutExpired:
+        return viewer  # still running: the window is up
+    said = (viewer.stderr.read() if viewer.stderr else "").strip().splitlines()[-3:]
+    raise ViewerError(f"the Rerun viewer exited with code {code} without opening {path}: {' | '.join(said)}")
 
 
 def _fields(payload: dict) -> dict:

@@ -7,6 +7,7 @@ more parquet configs. MCAP and Rerun recordings are included with ``recordings=T
 
 from __future__ import annotations
 
+import re
 import tempfile
 from pathlib import Path
 
@@ -61,26 +62,66 @@ def dataset_card(layout: LogLayout, repo_id: str, recordings: bool) -> str:
     )
 
 
-def upload(root: str | Path, repo_id: str, *, private: bool = False, recordings: bool = False, api=None) -> str:
-    """Create (or reuse) the dataset repository and upload; returns its URL."""
-    from huggingface_hub import HfApi
-    from lerobot.datasets.dataset_metadata import CODEBASE_VERSION
+REPO_ID = re.compile(r"^[A-Za-z0-9][\w.-]{0,95}/[A-Za-z0-9][\w.-]{0,95}$")
 
+
+def check_repo_id(repo_id: str) -> str:
+    """``ORG/NAME``, as the Hub accepts it; anything else is refused before any request."""
+    if not REPO_ID.match(repo_id) or ".." in repo_id or repo_id.endswith((".git", ".")):
+        raise ValueError(
+            f"--repo-id {repo_id!r} is not ORG/NAME (letters, digits, '-', '_', '.'; e.g. my-lab/recent-runs)"
+        )
+    return repo_id
+
+
+def upload_plan(root: str | Path, *, recordings: bool = False) -> list[tuple[Path, str]]:
+    """The folders that would be pushed, with their place in the repository; refuses a run with nothing to push."""
     layout = LogLayout(Path(root))
+    if not Path(root).is_dir():
+        raise FileNotFoundError(f"no such log directory: {root}")
     if not layout.committed():
         raise ValueError(f"{root} holds no finished episodes (nothing under {layout.results_dir})")
     if not (layout.dataset_dir / "meta" / "info.json").exists():
         raise ValueError(f"{layout.dataset_dir} is not a LeRobotDataset; log with the dataset sink on")
-    api = api or HfApi()
-    url = api.create_repo(repo_id, repo_type="dataset", private=private, exist_ok=True)
-    with tempfile.TemporaryDirectory() as tmp:
-        card = Path(tmp) / "README.md"
-        card.write_text(dataset_card(layout, repo_id, recordings))
-        api.upload_file(path_or_fileobj=str(card), path_in_repo="README.md", repo_id=repo_id, repo_type="dataset")
-    api.upload_folder(folder_path=str(layout.dataset_dir), repo_id=repo_id, repo_type="dataset")
     folders = [layout.events_dir, layout.results_dir] + ([layout.mcap_dir, layout.rerun_dir] if recordings else [])
-    for folder in folders:
-        if folder.exists():
-            api.upload_folder(folder_path=str(folder), path_in_repo=folder.name, repo_id=repo_id, repo_type="dataset")
-    api.create_tag(repo_id, tag=CODEBASE_VERSION, repo_type="dataset", exist_ok=True)
+    return [(layout.dataset_dir, "")] + [(f, f.name) for f in folders if f.exists()]
+
+
+def upload(root: str | Path, repo_id: str, *, private: bool = False, recordings: bool = False, api=None) -> str:
+    """Create (or reuse) the dataset repository and upload; returns its URL.
+
+    The repo id, the log directory and (for the real Hub) the token are checked before any request;
+    a Hub that cannot be reached is one :class:`RuntimeError` saying that nothing was uploaded.
+    """
+    from lerobot.datasets.dataset_metadata import CODEBASE_VERSION
+
+    check_repo_id(repo_id)
+    plan = upload_plan(root, recordings=recordings)
+    if api is None:
+        from huggingface_hub import HfApi, get_token
+
+        if not get_token():
+            raise RuntimeError("no Hugging Face token: run `hf auth login` or set HF_TOKEN (nothing was uploaded)")
+        api = HfApi()
+    try:
+        url = api.create_repo(repo_id, repo_type="dataset", private=private, exist_ok=True)
+        with tempfile.TemporaryDirectory() as tmp:
+            card = Path(tmp) / "README.md"
+            card.write_text(dataset_card(LogLayout(Path(root)), repo_id, recordings))
+            api.upload_file(path_or_fileobj=str(card), path_in_repo="README.md", repo_id=repo_id, repo_type="dataset")
+        for folder, into in plan:
+            kwargs = {"path_in_repo": into} if into else {}
+            api.upload_folder(folder_path=str(folder), repo_id=repo_id, repo_type="dataset", **kwargs)
+        api.create_tag(repo_id, tag=CODEBASE_VERSION, repo_type="dataset", exist_ok=True)
+    except Exception as error:  # noqa: BLE001 - httpx, requests and hub errors alike: one line, not a traceback
+        if type(error).__module__.split(".")[0] not in (
+            "httpx",
+            "requests",
+            "huggingface_hub",
+            "urllib3",
+        ) and not isinstance(error, OSError):
+            raise
+        raise RuntimeError(
+            f"cannot reach the Hugging Face Hub ({type(error).__name__}: {error}); the upload did not finish"
+        ) from None
     return str(url)

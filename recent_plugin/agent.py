@@ -101,9 +101,10 @@ class RecentAgent:
         self, task_id: str, robot: str, first_obs: Observation, emit: Emit = ignore
     ) -> tuple[TaskExecutor, EpisodeGrounding]:
         """Ground the task's skills (the events of grounding go to ``emit`` once IGT is measured)."""
+        target = self.ontology.target(robot)  # resolved once: grounding, adaptation and execution share it
+        target.primitives()  # a robot whose YAML and module disagree stops here, before anything is grounded
         started = time.perf_counter()
         task = get_task(task_id)
-        target = self.ontology.target(robot)  # resolved once: grounding, adaptation and execution share it
         report = EpisodeGrounding(task_id=task_id, robot=robot)
         plan, cached = [], []
         for step in task.plan:

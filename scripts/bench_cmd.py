@@ -43,6 +43,11 @@ def register(sub) -> None:
         help="parallel episode processes, each with its own LM and a share of the cores (default: 1; "
         "timings such as IT and IGT are the targets' only with 1 worker on 2 threads: workers compete for the CPU)",
     )
+    parser.add_argument(
+        "--retry-crashed",
+        action="store_true",
+        help="run again the episodes an error broke off (their records say 'crash'); otherwise a rerun skips them",
+    )
     parser.add_argument("--no-log", action="store_true", help="no per-episode MCAP/Rerun/dataset logs")
     parser.add_argument("--log-sinks", default="mcap,rerun,dataset", help="sinks of the per-episode logs")
     from lerobot_policy_recent.scripts.common import add_settings_arguments
@@ -83,6 +88,7 @@ def _csv(text: str) -> tuple[str, ...]:
 def _run(args) -> int:
     from tqdm import tqdm
 
+    from lerobot_policy_recent.recent_plugin.evaluation.metrics import crashed
     from lerobot_policy_recent.recent_plugin.evaluation.report import render_report, results_document
     from lerobot_policy_recent.recent_plugin.evaluation.runner import (
         BenchConfig,
@@ -114,6 +120,7 @@ def _run(args) -> int:
         workers=args.workers,
         log_sinks=() if args.no_log else _csv(args.log_sinks),
         agent=settings,
+        retry_crashed=args.retry_crashed,
     )
     jobs, todo = pending(config)
     print(f"{len(jobs)} episodes ({len(jobs) - len(todo)} already done) -> {config.out}", file=sys.stderr)
@@ -124,7 +131,7 @@ def _run(args) -> int:
                             f"{'ok' if record['success'] else record.get('failure_category') or 'fail'}")  # fmt: skip
         bar.update(1)
 
-    run_bench(config, on_record=on_record)
+    ran = run_bench(config, on_record=on_record)
     bar.close()
     header = {
         "command": command_line(config),
@@ -148,6 +155,19 @@ def _run(args) -> int:
     write_json(results, {**results_document(records, header), "runs": [*runs, header]})
     report = render_report([config.out], config.out)
     print(f"{len(records)} episodes; results: {config.out / 'results.json'}; report: {report}")
+    broken = [r for r in ran if crashed(r)]
+    if broken:  # what was asked was not done: say which, and how to finish it
+        for r in broken:
+            print(
+                f"crashed: {r['method']} {r['task_id']} on {r['target']} seed {r['seed']}: {r.get('crashed')}",
+                file=sys.stderr,
+            )
+        print(
+            f"{len(broken)} of {len(ran)} episodes crashed (in no aggregate); "
+            "fix the cause, then rerun the same command with --retry-crashed",
+            file=sys.stderr,
+        )
+        return 1
     return 0
 
 

@@ -61,6 +61,9 @@ def register(sub) -> None:
     upload.add_argument("--repo-id", required=True, help="ORG/NAME of the dataset repository")
     upload.add_argument("--private", action="store_true", help="create the repository private")
     upload.add_argument("--with-recordings", action="store_true", help="also upload the MCAP and Rerun files")
+    upload.add_argument(
+        "--dry-run", action="store_true", help="check everything and list what would be pushed; push nothing"
+    )
     upload.set_defaults(handler=_upload)
 
 
@@ -105,7 +108,12 @@ def _verify(args) -> int:
 def _failures(args) -> int:
     from lerobot_policy_recent.logs.failure_report import failure_table, plot_failures
 
+    missing = [d for d in args.dirs if not Path(d).is_dir()]
+    if missing:
+        raise FileNotFoundError(f"no such log directory: {', '.join(missing)}")
     table = failure_table(args.dirs)
+    if not table.episodes:
+        raise ValueError(f"no logged episodes under {', '.join(args.dirs)} (a log directory holds results/)")
     print(table.markdown())
     out = Path(args.out) if args.out else Path(args.dirs[0]) / "failures.png"
     print(f"\n{table.episodes} episode(s); bar chart: {plot_failures(table, out)}")
@@ -113,25 +121,42 @@ def _failures(args) -> int:
 
 
 def _replay(args) -> int:
-    from lerobot_policy_recent.logs.replay import default_output, open_viewer, replay_episode
+    from lerobot_policy_recent.logs.replay import ViewerError, default_output, open_viewer, replay_episode
 
     path = Path(args.path)
+    if not path.exists():
+        raise FileNotFoundError(f"{path} does not exist")
     if path.is_dir():
         if args.episode is None:
             raise ValueError(f"{path} is a log directory: choose an episode with --episode N")
         path = replay_episode(path, args.episode, Path(args.out) if args.out else default_output(path, args.episode))
         print(f"wrote {path}")
-    elif not path.exists():
-        raise FileNotFoundError(f"{path} does not exist")
+    elif args.out or args.episode is not None:
+        raise ValueError(
+            f"{path} is a recording already: --out and --episode rebuild one from a log directory's dataset "
+            f"(recent replay DIR --episode N --out FILE.rrd); open this one with `recent replay {path}`"
+        )
+    elif args.no_viewer:
+        raise ValueError(f"nothing to do: {path} is a recording already and --no-viewer opens no viewer")
     if not args.no_viewer:
-        open_viewer(path)
+        try:
+            open_viewer(path)
+        except ViewerError as error:
+            raise RuntimeError(str(error)) from None
         print(f"opened {path} in the Rerun viewer")
     return 0
 
 
 def _upload(args) -> int:
-    from lerobot_policy_recent.logs.upload import upload
+    from lerobot_policy_recent.logs.upload import check_repo_id, upload, upload_plan
 
+    if args.dry_run:
+        check_repo_id(args.repo_id)
+        for folder, into in upload_plan(args.dir, recordings=args.with_recordings):
+            files = sum(1 for p in folder.rglob("*") if p.is_file())
+            print(f"would push {folder} ({files} files) to {args.repo_id}:{into or '/'}")
+        print(f"would write the dataset card README.md; nothing was pushed (dataset repo {args.repo_id})")
+        return 0
     url = upload(args.dir, args.repo_id, private=args.private, recordings=args.with_recordings)
     print(f"uploaded {args.dir} to {url}", file=sys.stdout)
     return 0

@@ -251,7 +251,6 @@ import sys
 from lerobot_policy_recent.logs.recorder import Recorder
 from lerobot_policy_recent.recent_plugin.agent import RecentAgent
 from lerobot_policy_recent.recent_plugin.infillers.configs import RuleConfig
-from lerobot_policy_recent.recent_plugin.methods import method_named
 from lerobot_policy_recent.recent_plugin.settings import RecentSettings
 from lerobot_policy_recent.recent_plugin.episode import run_episode
 recorder = Recorder(sys.argv[1])
@@ -291,3 +290,39 @@ def test_sigkill_mid_episode_then_recover_salvages_everything_flushed(tmp_path):
     assert verify(tmp_path).ok  # recovered files are accounted for
     Recorder(tmp_path, ["mcap"]).close()  # the next run sets the interrupted files aside
     assert sorted(p.suffix for p in layout.interrupted_dir.iterdir()) == [".mcap", ".mcap", ".rrd", ".rrd"]
+
+
+def test_log_commands_refuse_what_they_cannot_do_and_say_so(run, tmp_path, capsys, monkeypatch):
+    """Each bad input exits non-zero with one line, and nothing is created or claimed."""
+    from lerobot_policy_recent.scripts.cli import main
+
+    root, _ = run
+    rrd = LogLayout(root).rrd(0)
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    cases = [
+        (["failures", "report", str(tmp_path / "typo")], "no such log directory"),
+        (["replay", str(rrd), "--no-viewer", "--out", str(tmp_path / "x.rrd")], "is a recording already"),
+        (["replay", str(rrd), "--no-viewer"], "nothing to do"),
+        (["replay", str(rrd)], "no display"),
+        (["replay", str(tmp_path / "missing.rrd")], "does not exist"),
+        (["upload", str(root), "--repo-id", "badname"], "is not ORG/NAME"),
+        (["upload", str(tmp_path), "--repo-id", "me/runs", "--dry-run"], "holds no finished episodes"),
+    ]
+    for argv, said in cases:
+        assert main(argv) == 2, argv
+        assert said in capsys.readouterr().err, argv
+    assert not (tmp_path / "typo").exists() and not (tmp_path / "x.rrd").exists()
+
+
+def test_upload_checks_the_token_first_and_a_dry_run_lists_what_would_go(run, tmp_path, capsys, monkeypatch):
+    from lerobot_policy_recent.scripts.cli import main
+
+    root, _ = run
+    assert main(["upload", str(root), "--repo-id", "me/runs", "--dry-run"]) == 0
+    out = capsys.readouterr().out
+    assert "would push" in out and "grounding_events" in out and "nothing was pushed" in out
+    monkeypatch.delenv("HF_TOKEN", raising=False)
+    monkeypatch.setenv("HF_HOME", str(tmp_path / "hf"))  # no stored token either
+    assert main(["upload", str(root), "--repo-id", "me/runs"]) == 2
+    assert "no Hugging Face token" in capsys.readouterr().err

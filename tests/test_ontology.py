@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from pathlib import Path
 
@@ -338,6 +339,46 @@ def test_a_substitute_needing_a_robot_state_gets_a_preparatory_step(tmp_path, pu
 
     grounded = ground_skill(put_in_bin, onto.target("Kuka"), onto, RuleInfiller())
     assert "    kuka_align(env, task)\n    kuka_take(env, task, where=obj_pos)\n" in grounded.code
+
+
+KUKA_MODULE = """
+def kuka_take(env, task, where):
+    yield from ()
+
+
+def kuka_put(env, task, where, speed=1.0):
+    yield from ()
+
+
+def kuka_open(env, task):
+    yield from ()
+{rest}"""
+
+
+def test_a_data_only_robot_is_checked_against_its_module_before_it_runs(tmp_path, monkeypatch):
+    """The YAML declares kuka_align, the module lacks it and has kuka_wave: refused, naming both files."""
+    from lerobot_policy_recent.ontology.specs import SpecError
+
+    monkeypatch.syspath_prepend(str(tmp_path))
+    (tmp_path / "kuka_prims.py").write_text(
+        KUKA_MODULE.format(rest="\n\ndef kuka_wave(env, task, speed):\n    yield from ()\n")
+    )
+    (tmp_path / "spec").mkdir()
+    onto = _with_kuka(tmp_path / "spec")
+    spec = onto.api("Kuka")
+    target = dataclasses.replace(onto.target("Kuka"), api=dataclasses.replace(spec, module="kuka_prims"))
+    with pytest.raises(SpecError) as refused:
+        target.primitives()
+    message = str(refused.value)
+    assert "kuka.yaml against" in message and "kuka_prims.py" in message
+    assert "kuka_align: declared in the YAML, not a function of the module" in message
+    assert "kuka_wave: a function of the module, not declared in the YAML" in message
+
+    (tmp_path / "kuka_good.py").write_text(
+        KUKA_MODULE.format(rest="\n\ndef kuka_align(env, task):\n    yield from ()\n")
+    )
+    good = dataclasses.replace(target, api=dataclasses.replace(spec, module="kuka_good"))
+    assert sorted(good.primitives()) == ["kuka_align", "kuka_open", "kuka_put", "kuka_take"]
 
 
 def test_a_target_is_resolved_once_with_its_api_arm_and_primitives(ontology):

@@ -31,6 +31,16 @@ LABELS = {
 HIGHER_IS_BETTER = {"sr", "gc"}
 
 
+def crashed(record: dict) -> bool:
+    """An episode an error broke off (the LM worker died, a bug): a failure to investigate, not a result."""
+    return bool(record.get("crashed")) or record.get("failure_category") == "crash"
+
+
+def split_crashed(records: list[dict]) -> tuple[list[dict], list[dict]]:
+    """(episodes that ran to a verdict, crashed ones): only the first go into any figure."""
+    return [r for r in records if not crashed(r)], [r for r in records if crashed(r)]
+
+
 def seed_metrics(records: list[dict]) -> dict[str, float]:
     """The metrics of one seed's episodes (one per task)."""
     subtasks = [max(1, int(r.get("subtasks") or 1)) for r in records]

@@ -13,7 +13,14 @@ from collections import Counter
 from pathlib import Path
 
 from lerobot_policy_recent.recent_plugin.evaluation.methods import ABLATION_METHODS, EXPECTED, METHODS
-from lerobot_policy_recent.recent_plugin.evaluation.metrics import LABELS, aggregate, fmt, group, summarize
+from lerobot_policy_recent.recent_plugin.evaluation.metrics import (
+    LABELS,
+    aggregate,
+    fmt,
+    group,
+    split_crashed,
+    summarize,
+)
 from lerobot_policy_recent.recent_plugin.evaluation.runner import load_records
 
 SETTINGS = ("kinematic", "end_effector")
@@ -119,10 +126,20 @@ def _why_not(method: str, ablated: dict, base: dict) -> str:
     return ""
 
 
-def target_checks(records: list[dict]) -> list[str]:
+def target_checks(records: list[dict], crashes: int = 0) -> list[str]:
     """The benchmark issue's headline targets for RECENT (and its fast path, where it ran), each
-    with the measured value and ✓/✗."""
-    lines = []
+    with the measured value and ✓/✗.
+
+    None is ticked for the rule backend (no LM: the paper's targets measure one) or for runs with
+    crashed episodes (what they would have scored is unknown): the values are listed, marked "not checked".
+    """
+    backends = {r.get("backend") for r in records if r.get("method") in HEADLINE_METHODS}
+    why = f"{crashes} episode(s) crashed" if crashes else "the rule backend has no LM" if backends == {"rule"} else ""
+    lines = [f"- not checked against the paper's targets: {why}; the values stand as measured"] if why else []
+
+    def mark(ok: bool) -> str:
+        return "(not checked)" if why else "✓" if ok else "✗"
+
     by = {k: summarize(v) for k, v in group(records, lambda r: (r["method"], r["suite"])).items()}
     for method in HEADLINE_METHODS:
         for setting, target in TARGETS.items():
@@ -131,15 +148,15 @@ def target_checks(records: list[dict]) -> list[str]:
                 continue
             label = setting if method == "recent" else f"{setting} ({method})"
             sr, go, ei, it = (ours[m]["mean"] for m in ("sr", "go", "ei", "it"))
-            lines.append(f"- {label}: SR {sr:.1f}% (target ≥ {target['sr']}%) {'✓' if sr >= target['sr'] else '✗'}")
-            lines.append(f"- {label}: GO {go:.2f}% (target ≤ {target['go']}%) {'✓' if go <= target['go'] else '✗'}")
+            lines.append(f"- {label}: SR {sr:.1f}% (target ≥ {target['sr']}%) {mark(sr >= target['sr'])}")
+            lines.append(f"- {label}: GO {go:.2f}% (target ≤ {target['go']}%) {mark(go <= target['go'])}")
             patches = ours["patches"]["mean"]
             rendered = f" (LM calls; {patches:.2f} run-time patches per task, {patches - ei:.2f} of them rendered)"
             lines.append(
-                f"- {label}: EI {ei:.2f} (target ≤ {EI_CEILING}) {'✓' if ei <= EI_CEILING else '✗'}"
+                f"- {label}: EI {ei:.2f} (target ≤ {EI_CEILING}) {mark(ei <= EI_CEILING)}"
                 + (rendered if patches > ei else "")
             )
-            lines.append(f"- {label}: IT {it:.2f} s (target ≤ {IT_CEILING} s) {'✓' if it <= IT_CEILING else '✗'}")
+            lines.append(f"- {label}: IT {it:.2f} s (target ≤ {IT_CEILING} s) {mark(it <= IT_CEILING)}")
             cap = by.get(("cap", setting))
             if cap is not None:
                 margin = sr - cap["sr"]["mean"]
@@ -147,8 +164,8 @@ def target_checks(records: list[dict]) -> list[str]:
                 lower = f"{factor:.1f}× lower" if go > 0 else f"0 against cap's {cap['go']['mean']:.1f}%"
                 lines.append(
                     f"- {label}: margin over cap {margin:+.1f} pp SR (target ≥ +{CAP_SR_MARGIN:.0f}) "
-                    f"{'✓' if margin >= CAP_SR_MARGIN else '✗'}, GO {lower} (target ≥ {CAP_GO_FACTOR:.0f}× lower) "
-                    f"{'✓' if factor >= CAP_GO_FACTOR else '✗'}"
+                    f"{mark(margin >= CAP_SR_MARGIN)}, GO {lower} (target ≥ {CAP_GO_FACTOR:.0f}× lower) "
+                    f"{mark(factor >= CAP_GO_FACTOR)}"
                 )
     return lines
 
@@ -300,8 +317,8 @@ def plot_failures(records: list[dict], path: Path) -> Path:
 
 def render_report(dirs: list[Path], out: Path) -> Path:
     """Write ``out/report.md`` and its plots from the episode records of ``dirs``; return the markdown's path."""
-    records = [r for d in dirs for r in load_records(Path(d))]
-    if not records:
+    records, broken = split_crashed([r for d in dirs for r in load_records(Path(d))])
+    if not records and not broken:
         raise ValueError(f"no episode records under {', '.join(str(d) for d in dirs)} (expected DIR/episodes/...)")
     out.mkdir(parents=True, exist_ok=True)
     sr_go = plot_sr_vs_go(records, out / "sr_vs_go.png")
@@ -327,7 +344,7 @@ def render_report(dirs: list[Path], out: Path) -> Path:
         "",
         "## Headline targets",
         "",
-        *(target_checks(records) or ["- (no RECENT episodes in these runs)"]),
+        *(target_checks(records, crashes=len(broken)) or ["- (no RECENT episodes in these runs)"]),
         "",
         "## Ablations (on the episodes the ablations ran)",
         "",
@@ -353,6 +370,7 @@ def render_report(dirs: list[Path], out: Path) -> Path:
         f"![failures]({failures.name})",
         "",
     ]
+    parts += crash_lines(broken)
     path = out / "report.md"
     path.write_text("\n".join(parts))
     return path
@@ -370,5 +388,30 @@ def _per_target(records: list[dict]) -> str:
 
 
 def results_document(records: list[dict], header: dict) -> dict:
-    """``DIR/results.json``: what ran, on which LM and machine, and every aggregate."""
-    return {**header, "episodes": len(records), **aggregate(records)}
+    """``DIR/results.json``: what ran, on which LM and machine, and every aggregate (crashed episodes
+    are listed apart and in no aggregate)."""
+    ran, broken = split_crashed(records)
+    return {**header, "episodes": len(ran), "crashed": [crash_entry(r) for r in broken], **aggregate(ran)}
+
+
+def crash_entry(record: dict) -> dict:
+    error = record.get("crashed") or record.get("failure_message", "")
+    return {k: record.get(k) for k in ("method", "task_id", "target", "seed")} | {"error": error}
+
+
+def crash_lines(broken: list[dict]) -> list[str]:
+    """The report's list of crashed episodes (re-run them with ``recent bench ... --retry-crashed``)."""
+    if not broken:
+        return []
+    lines = [
+        f"## Crashed episodes ({len(broken)}, in no figure above)",
+        "",
+        "An error broke these off before the env gave a verdict; they are failures to investigate, not "
+        "results. `recent bench ... --retry-crashed` runs them again.",
+        "",
+    ]
+    lines += [
+        f"- {e['method']} {e['task_id']} on {e['target']} seed {e['seed']}: {e['error']}"
+        for e in map(crash_entry, broken)
+    ]
+    return [*lines, ""]

@@ -23,8 +23,10 @@ from pathlib import Path
 
 from lerobot_policy_recent.recent_plugin.agent import RecentAgent
 from lerobot_policy_recent.recent_plugin.evaluation.methods import settings_for
+from lerobot_policy_recent.recent_plugin.evaluation.metrics import crashed
 from lerobot_policy_recent.recent_plugin.failures import FailureCategory
 from lerobot_policy_recent.recent_plugin.settings import RecentSettings
+from lerobot_policy_recent.robosuite_envs.embodiments import EMBODIMENTS
 from lerobot_policy_recent.robosuite_envs.suites import SEEDS, get_suite
 
 SUITE_TARGETS = {"kinematic": ("UR5e", "Sawyer"), "end_effector": ("Robotiq85", "Suction")}
@@ -58,6 +60,7 @@ class BenchConfig:
     variations: str = "on"
     workers: int = 1
     log_sinks: tuple[str, ...] = ("mcap", "rerun", "dataset")  # empty: no logs
+    retry_crashed: bool = False  # run again the episodes whose record says an error broke them off
     agent: RecentSettings = field(default_factory=RecentSettings)
 
     def jobs(self) -> list[Job]:
@@ -71,6 +74,9 @@ class BenchConfig:
                     for spec in chosen:
                         for seed in self.seeds:
                             jobs.append(Job(method, suite, spec.task_id, target, seed))
+        robots = [t for t in self.targets if t not in EMBODIMENTS]
+        if robots:
+            raise ValueError(f"unknown target(s) {', '.join(robots)}; known robots: {', '.join(EMBODIMENTS)}")
         known = {t for suite in self.suites for s in get_suite(suite) for t in (s.task_id, s.task_id.split("/")[-1])}
         unknown = sorted(set(self.tasks) - known)
         if unknown:
@@ -155,11 +161,12 @@ def episode_record(job: Job, result, log_dir: Path | None) -> dict:
 def pending(config: BenchConfig) -> tuple[list[Job], list[Job]]:
     """(all jobs, the ones without a record yet): what a restarted run still has to do."""
     jobs = config.jobs()
-    fields = ("method", "suite", "task_id", "target", "seed")
-    packed = (
-        {tuple(r[f] for f in fields) for r in load_records(config.out)} if (config.out / PACKED).is_file() else set()
-    )
-    return jobs, [j for j in jobs if not j.record_path(config.out).exists() and astuple(j) not in packed]
+    done = {
+        record_key(r)
+        for r in load_records(config.out)
+        if not (config.retry_crashed and crashed(r))  # a crash is no result: --retry-crashed runs it again
+    }
+    return jobs, [j for j in jobs if astuple(j) not in done]
 
 
 def run_bench(config: BenchConfig, *, on_record: Callable[[dict], None] | None = None) -> list[dict]:
@@ -167,11 +174,12 @@ def run_bench(config: BenchConfig, *, on_record: Callable[[dict], None] | None =
     jobs, todo = pending(config)
     config.out.mkdir(parents=True, exist_ok=True)
     for record in _execute(config, todo):
-        path = Job(*(record[k] for k in ("method", "suite", "task_id", "target", "seed"))).record_path(config.out)
+        path = Job(*record_key(record)).record_path(config.out)
         write_json(path, record)
         if on_record is not None:
             on_record(record)
-    return [load_record(j.record_path(config.out)) for j in jobs if j.record_path(config.out).exists()]
+    wanted = {astuple(j) for j in jobs}
+    return [r for r in load_records(config.out) if record_key(r) in wanted]
 
 
 def _execute(config: BenchConfig, jobs: list[Job]) -> Iterable[dict]:
@@ -208,13 +216,20 @@ def load_record(path: Path) -> dict:
 PACKED = "episodes.jsonl.gz"  # a committed run's records, one file instead of one JSON per episode
 
 
+def record_key(record: dict) -> tuple:
+    """The episode a record is of: (method, suite, task id, target, seed), a :class:`Job` as a tuple."""
+    return tuple(record[f] for f in ("method", "suite", "task_id", "target", "seed"))
+
+
 def load_records(out: Path) -> list[dict]:
-    """Every episode record of a benchmark directory: its ``episodes/`` files and its packed file."""
-    records = [load_record(p) for p in sorted((out / "episodes").glob("*/*/*.json"))]
+    """Every episode record of a benchmark directory: its packed file, and its ``episodes/`` files,
+    which win where both hold an episode (a packed run's crash, run again with ``--retry-crashed``)."""
+    records: dict[tuple, dict] = {}
     if (out / PACKED).is_file():
         with gzip.open(out / PACKED, "rt") as packed:
-            records += [json.loads(line) for line in packed if line.strip()]
-    return records
+            records.update((record_key(r), r) for r in map(json.loads, filter(str.strip, packed)))
+    records.update((record_key(r), r) for r in map(load_record, sorted((out / "episodes").glob("*/*/*.json"))))
+    return list(records.values())
 
 
 def has_records(out: Path) -> bool:
