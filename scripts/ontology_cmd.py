@@ -3,13 +3,14 @@
 from __future__ import annotations
 
 import json
+import sys
 from pathlib import Path
 
 from lerobot_policy_recent.ontology.builder import SkillSource, build_ontology
 from lerobot_policy_recent.ontology.diagnosis import diagnose
 from lerobot_policy_recent.ontology.instance_graph import draw_instance_graph
 from lerobot_policy_recent.ontology.query import query
-from lerobot_policy_recent.skills.repository import list_skills, load_skill
+from lerobot_policy_recent.skills.repository import load_skill, load_skills
 
 
 def register(sub) -> None:
@@ -43,7 +44,10 @@ def register(sub) -> None:
 
 
 def _with_skills():
-    return build_ontology(skills=[SkillSource(s.name, s.code, str(s.path)) for s in map(load_skill, list_skills())])
+    skills, broken = load_skills()
+    for name, why in broken.items():
+        print(f"recent ontology: skill {name!r} is left out: {why}", file=sys.stderr)
+    return build_ontology(skills=[SkillSource(s.name, s.code, str(s.path)) for s in skills])
 
 
 def _build(args) -> int:

@@ -46,7 +46,18 @@ def register(sub) -> None:
 
 
 def _row(name: str) -> dict:
-    skill, record = load_skill(name), load_record(name)
+    try:
+        skill = load_skill(name)
+    except (ValueError, SyntaxError) as error:  # a broken file disables its skill, not the listing
+        return {
+            "name": name,
+            "subtask": "-",
+            "validated": False,
+            "code_sha256": "",
+            "seeds_passed": [],
+            "broken": str(error),
+        }
+    record = load_record(name)
     return {
         "name": skill.name,
         "subtask": skill.subtask,
@@ -62,6 +73,9 @@ def _list(args) -> int:
         print(json.dumps(rows, indent=2))
         return 0
     for row in rows:
+        if row.get("broken"):
+            print(f"{row['name']:<18} BROKEN: {row['broken']}")
+            continue
         state = "validated" if row["validated"] else "NOT validated"
         print(
             f"{row['name']:<18} {row['subtask']:<18} {row['code_sha256'][:12]}  {state} ({len(row['seeds_passed'])}/5 seeds)"

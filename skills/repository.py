@@ -75,6 +75,21 @@ def load_skill(name: str, library: Path = LIBRARY) -> Skill:
     )
 
 
+def load_skills(library: Path = LIBRARY) -> tuple[list[Skill], dict[str, str]]:
+    """Every skill of the library that loads, and, by name, why each of the others does not.
+
+    One broken file disables its own skill, with the reason naming the file and the field, and
+    nothing else: the rest of the library, and every command that reads it, keeps working.
+    """
+    skills, broken = [], {}
+    for name in list_skills(library):
+        try:
+            skills.append(load_skill(name, library))
+        except (ValueError, SyntaxError, yaml.YAMLError) as error:  # SkillCodeError is a ValueError
+            broken[name] = str(error)
+    return skills, broken
+
+
 def _names(meta: dict, key: str, path: Path) -> tuple[str, ...]:
     value = meta.get(key) or []
     if not isinstance(value, list) or not all(isinstance(v, str) for v in value):

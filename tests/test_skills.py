@@ -86,3 +86,28 @@ def test_skills_show_prints_code_metadata_and_last_validation(capsys):
     assert main(["skills", "show", "open_drawer"]) == 0
     out = capsys.readouterr().out
     assert "def open_drawer(" in out and "# effects:" in out and "seeds passed [0, 1, 42, 123, 2024]" in out
+
+
+def test_a_broken_skill_file_disables_that_skill_not_the_commands(tmp_path, monkeypatch, capsys):
+    """A malformed YAML leaves its skill out, with the file and the field named; the rest keeps working."""
+    import shutil
+
+    from lerobot_policy_recent.scripts import ontology_cmd, skills_cmd
+    from lerobot_policy_recent.scripts.cli import main
+    from lerobot_policy_recent.skills import repository
+
+    library = tmp_path / "library"
+    shutil.copytree(repository.LIBRARY, library)
+    (library / "wipe_area.yaml").write_text("entry: wipe_area\nsubtask: wipe\n")  # no source_embodiment, intent
+    skills, broken = repository.load_skills(library)
+    assert "wipe_area" in broken and "missing field(s) source_embodiment, intent" in broken["wipe_area"]
+    assert "wipe_area.yaml" in broken["wipe_area"] and len(skills) == len(repository.list_skills(library)) - 1
+
+    monkeypatch.setattr(repository, "LIBRARY", library)
+    monkeypatch.setattr(ontology_cmd, "load_skills", lambda: repository.load_skills(library))
+    monkeypatch.setattr(skills_cmd, "list_skills", lambda: repository.list_skills(library))
+    monkeypatch.setattr(skills_cmd, "load_skill", lambda name: repository.load_skill(name, library))
+    assert main(["ontology", "stats"]) == 0
+    assert "skill 'wipe_area' is left out" in capsys.readouterr().err
+    assert main(["skills", "list"]) == 0
+    assert "wipe_area          BROKEN:" in capsys.readouterr().out
