@@ -122,17 +122,32 @@ def _check_episode(layout: LogLayout, episode: int, lengths: dict[int, int]) -> 
 
 
 # ---------------------------------------------------------------------------------------- recovery
-def recover(root: str | Path) -> list[str]:
+@dataclass(frozen=True)
+class Salvaged:
+    """One recovered file: where from, where to, and what it holds (read back from the copy)."""
+
+    source: str
+    target: str
+    steps: int
+    events: int
+
+    def __str__(self) -> str:
+        return f"{self.source} -> {self.target} ({self.steps} steps, {self.events} events)"
+
+
+def recover(root: str | Path) -> list[Salvaged]:
     """Salvage the MCAP and Rerun files of interrupted episodes into ``*.recovered.*`` beside them."""
     out = []
     for path in interrupted_files(LogLayout(Path(root))):
         target = recovered_path(path)
         if path.suffix == ".mcap":
-            messages = recover_mcap(path, target)
-            out.append(f"{path} -> {target} ({messages} messages)")
+            recover_mcap(path, target)
+            contents = read_mcap(target)
+            out.append(Salvaged(str(path), str(target), contents.steps, len(contents.events)))
         elif path.suffix == ".rrd":
             recover_rrd(path, target)
-            out.append(f"{path} -> {target}")
+            rrd = read_rrd(target)
+            out.append(Salvaged(str(path), str(target), rrd.steps, rrd.events))
     return out
 
 

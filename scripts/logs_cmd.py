@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import sys
 from pathlib import Path
@@ -82,14 +83,16 @@ def _verify(args) -> int:
                         for e in report.episodes
                     ],
                     "problems": report.problems,
-                    "recovered": recovered,
+                    "salvaged": [dataclasses.asdict(s) for s in recovered],
                 },
                 indent=2,
             )
         )
         return 0 if report.ok else 1
-    for line in recovered:
-        print(f"recovered {line}")
+    for salvaged in recovered:
+        print(f"recovered {salvaged}")
+    if args.recover and not recovered:
+        print("nothing to recover: no interrupted episode in this directory")
     for e in report.episodes:
         mark = "ok " if e.ok else "BAD"
         steps = ", ".join(f"{k} {v}" for k, v in e.steps.items())

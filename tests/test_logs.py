@@ -282,6 +282,7 @@ def test_sigkill_mid_episode_then_recover_salvages_everything_flushed(tmp_path):
     assert not verify(tmp_path).ok  # the interrupted episode is reported
     salvaged = recover(tmp_path)
     assert len(salvaged) == 2
+    assert all(s.steps >= 1 and s.events >= 1 for s in salvaged)  # it says what it salvaged
     recovered = read_mcap(layout.mcap_dir / "episode_000000.recovered.mcap")
     assert recovered.complete
     assert recovered.steps >= seen.steps and len(recovered.events) >= len(seen.events)
