@@ -20,7 +20,14 @@ import numpy as np
 
 from lerobot_policy_recent.logs.events import EpisodeStarted, Stamped, Step
 from lerobot_policy_recent.logs.layout import LogLayout, write_parquet_atomically
-from lerobot_policy_recent.robosuite_envs.observation import ACTION_DIM, AGENT_POS_DIM, ENV_STATE_DIM
+from lerobot_policy_recent.robosuite_envs.observation import (
+    ACTION_DIM,
+    ACTION_NAMES,
+    AGENT_POS_DIM,
+    AGENT_POS_NAMES,
+    ENV_STATE_DIM,
+    ENV_STATE_NAMES,
+)
 from lerobot_policy_recent.robosuite_envs.primitives.session import CONTROL_FREQ
 
 log = logging.getLogger(__name__)
@@ -31,10 +38,18 @@ CAMERA_KEY = "observation.images.front"
 
 
 def features(camera_shape: tuple[int, int, int] | None) -> dict:
+    """The dataset's features, each entry named; ``next.*`` mark the last frame (and its success) as LeRobot's own datasets do."""
     out = {
-        "observation.state": {"dtype": "float32", "shape": (AGENT_POS_DIM,), "names": None},
-        "observation.environment_state": {"dtype": "float32", "shape": (ENV_STATE_DIM,), "names": None},
-        "action": {"dtype": "float32", "shape": (ACTION_DIM,), "names": None},
+        "observation.state": {"dtype": "float32", "shape": (AGENT_POS_DIM,), "names": list(AGENT_POS_NAMES)},
+        "observation.environment_state": {
+            "dtype": "float32",
+            "shape": (ENV_STATE_DIM,),
+            "names": list(ENV_STATE_NAMES),
+        },
+        "action": {"dtype": "float32", "shape": (ACTION_DIM,), "names": list(ACTION_NAMES)},
+        "next.reward": {"dtype": "float32", "shape": (1,), "names": None},
+        "next.done": {"dtype": "bool", "shape": (1,), "names": None},
+        "next.success": {"dtype": "bool", "shape": (1,), "names": None},
     }
     if camera_shape is not None:
         out[CAMERA_KEY] = {"dtype": "image", "shape": camera_shape, "names": ["height", "width", "channels"]}
@@ -63,6 +78,13 @@ def result_row(result: Stamped, start: EpisodeStarted, num_frames: int) -> dict:
     row = {"episode_index": result.episode_index, "num_frames": num_frames, **result.event.payload()}
     row.update(backend=start.backend, model=start.model, method=start.method, variations=start.variations)
     return row
+
+
+def joined_to_frames(rows: list[dict], num_frames: int) -> list[dict]:
+    """Event rows with every ``frame_index`` on a frame of the episode: events after its last action
+    (the final subtask success, the result) join the last frame, where ``next.done`` is set."""
+    last = max(0, num_frames - 1)
+    return [{**row, "frame_index": min(row["frame_index"], last)} for row in rows]
 
 
 @dataclass
@@ -154,9 +176,9 @@ class DatasetSink:
         if not ended:
             self._prepare()
             return
-        self._save_frames([(r.episode_index, e) for r, e in ended if e.frames])
+        self._save_frames([(r, e) for r, e in ended if e.frames])
         for r, e in ended:  # the results row last: it marks the episode committed
-            write_parquet_atomically(e.events, self.layout.events(r.episode_index))
+            write_parquet_atomically(joined_to_frames(e.events, len(e.frames)), self.layout.events(r.episode_index))
             write_parquet_atomically([result_row(r, e.start, len(e.frames))], self.layout.results(r.episode_index))
 
     def close(self) -> None:
@@ -169,15 +191,15 @@ class DatasetSink:
             self._writer.join()
         self._raise_pending()
 
-    def _save_frames(self, episodes: list[tuple[int, _Episode]]) -> None:
+    def _save_frames(self, episodes: list[tuple[Stamped, _Episode]]) -> None:
         if not episodes:
             return
         first_image = episodes[0][1].frames[0].image
         shape = None if first_image is None else tuple(first_image.shape)
-        dataset = self._open(episodes[0][0], episodes[0][1], shape)
+        dataset = self._open(episodes[0][0].episode_index, episodes[0][1], shape)
         with _quiet_progress():
-            for _index, episode in episodes:
-                self._write(dataset, episode, shape)
+            for result, episode in episodes:
+                self._write(dataset, episode, shape, success=bool(result.event.success))
             dataset.finalize()
         self._prepare()
 
@@ -205,6 +227,10 @@ class DatasetSink:
                 index,
                 dataset.meta.total_episodes,
             )
+        if "next.done" not in dataset.features:
+            raise ValueError(
+                f"{root} was written by an older version (no next.done/next.success); log into a new directory"
+            )
         if (CAMERA_KEY in dataset.features) != (shape is not None):
             raise ValueError(
                 f"{root} was recorded {'with' if shape is None else 'without'} a camera; "
@@ -213,12 +239,19 @@ class DatasetSink:
         return dataset
 
     @staticmethod
-    def _write(dataset, episode: _Episode, shape) -> None:
-        for frame in episode.frames:
+    def _write(dataset, episode: _Episode, shape, *, success: bool) -> None:
+        last = len(episode.frames) - 1
+        for i, frame in enumerate(episode.frames):
+            done = i == last
             values = {
                 "observation.state": frame.state,
                 "observation.environment_state": frame.environment_state,
                 "action": frame.action,
+                "next.reward": np.array(
+                    [1.0 if done and success else 0.0], dtype=np.float32
+                ),  # sparse: success at the end
+                "next.done": np.array([done]),
+                "next.success": np.array([done and success]),
                 "task": episode.start.task or f"{episode.start.task_id} on {episode.start.robot}",
             }
             if shape is not None:

@@ -19,12 +19,11 @@ import rerun.blueprint as rrb
 
 from lerobot_policy_recent.logs.events import EpisodeStarted, InfillCall, PatchApplied, Stamped, Step
 from lerobot_policy_recent.logs.layout import episode_name
-from lerobot_policy_recent.robosuite_envs.observation import SLOT_DIM
+from lerobot_policy_recent.robosuite_envs.observation import ACTION_NAMES, SLOT_DIM
 from lerobot_policy_recent.robosuite_envs.primitives.session import CONTROL_FREQ
 
 BATCH = 64  # steps buffered before they are sent as one column chunk
 _LEVELS = {"debug": rr.TextLogLevel.DEBUG, "info": rr.TextLogLevel.INFO, "warning": rr.TextLogLevel.WARN}
-_ACTION_NAMES = ["dx", "dy", "dz", "dax", "day", "daz", "gripper"]
 
 
 def blueprint() -> rrb.Blueprint:
@@ -72,7 +71,7 @@ class RerunSink:
         rec = rr.RecordingStream("recent", recording_id=f"{episode_name(start.episode_index)}-{start.log_time_ns}")
         rec.save(path, default_blueprint=blueprint())
         rec.send_recording_name(f"{event.task_id} on {event.robot} (seed {event.seed})")
-        rec.log("action", rr.SeriesLines(names=_ACTION_NAMES), static=True)
+        rec.log("action", rr.SeriesLines(names=list(ACTION_NAMES)), static=True)
         self._episodes[start.episode_index] = _Episode(rec, list(event.object_names))
         self.event(start)
 

@@ -21,6 +21,12 @@ SLOT_DIM = 12
 ENV_STATE_DIM = MAX_OBJECTS * SLOT_DIM
 ACTION_DIM = 7  # OSC_POSE delta (6) + gripper (1): -1 opens, +1 closes
 
+# What each entry of the vectors is (LeRobot dataset feature names, the Rerun series names).
+AGENT_POS_NAMES = ("eef_x", "eef_y", "eef_z", "eef_qx", "eef_qy", "eef_qz", "eef_qw", "gripper_opening")
+SLOT_NAMES = ("x", "y", "z", "qx", "qy", "qz", "qw", "present", "grasped", "touched", "height", "state")
+ENV_STATE_NAMES = tuple(f"slot{slot}_{name}" for slot in range(MAX_OBJECTS) for name in SLOT_NAMES)
+ACTION_NAMES = ("dx", "dy", "dz", "dax", "day", "daz", "gripper")
+
 
 @dataclass(frozen=True)
 class ObjectState:

@@ -120,11 +120,22 @@ def test_datasets_load_and_join_on_episode_index(run):
     mcap_events = read_mcap(layout.mcap(0)).events
     episode0 = [row for row in events if row["episode_index"] == 0]
     assert [row["event"] for row in episode0] == [e["event"] for e in mcap_events]
-    assert [row["frame_index"] for row in episode0] == [e["frame_index"] for e in mcap_events]
+    # every event joins a frame: those after the last action (final subtask, result) join the last one
+    assert [row["frame_index"] for row in episode0] == [min(e["frame_index"], good.steps - 1) for e in mcap_events]
+    assert all(0 <= row["frame_index"] < (good.steps if row["episode_index"] == 0 else broken.steps) for row in events)
     patch = next(row for row in episode0 if row["event"] == "patch_applied" and row["kind"] == "revise")
     frame = frames[patch["frame_index"]]  # events join the frames on (episode_index, frame_index)
     assert int(frame["episode_index"]) == 0 and int(frame["frame_index"]) == patch["frame_index"]
     np.testing.assert_allclose(frames[0]["action"].numpy(), read_mcap_action(layout.mcap(0)), atol=1e-6)
+    features = frames.meta.features
+    assert features["observation.state"]["names"][-1] == "gripper_opening"
+    assert features["observation.environment_state"]["names"][:3] == ["slot0_x", "slot0_y", "slot0_z"]
+    assert features["action"]["names"][-1] == "gripper"
+    last_good, last_broken = frames[good.steps - 1], frames[good.steps + broken.steps - 1]
+    assert bool(last_good["next.done"]) and bool(last_good["next.success"]) == bool(good.success)
+    assert float(last_good["next.reward"]) == (1.0 if good.success else 0.0)
+    assert bool(last_broken["next.done"]) and not bool(last_broken["next.success"])
+    assert not bool(frames[0]["next.done"]) and float(frames[0]["next.reward"]) == 0.0
 
 
 def read_mcap_action(path: Path) -> list[float]:
