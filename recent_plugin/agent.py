@@ -128,19 +128,23 @@ class RecentAgent:
         )
         return executor, report
 
-    def started_event(self, task_id: str, robot: str, seed: int, task: str, variations: str = "") -> EpisodeStarted:
-        """The first event of an episode's log: what runs, on what, with which LM and method."""
+    def started_event(self, task_id: str, robot: str, seed: int, variations: str = "") -> EpisodeStarted:
+        """The first event of an episode's log: what runs, on what, with which LM and method.
+
+        ``task`` is the plain instruction (the dataset's task); the task id, robot and method have fields of their own.
+        """
         s = self.settings
+        spec = get_task(task_id)
         return EpisodeStarted(
             task_id,
             robot,
             seed,
-            task,
+            spec.instruction,
             self.infiller.name,
             self.infiller.model,
             s.method.label,
             variations,
-            get_task(task_id).object_names(),
+            spec.object_names(),
         )
 
     def skill(self, name: str) -> Skill:

@@ -208,7 +208,7 @@ def _run(
     names = env.spec_task.object_names()
     episode = None
     if recorder is not None:
-        started_event = agent.started_event(task_id, robot, seed, env.task_description, ",".join(env.variations))
+        started_event = agent.started_event(task_id, robot, seed, ",".join(env.variations))
         episode = recorder.start_episode(started_event)
     bar = _bar(env._max_episode_steps, progress, f"{task_id} on {robot}")
     success, steps, settled, info, done = False, 0, 0, {}, 0

@@ -129,7 +129,7 @@ class RecentPolicy(PreTrainedPolicy):
         started = time.perf_counter()
         log = None
         if self.recorder is not None:
-            log = self.recorder.start_episode(self.agent.started_event(task_id, robot, self._log_seed, text))
+            log = self.recorder.start_episode(self.agent.started_event(task_id, robot, self._log_seed))
         try:
             executor, report = self.agent.start_episode(task_id, robot, obs, emit=log.emit if log else ignore)
         except Exception as exc:

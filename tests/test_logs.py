@@ -136,6 +136,7 @@ def test_datasets_load_and_join_on_episode_index(run):
     assert float(last_good["next.reward"]) == (1.0 if good.success else 0.0)
     assert bool(last_broken["next.done"]) and not bool(last_broken["next.success"])
     assert not bool(frames[0]["next.done"]) and float(frames[0]["next.reward"]) == 0.0
+    assert frames[0]["task"] and "[recent" not in frames[0]["task"]  # the plain instruction; metadata has columns
 
 
 def read_mcap_action(path: Path) -> list[float]:
