@@ -20,6 +20,18 @@ if ! ldconfig -p 2>/dev/null | grep -q libOSMesa; then
   fi
 fi
 
+# LeRobot decodes dataset videos with torchcodec, which needs FFmpeg's shared libraries; without them
+# every LeRobotDataset load prints a loading traceback before falling back to pyav.
+if ! ldconfig -p 2>/dev/null | grep -q 'libavutil\.so'; then
+  if command -v apt-get >/dev/null && [ "$(id -u)" = 0 ]; then
+    log "installing FFmpeg's libraries for LeRobot's video decoder (torchcodec)"
+    apt-get install -y -q --no-install-recommends ffmpeg >/dev/null 2>&1 \
+      || { apt-get update -q >/dev/null && apt-get install -y -q --no-install-recommends ffmpeg >/dev/null; }
+  else
+    log "warning: FFmpeg's libraries not found; install ffmpeg so LeRobot's torchcodec decoder loads"
+  fi
+fi
+
 PYTHON=${PYTHON:-python3}
 if ! "$PYTHON" -c 'import sys; sys.exit(sys.version_info[:2] != (3, 12))' 2>/dev/null; then
   for candidate in python3.12 "$HOME/.pyenv/versions/$(cat .python-version)/bin/python"; do

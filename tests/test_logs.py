@@ -139,6 +139,24 @@ def test_datasets_load_and_join_on_episode_index(run):
     assert frames[0]["task"] and "[recent" not in frames[0]["task"]  # the plain instruction; metadata has columns
 
 
+def test_loading_the_dataset_with_lerobot_defaults_prints_no_traceback(run):
+    """LeRobot's default video decoder (torchcodec) loads: setup installs FFmpeg's libraries."""
+    import shutil
+
+    if shutil.which("ffmpeg") is None:
+        pytest.skip("FFmpeg is not installed (setup installs it where it may use apt-get)")
+    root, (good, broken) = run
+    code = (
+        "import sys; from lerobot.datasets.lerobot_dataset import LeRobotDataset\n"
+        f"d = LeRobotDataset('local/recent_episodes', root={str(LogLayout(root).dataset_dir)!r})\n"
+        "print(d.num_frames, d[0]['task'])\n"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300, cwd="/")
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert "Traceback" not in done.stderr and "cannot be loaded" not in done.stderr, done.stderr[-2000:]
+    assert done.stdout.split()[0] == str(good.steps + broken.steps)
+
+
 def read_mcap_action(path: Path) -> list[float]:
     from mcap.reader import make_reader
 
