@@ -36,6 +36,7 @@ class _Episode:
     grounding: EpisodeGrounding
     log: EpisodeLog | None
     started: float
+    seed: int  # the env's episode seed, from the task string's tag (-1 when the env had none)
 
 
 class RecentPolicy(PreTrainedPolicy):
@@ -70,11 +71,6 @@ class RecentPolicy(PreTrainedPolicy):
     def get_optim_params(self) -> dict:
         return {}
 
-    @property
-    def _log_seed(self) -> int:
-        """The seed the logs record: LeRobot does not hand the env's seed to the policy, so the LM's stands in."""
-        return self.config.lm_seed
-
     def reset(self):
         """End every batch element's episode (its result goes to the logs) before the next begins."""
         for episode in self._episodes:
@@ -82,7 +78,7 @@ class RecentPolicy(PreTrainedPolicy):
                 result = episode_result(
                     episode.executor,
                     episode.grounding,
-                    self._log_seed,
+                    episode.seed,
                     None,  # the env's verdict is lerobot-eval's to report
                     None,
                     episode.log.frame_index,
@@ -109,34 +105,35 @@ class RecentPolicy(PreTrainedPolicy):
             self._episodes = [None] * len(states)
         actions = []
         for b, (state, env_state, text) in enumerate(zip(states, env_states, tasks, strict=True)):
-            task_id, robot = parse_task_string(text)
+            task_id, robot, seed = parse_task_string(text)
             obs = Observation.decode(state, env_state, get_task(task_id).object_names())
             if self._episodes[b] is None:
-                self._episodes[b] = self._start(task_id, robot, text, obs)
+                self._episodes[b] = self._start(task_id, robot, seed, obs)
             episode = self._episodes[b]
             try:
                 action = episode.executor.act(obs)
             except Exception as exc:  # the LM worker died, a bug: the log says so, and lerobot-eval sees the error
                 self._episodes[b] = None
-                _end_crashed(episode.log, task_id, robot, self._log_seed, episode.started, exc)
+                _end_crashed(episode.log, task_id, robot, episode.seed, episode.started, exc)
                 raise
             if episode.log is not None:
                 episode.log.step(state, env_state, action)
             actions.append(action)
         return torch.as_tensor(np.stack(actions), dtype=torch.float32)
 
-    def _start(self, task_id: str, robot: str, text: str, obs: Observation) -> _Episode:
+    def _start(self, task_id: str, robot: str, env_seed: int | None, obs: Observation) -> _Episode:
         started = time.perf_counter()
+        seed = env_seed if env_seed is not None else -1  # -1: the env was reset without a seed
         log = None
         if self.recorder is not None:
-            log = self.recorder.start_episode(self.agent.started_event(task_id, robot, self._log_seed))
+            log = self.recorder.start_episode(self.agent.started_event(task_id, robot, seed))
         try:
             executor, report = self.agent.start_episode(task_id, robot, obs, emit=log.emit if log else ignore)
         except Exception as exc:
-            _end_crashed(log, task_id, robot, self._log_seed, started, exc)
+            _end_crashed(log, task_id, robot, seed, started, exc)
             raise
         self.groundings.append(report)
-        return _Episode(executor, report, log, started)
+        return _Episode(executor, report, log, started, seed)
 
 
 def _end_crashed(log: EpisodeLog | None, task_id: str, robot: str, seed: int, started: float, exc: Exception) -> None:

@@ -90,6 +90,7 @@ class RecentEnv(gym.Env):
             self._env = self._make(seed)
         if seed is not None:
             self._env.rng = np.random.default_rng(seed)
+            self.task_description = self.task = task_string(self.spec_task, self.embodiment.name, seed)
         self._env.reset()
         self._steps = 0
         return self._observation(), self._info()

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 from lerobot_policy_recent.robosuite_envs.objects import get_kind
 
@@ -62,17 +63,26 @@ class TaskSpec:
         return [step.subtask for step in self.plan]
 
 
-# The task id and robot travel to the policy inside LeRobot's `task` string.
-_TAG_RE = re.compile(r"\[recent task=(?P<task>\S+) robot=(?P<robot>\S+)\]")
+# The task id, robot and episode seed travel to the policy inside LeRobot's `task` string (the one
+# channel from a vectorised env to the policy); the logs keep the plain instruction.
+_TAG_RE = re.compile(r"\[recent task=(?P<task>\S+) robot=(?P<robot>\S+)(?: seed=(?P<seed>-?\d+))?\]")
 
 
-def task_string(task: TaskSpec, robot: str) -> str:
-    return f"{task.instruction} [recent task={task.task_id} robot={robot}]"
+class TaskTag(NamedTuple):
+    task_id: str
+    robot: str
+    seed: int | None  # the env's episode seed (None before its first seeded reset)
 
 
-def parse_task_string(text: str) -> tuple[str, str]:
-    """Return ``(task_id, robot)`` from a task string built by :func:`task_string`."""
+def task_string(task: TaskSpec, robot: str, seed: int | None = None) -> str:
+    tail = f" seed={seed}" if seed is not None else ""
+    return f"{task.instruction} [recent task={task.task_id} robot={robot}{tail}]"
+
+
+def parse_task_string(text: str) -> TaskTag:
+    """The ``(task_id, robot, seed)`` a task string built by :func:`task_string` carries."""
     match = _TAG_RE.search(text)
     if match is None:
         raise ValueError(f"task string {text!r} carries no '[recent task=... robot=...]' tag; is the env 'recent'?")
-    return match.group("task"), match.group("robot")
+    seed = match.group("seed")
+    return TaskTag(match.group("task"), match.group("robot"), int(seed) if seed is not None else None)

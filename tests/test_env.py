@@ -22,7 +22,9 @@ def test_observation_layout_and_task_string(env):
     obs, info = env.reset(seed=0)
     assert obs["agent_pos"].shape == (8,) and obs["environment_state"].shape == (ENV_STATE_DIM,)
     assert env.observation_space.contains(obs) and info == {"is_success": False, "gc": 0.0, "subtasks_done": 0}
-    assert parse_task_string(env.task_description) == ("cube_in_bin", "UR5e")
+    assert parse_task_string(env.task_description)[:2] == ("cube_in_bin", "UR5e")
+    env.reset(seed=42)  # each env of a vectorised lerobot-eval tells the policy its own seed
+    assert parse_task_string(env.task_description) == ("cube_in_bin", "UR5e", 42) and env.task == env.task_description
     cube_present = obs["environment_state"][7]
     assert cube_present == 1.0
 

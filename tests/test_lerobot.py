@@ -78,3 +78,12 @@ def test_lerobot_eval_runs_two_tasks_with_batch_size_two(tmp_path):
 
     report = verify(tmp_path / "logs")  # the policy logged each batch element's episode
     assert report.ok and len(report.episodes) == 4, (report.problems, [e.problems for e in report.episodes])
+    from lerobot_policy_recent.logs.layout import LogLayout
+    from lerobot_policy_recent.logs.readers import read_table
+
+    layout = LogLayout(tmp_path / "logs")
+    rows = [read_table(layout.results(e))[0] for e in layout.committed()]
+    by_task: dict[str, list[int]] = {}
+    for row in rows:
+        by_task.setdefault(row["task_id"], []).append(row["seed"])
+    assert all(len(set(seeds)) == 2 for seeds in by_task.values()), by_task  # each env its own seed
