@@ -26,6 +26,7 @@ from lerobot_policy_recent.recent_plugin.executor import TaskExecutor
 from lerobot_policy_recent.robosuite_envs.observation import Observation
 from lerobot_policy_recent.robosuite_envs.suites import get_task
 from lerobot_policy_recent.robosuite_envs.tasks import parse_task_string
+from lerobot_policy_recent.robosuite_envs.verdicts import take_verdict
 
 
 @dataclass
@@ -37,6 +38,8 @@ class _Episode:
     log: EpisodeLog | None
     started: float
     seed: int  # the env's episode seed, from the task string's tag (-1 when the env had none)
+    task_id: str = ""
+    robot: str = ""
 
 
 class RecentPolicy(PreTrainedPolicy):
@@ -75,17 +78,25 @@ class RecentPolicy(PreTrainedPolicy):
         """End every batch element's episode (its result goes to the logs) before the next begins."""
         for episode in self._episodes:
             if episode is not None and episode.log is not None:
+                success, gc = self._verdict(episode)
                 result = episode_result(
                     episode.executor,
                     episode.grounding,
                     episode.seed,
-                    None,  # the env's verdict is lerobot-eval's to report
-                    None,
+                    success,
+                    gc,
                     episode.log.frame_index,
                     time.perf_counter() - episode.started,
                 )
                 episode.log.end(result.ended_event())
         self._episodes = []
+
+    def _verdict(self, episode: _Episode) -> tuple[bool | None, float | None]:
+        """The env's success and GC for the ended episode, where it wrote them (``--env.verdict_dir``,
+        the same directory as ``--policy.log_dir``); the logs only, never the policy's decisions."""
+        if not self.config.log_dir or episode.seed < 0:
+            return None, None
+        return take_verdict(self.config.log_dir, episode.task_id, episode.robot, episode.seed)
 
     def forward(self, batch: dict[str, torch.Tensor]):
         raise NotImplementedError("RECENT grounds skill code at deployment time; it has nothing to train")
@@ -133,7 +144,7 @@ class RecentPolicy(PreTrainedPolicy):
             _end_crashed(log, task_id, robot, seed, started, exc)
             raise
         self.groundings.append(report)
-        return _Episode(executor, report, log, started, seed)
+        return _Episode(executor, report, log, started, seed, task_id, robot)
 
 
 def _end_crashed(log: EpisodeLog | None, task_id: str, robot: str, seed: int, started: float, exc: Exception) -> None:

@@ -19,6 +19,7 @@ from lerobot_policy_recent.robosuite_envs.primitives.session import CONTROL_FREQ
 from lerobot_policy_recent.robosuite_envs.suites import get_task
 from lerobot_policy_recent.robosuite_envs.tasks import task_string
 from lerobot_policy_recent.robosuite_envs.variations import parse_variations
+from lerobot_policy_recent.robosuite_envs.verdicts import write_verdict
 
 
 class RecentEnv(gym.Env):
@@ -34,8 +35,14 @@ class RecentEnv(gym.Env):
         visualization_height: int = 128,
         render_camera: str = "frontview",
         variations: str | tuple[str, ...] = (),
+        verdict_dir: str | None = None,
     ):
+        """``verdict_dir``: where each finished episode's success and GC are written for the logs
+        (``lerobot-eval``'s policy cannot see them; :mod:`~lerobot_policy_recent.robosuite_envs.verdicts`)."""
         super().__init__()
+        self.verdict_dir = verdict_dir
+        self._seed: int | None = None
+        self._judged = False  # this episode's verdict is written
         self.spec_task = get_task(task)
         if len(self.spec_task.objects) > MAX_OBJECTS:
             raise ValueError(
@@ -91,6 +98,7 @@ class RecentEnv(gym.Env):
         if seed is not None:
             self._env.rng = np.random.default_rng(seed)
             self.task_description = self.task = task_string(self.spec_task, self.embodiment.name, seed)
+        self._seed, self._judged = seed, False
         self._env.reset()
         self._steps = 0
         return self._observation(), self._info()
@@ -107,6 +115,16 @@ class RecentEnv(gym.Env):
         self._steps += 1
         info = self._info()
         truncated = self._steps >= self._max_episode_steps
+        if (info["is_success"] or truncated) and self.verdict_dir and self._seed is not None and not self._judged:
+            self._judged = True  # success is latched: the first verdict is the episode's
+            write_verdict(
+                self.verdict_dir,
+                self.spec_task.task_id,
+                self.embodiment.name,
+                self._seed,
+                info["is_success"],
+                info["gc"],
+            )
         return self._observation(), info["gc"], info["is_success"], truncated, info
 
     def _info(self) -> dict:

@@ -29,6 +29,9 @@ class RecentEnvConfig(EnvConfig):
     render_mode: str = "rgb_array"
     visualization_width: int = 128
     visualization_height: int = 128
+    # Where each finished episode's success and GC go, for the policy's result rows (it cannot see
+    # them); the same directory as --policy.log_dir. None: the rows leave them empty.
+    verdict_dir: str | None = "outputs/recent_logs"
     features: dict[str, PolicyFeature] = field(
         default_factory=lambda: {
             ACTION: PolicyFeature(type=FeatureType.ACTION, shape=(ACTION_DIM,)),
@@ -65,6 +68,7 @@ class RecentEnvConfig(EnvConfig):
             "render_mode": self.render_mode,
             "visualization_width": self.visualization_width,
             "visualization_height": self.visualization_height,
+            "verdict_dir": self.verdict_dir,
         }
 
     def create_envs(self, n_envs: int, use_async_envs: bool = False) -> dict[str, dict[int, gym.vector.VectorEnv]]:

@@ -67,6 +67,7 @@ def test_lerobot_eval_runs_two_tasks_with_batch_size_two(tmp_path):
         "--eval.batch_size=2",
         f"--output_dir={out}",
         f"--policy.log_dir={tmp_path / 'logs'}",
+        f"--env.verdict_dir={tmp_path / 'logs'}",
     ]
     proc = subprocess.run(cmd, capture_output=True, text=True, timeout=900, env={**os.environ, "TQDM_DISABLE": "1"})
     assert proc.returncode == 0, proc.stderr[-3000:]
@@ -87,3 +88,6 @@ def test_lerobot_eval_runs_two_tasks_with_batch_size_two(tmp_path):
     for row in rows:
         by_task.setdefault(row["task_id"], []).append(row["seed"])
     assert all(len(set(seeds)) == 2 for seeds in by_task.values()), by_task  # each env its own seed
+    # the env's verdicts fill the policy's result rows (lerobot-eval keeps them from the policy)
+    assert all(row["success"] is True and row["gc"] == 1.0 for row in rows), rows
+    assert not list((tmp_path / "logs" / "verdicts").glob("*.json"))  # each taken once

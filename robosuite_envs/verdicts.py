@@ -1,0 +1,38 @@
+"""The env's verdict on an episode (success, GC), handed to the logs inside ``lerobot-eval``.
+
+There the policy never sees the env's verdict: LeRobot keeps ``info["is_success"]`` to itself. So
+the env writes one small JSON file per finished episode into ``<log dir>/verdicts/``, keyed by
+task, robot and seed, and the policy's logs take it from there when the episode's result row is
+written. The verdict goes to the logs only; the policy's decisions never read it.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+
+def verdict_path(log_dir: str | Path, task_id: str, robot: str, seed: int) -> Path:
+    return Path(log_dir) / "verdicts" / f"{task_id.replace('/', '__')}__{robot}__s{seed}.json"
+
+
+def write_verdict(log_dir: str | Path, task_id: str, robot: str, seed: int, success: bool, gc: float) -> Path:
+    """Written whole or not at all (write, then rename)."""
+    path = verdict_path(log_dir, task_id, robot, seed)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_suffix(".tmp")
+    tmp.write_text(json.dumps({"success": bool(success), "gc": float(gc)}))
+    os.replace(tmp, path)
+    return path
+
+
+def take_verdict(log_dir: str | Path, task_id: str, robot: str, seed: int) -> tuple[bool | None, float | None]:
+    """``(success, gc)`` of that episode, removing its file; ``(None, None)`` where the env wrote none."""
+    path = verdict_path(log_dir, task_id, robot, seed)
+    try:
+        verdict = json.loads(path.read_text())
+    except (OSError, ValueError):
+        return None, None
+    path.unlink(missing_ok=True)
+    return bool(verdict["success"]), float(verdict["gc"])
