@@ -110,10 +110,9 @@ def test_the_fast_path_renders_the_patches_a_check_writes_without_interrupting(o
     so GO, EI and IT are 0, while the two run-time patches are still counted (and logged) as such."""
     from lerobot_policy_recent.recent_plugin.infillers.fast_path import FastPathInfiller
 
-    lm = CountingInfiller()
-    agent = RecentAgent(
-        RecentSettings(method=method_named("recent+fast-path")), infiller=FastPathInfiller(lm), ontology=ontology
-    )
+    lm = CountingInfiller()  # the method puts the fast path in front of the LM it is given
+    agent = RecentAgent(RecentSettings(method=method_named("recent+fast-path")), infiller=lm, ontology=ontology)
+    assert isinstance(agent.infiller, FastPathInfiller) and agent.infiller.lm is lm
     result = run_episode(agent, "kinematic/cube_on_plate", "UR5e", seed=0, variations="on")
     assert result.success
     assert [e.checks for e in result.adaptations] == [("object_unmoved",), ("target_clear",)]
