@@ -33,9 +33,8 @@ class RecentConfig(PreTrainedConfig, RecentSettings):
     )
 
     def __post_init__(self):
-        super().__post_init__()
-        if self.max_retries < 0:
-            raise ValueError("policy.max_retries must be >= 0")
+        super().__post_init__()  # LeRobot's (PreTrainedConfig comes first in the MRO)
+        RecentSettings.__post_init__(self)
 
     def agent_settings(self) -> RecentSettings:
         """The settings tree alone (without LeRobot's fields), as the agent takes it."""

@@ -31,6 +31,11 @@ class RecentSettings:
     max_skill_steps: int = 3000  # control steps a skill may take before it is stopped
     skill_library: str | None = None  # a directory of skills (+ validation/); None: the bundled Panda skills
 
+    def __post_init__(self):
+        for name in ("max_retries", "max_repairs", "max_skill_steps"):
+            if getattr(self, name) < 0:
+                raise ValueError(f"{name} must be >= 0, got {getattr(self, name)}")
+
     def to_dict(self) -> dict:
         """The resolved tree as plain data (what a run records)."""
         types = get_type_hints(RecentSettings)
@@ -49,5 +54,12 @@ def settings_flags(tree: dict, prefix: str = "") -> list[str]:
 
 
 def parse_settings(flags: list[str]) -> RecentSettings:
-    """The tree from ``--path=value`` flags (draccus decodes and checks types and choices)."""
-    return draccus.parse(RecentSettings, args=flags)
+    """The tree from ``--path=value`` flags (draccus decodes and checks types and choices); a bad
+    value is a :class:`ValueError` that names the option."""
+    try:
+        return draccus.parse(RecentSettings, args=flags)
+    except draccus.utils.ParsingError as error:
+        cause = error.__cause__ or error.__context__
+        where = ".".join(getattr(error, "key_path", ()) or ())
+        what = str(cause) if isinstance(cause, ValueError) else getattr(error, "message", str(error))
+        raise ValueError(f"--{where}: {what}" if where else what) from None

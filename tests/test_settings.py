@@ -67,6 +67,7 @@ def test_unknown_choices_and_values_are_refused():
         main(["run", "--infiller.type", "gpt9"])
     with pytest.raises(ValueError, match="unknown method 'nope'"):
         method_named("nope")
+    assert main(["run", "--max_retries=-1", "--infiller.type=rule", "--no-log"]) == 2
 
 
 def test_one_record_per_episode(ontology, rule_infiller, capsys):
