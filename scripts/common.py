@@ -62,7 +62,7 @@ def _owners(names: list[str], choices: list[str]) -> str:
 
 
 def _doc(cls: type, name: str) -> str:
-    for klass in cls.__mro__:  # a field documented where it was first declared
+    for klass in cls.__mro__:  # the nearest class that declares the field documents it
         if dataclasses.is_dataclass(klass) and name in getattr(klass, "__annotations__", {}):
             doc = get_attribute_docstring(klass, name)
             return (doc.comment_inline or doc.comment_above or doc.docstring_below or "").strip()
