@@ -7,9 +7,10 @@ more parquet configs. MCAP and Rerun recordings are included with ``recordings=T
 
 from __future__ import annotations
 
-import re
 import tempfile
 from pathlib import Path
+
+import httpx
 
 from lerobot_policy_recent.logs.layout import LogLayout
 from lerobot_policy_recent.logs.readers import read_table
@@ -62,15 +63,16 @@ def dataset_card(layout: LogLayout, repo_id: str, recordings: bool) -> str:
     )
 
 
-REPO_ID = re.compile(r"^[A-Za-z0-9][\w.-]{0,95}/[A-Za-z0-9][\w.-]{0,95}$")
-
-
 def check_repo_id(repo_id: str) -> str:
-    """``ORG/NAME``, as the Hub accepts it; anything else is refused before any request."""
-    if not REPO_ID.match(repo_id) or ".." in repo_id or repo_id.endswith((".git", ".")):
-        raise ValueError(
-            f"--repo-id {repo_id!r} is not ORG/NAME (letters, digits, '-', '_', '.'; e.g. my-lab/recent-runs)"
-        )
+    """``ORG/NAME`` as the Hub accepts it (``huggingface_hub``'s own check); refused before any request."""
+    from huggingface_hub.utils import HFValidationError, validate_repo_id
+
+    try:
+        validate_repo_id(repo_id)
+    except HFValidationError as error:
+        raise ValueError(f"--repo-id {repo_id!r} is not ORG/NAME: {error}") from None
+    if "/" not in repo_id:
+        raise ValueError(f"--repo-id {repo_id!r} is not ORG/NAME (e.g. my-lab/recent-runs)")
     return repo_id
 
 
@@ -113,14 +115,7 @@ def upload(root: str | Path, repo_id: str, *, private: bool = False, recordings:
             kwargs = {"path_in_repo": into} if into else {}
             api.upload_folder(folder_path=str(folder), repo_id=repo_id, repo_type="dataset", **kwargs)
         api.create_tag(repo_id, tag=CODEBASE_VERSION, repo_type="dataset", exist_ok=True)
-    except Exception as error:  # noqa: BLE001 - httpx, requests and hub errors alike: one line, not a traceback
-        if type(error).__module__.split(".")[0] not in (
-            "httpx",
-            "requests",
-            "huggingface_hub",
-            "urllib3",
-        ) and not isinstance(error, OSError):
-            raise
+    except (OSError, httpx.HTTPError) as error:  # hub errors are OSErrors; connection errors are httpx's
         raise RuntimeError(
             f"cannot reach the Hugging Face Hub ({type(error).__name__}: {error}); the upload did not finish"
         ) from None

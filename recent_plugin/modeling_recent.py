@@ -38,8 +38,8 @@ class _Episode:
     log: EpisodeLog | None
     started: float
     seed: int  # the env's episode seed, from the task string's tag (-1 when the env had none)
-    task_id: str = ""
-    robot: str = ""
+    task_id: str
+    robot: str
 
 
 class RecentPolicy(PreTrainedPolicy):

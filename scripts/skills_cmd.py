@@ -11,9 +11,11 @@ from lerobot_policy_recent.robosuite_envs.suites import SEEDS
 from lerobot_policy_recent.skills.records import load_record, save_record
 from lerobot_policy_recent.skills.repository import (
     LIBRARY,
+    Skill,
     derived_capabilities,
     list_skills,
     load_skill,
+    load_skills,
     source_call_sites,
 )
 
@@ -45,19 +47,8 @@ def register(sub) -> None:
     gen.set_defaults(handler=_generate)
 
 
-def _row(name: str) -> dict:
-    try:
-        skill = load_skill(name)
-    except (ValueError, SyntaxError) as error:  # a broken file disables its skill, not the listing
-        return {
-            "name": name,
-            "subtask": "-",
-            "validated": False,
-            "code_sha256": "",
-            "seeds_passed": [],
-            "broken": str(error),
-        }
-    record = load_record(name)
+def _row(skill: Skill) -> dict:
+    record = load_record(skill.name)
     return {
         "name": skill.name,
         "subtask": skill.subtask,
@@ -68,7 +59,9 @@ def _row(name: str) -> dict:
 
 
 def _list(args) -> int:
-    rows = [_row(name) for name in list_skills()]
+    skills, broken = load_skills()  # a broken file disables its skill, not the listing
+    rows = [_row(s) for s in skills] + [{"name": n, "broken": why} for n, why in broken.items()]
+    rows.sort(key=lambda row: row["name"])
     if args.json:
         print(json.dumps(rows, indent=2))
         return 0

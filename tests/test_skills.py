@@ -105,8 +105,7 @@ def test_a_broken_skill_file_disables_that_skill_not_the_commands(tmp_path, monk
 
     monkeypatch.setattr(repository, "LIBRARY", library)
     monkeypatch.setattr(ontology_cmd, "load_skills", lambda: repository.load_skills(library))
-    monkeypatch.setattr(skills_cmd, "list_skills", lambda: repository.list_skills(library))
-    monkeypatch.setattr(skills_cmd, "load_skill", lambda name: repository.load_skill(name, library))
+    monkeypatch.setattr(skills_cmd, "load_skills", lambda: repository.load_skills(library))
     assert main(["ontology", "stats"]) == 0
     assert "skill 'wipe_area' is left out" in capsys.readouterr().err
     assert main(["skills", "list"]) == 0
