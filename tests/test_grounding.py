@@ -22,7 +22,7 @@ RULE_DIFF_LINES = {
 
 def test_unit_cuts_exactly_the_span_with_function_window(ontology, put_in_bin):
     conflict = diagnose(ontology, put_in_bin.name, put_in_bin.code, "UR5e").conflicts[1]
-    unit = unit_from_conflict(put_in_bin.code, conflict, "UR5e")
+    unit = unit_from_conflict(put_in_bin.code, conflict, ontology.target("UR5e"))
     assert unit.span == 'pick(env, task, target_pos=obj_pos, approach_axis="z")'
     assert unit.prefix.startswith("def put_in_bin(") and unit.prefix.endswith("open_gripper(env, task)\n")
     assert unit.suffix.startswith("\n    drop_pos =")
@@ -32,7 +32,7 @@ def test_unit_cuts_exactly_the_span_with_function_window(ontology, put_in_bin):
 
 def test_prompt_renders_hints_as_comments_before_the_span(ontology, put_in_bin):
     conflict = diagnose(ontology, put_in_bin.name, put_in_bin.code, "UR5e").conflicts[1]
-    prompt = build_prompt(unit_from_conflict(put_in_bin.code, conflict, "UR5e"), span_tokens=20)
+    prompt = build_prompt(unit_from_conflict(put_in_bin.code, conflict, ontology.target("UR5e")), span_tokens=20)
     comments = prompt.prefix.splitlines()[-6:-1]
     assert all(line.startswith("    # ") for line in comments)
     assert "map target_pos -> grasp_pos; drop approach_axis" in prompt.prefix
@@ -48,7 +48,7 @@ def test_a_call_written_over_several_lines_is_one_comment_line_and_a_one_line_sp
 
     wipe = load_skill("wipe_area")
     conflict = diagnose(ontology, wipe.name, wipe.code, "Sawyer").conflicts[0]
-    prompt = build_prompt(unit_from_conflict(wipe.code, conflict, "Sawyer"), span_tokens=60)
+    prompt = build_prompt(unit_from_conflict(wipe.code, conflict, ontology.target("Sawyer")), span_tokens=60)
     hints = prompt.prefix.splitlines()[4:-1]
     assert hints and all(line.startswith("        # ") for line in hints)
     assert hints[1] == (
@@ -63,8 +63,10 @@ def test_a_retry_is_held_to_the_ontology_call_with_only_the_placeholders_free(on
 
     def prompts(robot: str, index: int):
         conflict = diagnose(ontology, put_in_bin.name, put_in_bin.code, robot).conflicts[index]
-        first = build_prompt(unit_from_conflict(put_in_bin.code, conflict, robot), 20)
-        retry = build_prompt(unit_from_conflict(put_in_bin.code, conflict, robot, feedback="no", attempt=1), 20)
+        first = build_prompt(unit_from_conflict(put_in_bin.code, conflict, ontology.target(robot)), 20)
+        retry = build_prompt(
+            unit_from_conflict(put_in_bin.code, conflict, ontology.target(robot), feedback="no", attempt=1), 20
+        )
         return first, retry
 
     first, retry = prompts("UR5e", 1)
@@ -94,7 +96,7 @@ def test_a_traced_push_is_one_move_per_waypoint_and_its_retry_is_held_to_all_of_
         "move_to_position(env, task, pos=[area_pos[0] + 0.09, area_pos[1] + dy, area_pos[2] + 0.02 + 0.1])",
     ]
     conflict = diagnose(ontology, close.name, close.code, "Robotiq85").conflicts[0]
-    unit = unit_from_conflict(close.code, conflict, "Robotiq85")  # names: indexed, closed hand first
+    unit = unit_from_conflict(close.code, conflict, ontology.target("Robotiq85"))  # names: indexed, closed hand first
     assert unit.hints.substitute_call.splitlines() == [
         "close_robotiq85(env, task)",
         "move_to_position(env, task, pos=[start[0], start[1], start[2] + 0.1])",
@@ -106,7 +108,9 @@ def test_a_traced_push_is_one_move_per_waypoint_and_its_retry_is_held_to_all_of_
     assert (
         first.stop == ("\n\n",) and "# Call exactly: close_robotiq85(env, task); then move_to_position(" in first.prefix
     )
-    retry = build_prompt(unit_from_conflict(close.code, conflict, "Robotiq85", feedback="no", attempt=1), 30)
+    retry = build_prompt(
+        unit_from_conflict(close.code, conflict, ontology.target("Robotiq85"), feedback="no", attempt=1), 30
+    )
     assert retry.grammar.splitlines()[0].startswith('root ::= "close_robotiq85(env, task)\\nmove_to_position(')
     LlamaGrammar.from_string(retry.grammar, verbose=False)
 
@@ -151,7 +155,7 @@ def test_rejected_span_is_retried_with_feedback_then_accepted(ontology, put_in_b
 def test_interface_rewiring_leaves_the_undecided_argument_to_the_lm(ontology, put_in_bin, rule_infiller):
     """Sawyer's pick needs an object *name* the Panda call never had: the rule backend cannot decide it."""
     conflict = diagnose(ontology, put_in_bin.name, put_in_bin.code, "Sawyer").conflicts[1]
-    unit = unit_from_conflict(put_in_bin.code, conflict, "Sawyer")
+    unit = unit_from_conflict(put_in_bin.code, conflict, ontology.target("Sawyer"))
     assert unit.span_type == "interface_rewiring" and unit.hints.unfilled == ("target_object",)
     assert unit.hints.substitute_call == "sawyer_pick(env, task, target_object=<object_name>, target_pos=obj_pos)"
     grounded = ground_skill(put_in_bin, ontology.target("Sawyer"), ontology, rule_infiller)
@@ -259,7 +263,7 @@ def test_a_traced_path_that_drops_a_waypoints_offset_is_rejected(ontology):
 
     close = load_skill("close_drawer")
     conflict = diagnose(ontology, close.name, close.code, "Suction").conflicts[0]
-    unit = unit_from_conflict(close.code, conflict, "Suction")
+    unit = unit_from_conflict(close.code, conflict, ontology.target("Suction"))
     right = unit.hints.substitute_call.replace("\n", "\n" + unit.indent)
     assert _check_span(right, unit) is None
     wrong = right.replace("pos=[start[0], start[1], start[2] + 0.1]", "pos=start, pointing_to='down'", 1)

@@ -32,7 +32,7 @@ def test_lookup_decoding_matches_plain_greedy_decoding(ontology, put_in_bin, lla
     diagnosis = diagnose(ontology, put_in_bin.name, put_in_bin.code, robot, source=put_in_bin.source_embodiment)
     session = llama_session
     for conflict in diagnosis.conflicts:
-        unit = unit_from_conflict(put_in_bin.code, conflict, robot)
+        unit = unit_from_conflict(put_in_bin.code, conflict, ontology.target(robot))
         prompt = build_prompt(unit, len(session.tokenize(unit.span)))
         text = QWEN.render(prompt.prefix, prompt.suffix)
         stops = (*prompt.stop, *QWEN.stops)
@@ -59,13 +59,13 @@ GROUNDED = '''def place_on_plate(env, task, obj="cube", target="plate"):
 '''
 
 
-def test_a_span_ends_where_the_model_ends_it(llama_infiller):
+def test_a_span_ends_where_the_model_ends_it(llama_infiller, ontology):
     """The statement grammar admits the model's end token: an in-situ sweep is the call and nothing
     more (a grammar that demanded the newline ran on with ' # <the call again>' to the length cap)."""
     sweep = "ur5_push_to(env, task, contact_pos=[0.178, 0.069, 0.854], goal_pos=[0.178, -0.056, 0.854])"
     start = GROUNDED.index("ur5_release_at")
     hints = Hints(
-        robot="UR5e",
+        target=ontology.target("UR5e"),
         original_call="ur5_release_at(env, task, place_pos=drop_pos)",
         substitute_call=sweep,
         reason=f"push it off first: {sweep}",

@@ -57,7 +57,7 @@ def test_fim_markers_are_single_special_tokens_and_spans_are_counted(tiny_model_
     ids = infiller.tokenizer(QWEN.render("a", "b"), add_special_tokens=False)["input_ids"]
     assert len(ids) == 5  # <|fim_prefix|> a <|fim_suffix|> b <|fim_middle|>
     conflict = diagnose(ontology, put_in_bin.name, put_in_bin.code, "UR5e").conflicts[0]
-    completion = infiller.infill(unit_from_conflict(put_in_bin.code, conflict, "UR5e"))
+    completion = infiller.infill(unit_from_conflict(put_in_bin.code, conflict, ontology.target("UR5e")))
     assert 0 < completion.generated_tokens <= 64 and completion.seconds > 0
     assert completion.prompt_tokens > 100  # the function window with the hint comments
     assert "\n" not in completion.text  # a one-statement span ends at its newline
@@ -92,7 +92,7 @@ def _cuda() -> bool:
 
 @pytest.mark.skipif(not _cuda(), reason="needs a CUDA GPU (runs on the lent GPU machine, not in CI)")
 @pytest.mark.parametrize("dtype", ["auto", "float16", "bfloat16", "float32"])
-def test_cuda_is_chosen_and_every_dtype_infills_the_same_span_each_time(tiny_model_dir, put_in_bin, dtype):
+def test_cuda_is_chosen_and_every_dtype_infills_the_same_span_each_time(tiny_model_dir, ontology, put_in_bin, dtype):
     from lerobot_policy_recent.recent_plugin.refactoring.units import Hints, cut_unit
 
     infiller = make_infiller("transformers", str(tiny_model_dir), dtype=dtype)  # device=None: CUDA when present
@@ -103,7 +103,9 @@ def test_cuda_is_chosen_and_every_dtype_infills_the_same_span_each_time(tiny_mod
     start = code.index("pick(")
     end = code.index("\n", start)
     hints = Hints(
-        robot="UR5e", original_call=code[start:end], substitute_call="ur5_grasp_at(env, task, grasp_pos=obj_pos)"
+        target=ontology.target("UR5e"),
+        original_call=code[start:end],
+        substitute_call="ur5_grasp_at(env, task, grasp_pos=obj_pos)",
     )
     unit = cut_unit(code, start, end, "api_substitution", hints, substitute="ur5_grasp_at")
     completions = [infiller.infill(unit) for _ in range(3)]

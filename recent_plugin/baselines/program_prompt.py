@@ -96,7 +96,7 @@ class ProgramPrompt:
         """The whole entry body of the skill as one span, the header and signature before it."""
         code = self.skill.code
         start, end = body_span(code, self.skill.entry)
-        hints = Hints(robot=self.target.name, original_call=code[start:end], feedback=feedback, attempt=attempt)
+        hints = Hints(target=self.target, original_call=code[start:end], feedback=feedback, attempt=attempt)
         return self._headed(cut_unit(code, start, end, PROGRAM, hints))
 
     def statement_unit(
@@ -111,7 +111,7 @@ class ProgramPrompt:
         """One statement of ``code`` (its character range ``span``) as the span, the header before the function."""
         start, end = span
         hints = Hints(
-            robot=self.target.name,
+            target=self.target,
             original_call=code[start:end],
             feedback=feedback,
             attempt=attempt,

@@ -19,6 +19,7 @@ from dataclasses import replace
 from lerobot_policy_recent.ontology.diagnosis import Conflict, Diagnosis, ParameterMapping
 from lerobot_policy_recent.ontology.skill_code import body_span
 from lerobot_policy_recent.ontology.specs import ApiSpec, PrimitiveSpec
+from lerobot_policy_recent.ontology.target import Target
 from lerobot_policy_recent.recent_plugin.refactoring.substitution import has_placeholders, render_substitute_call
 from lerobot_policy_recent.recent_plugin.refactoring.units import Hints, RefactoringUnit, cut_unit
 
@@ -61,7 +62,7 @@ def _rename_mapping(conflict: Conflict, original: PrimitiveSpec, substitute: Pri
 
 
 def whole_skill_unit(
-    code: str, entry: str, diagnosis: Diagnosis, robot: str, api: ApiSpec, *, with_hints: bool, feedback=None, attempt=0
+    code: str, entry: str, diagnosis: Diagnosis, target: Target, *, with_hints: bool, feedback=None, attempt=0
 ) -> RefactoringUnit:
     """One unit spanning the whole body: with every conflict's hint (full-regen), or only the API (no-ontology)."""
     start, end = body_span(code, entry)
@@ -73,10 +74,12 @@ def whole_skill_unit(
         )
         expected = rendered[start : end + len(rendered) - len(code)] if rendered is not None else None
     else:
-        reason = f"rewrite for {robot}; its primitives: " + "; ".join(p.signature() for p in api.primitives)
+        reason = f"rewrite for {target.name}; its primitives: " + "; ".join(
+            p.signature() for p in target.api.primitives
+        )
         expected = None  # without the ontology there is nothing to render without an LM
     hints = Hints(
-        robot=robot,
+        target=target,
         original_call=code[start:end],
         substitute_call=expected,
         reason=reason,

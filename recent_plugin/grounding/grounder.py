@@ -165,7 +165,7 @@ def ground_skill(
     pending = list(diagnosis.conflicts)
     while pending:
         conflict = pending.pop()  # last first: earlier offsets stay valid
-        accepted = _resolve(result, conflict, pending, robot, infiller, api, apis, max_retries)
+        accepted = _resolve(result, conflict, pending, target, infiller, apis, max_retries)
         if accepted is None:
             result.verdict = unrecoverable(
                 result,
@@ -201,7 +201,7 @@ def regenerate_skill(
     result = GroundedSkill.start(skill, robot, diagnosis, infiller)
     result.verdict = validate_program(skill.code, api, skill.entry, apis)
     if needed(result):
-        _regenerate(result, skill, robot, infiller, api, apis, max_retries, with_hints)
+        _regenerate(result, skill, target, infiller, apis, max_retries, with_hints)
     result.seconds = time.perf_counter() - started
     return result
 
@@ -212,12 +212,12 @@ def unrecoverable(result: GroundedSkill, message: str) -> Verdict:
     return Verdict.reject(FailureCategory(category or FailureCategory.EMPTY_CONTINUATION), message)
 
 
-def _regenerate(result: GroundedSkill, skill: Skill, robot, infiller, api, apis, max_retries, with_hints) -> None:
+def _regenerate(result: GroundedSkill, skill: Skill, target: Target, infiller, apis, max_retries, with_hints) -> None:
     def judge(unit: RefactoringUnit, text: str) -> tuple[Verdict, str]:
         candidate = apply_unit(skill.code, unit, text)
         if not text:
             return Verdict.reject(FailureCategory.EMPTY_CONTINUATION, "the regenerated body is empty"), candidate
-        return validate_program(candidate, api, skill.entry, apis), candidate
+        return validate_program(candidate, target.api, skill.entry, apis), candidate
 
     accepted = infill_until_valid(
         infiller,
@@ -225,8 +225,7 @@ def _regenerate(result: GroundedSkill, skill: Skill, robot, infiller, api, apis,
             skill.code,
             skill.entry,
             result.diagnosis,
-            robot,
-            api,
+            target,
             with_hints=with_hints,
             feedback=feedback,
             attempt=attempt,
@@ -245,15 +244,17 @@ def _regenerate(result: GroundedSkill, skill: Skill, robot, infiller, api, apis,
     result.edits = [(accepted.unit.span_start, accepted.unit.span_end, len(accepted.text))]
 
 
-def _resolve(result, conflict: Conflict, pending, robot, infiller, api, apis, max_retries) -> tuple[str, int] | None:
+def _resolve(
+    result, conflict: Conflict, pending, target: Target, infiller, apis, max_retries
+) -> tuple[str, int] | None:
     def judge(unit: RefactoringUnit, text: str) -> tuple[Verdict, str]:
         candidate = apply_unit(result.code, unit, text)
-        verdict = validate_program(_blank(candidate, pending), api, result.entry, apis)
+        verdict = validate_program(_blank(candidate, pending), target.api, result.entry, apis)
         return (verdict.ok and _check_span(text, unit)) or verdict, candidate
 
     accepted = infill_until_valid(
         infiller,
-        lambda feedback, attempt: unit_from_conflict(result.code, conflict, robot, feedback=feedback, attempt=attempt),
+        lambda feedback, attempt: unit_from_conflict(result.code, conflict, target, feedback=feedback, attempt=attempt),
         judge,
         kind="ground",
         max_retries=max_retries,

@@ -291,7 +291,7 @@ class InSituAdapter:
 
         def make_unit(feedback: str | None, attempt: int) -> RefactoringUnit:
             hints = Hints(
-                robot=self.target.name,
+                target=self.target,
                 original_call=segment.source,
                 substitute_call=suggestion,
                 reason=reason,

@@ -11,14 +11,15 @@ from dataclasses import dataclass
 
 from lerobot_policy_recent.ontology.diagnosis import Conflict, ParameterMapping
 from lerobot_policy_recent.ontology.skill_code import enclosing_function
+from lerobot_policy_recent.ontology.target import Target
 from lerobot_policy_recent.recent_plugin.refactoring.substitution import render_substitute_call
 
 
 @dataclass(frozen=True)
 class Hints:
-    """κ: the grounding metadata for one span."""
+    """κ: the grounding metadata for one span, for the robot it is grounded onto."""
 
-    robot: str
+    target: Target
     original_call: str
     substitute_signature: str | None = None
     substitute_call: str | None = None  # the substitution with mapped arguments bound, <type> where undecided
@@ -29,6 +30,11 @@ class Hints:
     feedback: str | None = None  # why the previous attempt was rejected, on a retry
     attempt: int = 0
     observation: str | None = None  # in-situ: what the run-time check saw
+
+    @property
+    def robot(self) -> str:
+        """The robot's name, as the prompt shows it."""
+        return self.target.name
 
 
 @dataclass(frozen=True)
@@ -45,13 +51,13 @@ class RefactoringUnit:
 
 
 def unit_from_conflict(
-    code: str, conflict: Conflict, robot: str, *, feedback: str | None = None, attempt: int = 0
+    code: str, conflict: Conflict, target: Target, *, feedback: str | None = None, attempt: int = 0
 ) -> RefactoringUnit:
     """Cut a unit for ``conflict`` from ``code`` (conflicts are resolved last-first, so offsets hold)."""
     start, end = conflict.span.start, conflict.span.end
     sub = conflict.substitute
     hints = Hints(
-        robot=robot,
+        target=target,
         original_call=code[start:end],
         substitute_signature=sub.signature() if sub else None,
         substitute_call=render_substitute_call(code[start:end], conflict),
