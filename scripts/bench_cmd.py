@@ -5,10 +5,9 @@ from __future__ import annotations
 
 import datetime as dt
 import json
-import os
 import shlex
 import sys
-from dataclasses import replace
+from collections import Counter
 from pathlib import Path
 
 from lerobot_policy_recent.recent_plugin.evaluation.methods import METHODS, parse_methods
@@ -39,9 +38,28 @@ def register(sub) -> None:
     parser.add_argument(
         "--workers",
         type=int,
-        default=1,
-        help="parallel episode processes, each with its own LM and a share of the cores (default: 1; "
-        "timings such as IT and IGT are the targets' only with 1 worker on 2 threads: workers compete for the CPU)",
+        default=0,
+        help="Ray workers, each with its own LM (default: as many as the cluster's CPUs hold at --cpus-per-worker). "
+        "Timings such as IT and IGT are the targets' only with 1 worker on 2 threads per 2 cores: workers compete "
+        "for a machine's CPU",
+    )
+    parser.add_argument(
+        "--cpus-per-worker",
+        type=float,
+        default=None,
+        help="CPUs a worker reserves, and its LM's threads unless --infiller.n_threads is set "
+        "(default: 2, or the cluster's CPUs shared by --workers)",
+    )
+    parser.add_argument(
+        "--gpus-per-worker",
+        type=float,
+        default=None,
+        help="GPUs a worker reserves (default: 1 for --infiller.type=transformers on a cluster with GPUs, else 0)",
+    )
+    parser.add_argument(
+        "--ray-address",
+        default=None,
+        help="an existing Ray cluster, e.g. 10.0.0.5:6379 (default: $RAY_ADDRESS, else a local Ray instance)",
     )
     parser.add_argument(
         "--retry-crashed",
@@ -105,10 +123,6 @@ def _run(args) -> int:
     if unknown:
         raise ValueError(f"unknown suite(s) {', '.join(unknown)}; choose from {', '.join(SUITES)}")
     settings = settings_from_args(args)
-    if args.workers > 1 and getattr(settings.infiller, "n_threads", 0) is None:  # share the cores, don't oversubscribe
-        settings = replace(
-            settings, infiller=replace(settings.infiller, n_threads=max(1, (os.cpu_count() or 2) // args.workers))
-        )
     config = BenchConfig(
         out=Path(args.out),
         suites=suites,
@@ -118,6 +132,9 @@ def _run(args) -> int:
         tasks=_csv(args.tasks),
         variations=args.variations,
         workers=args.workers,
+        cpus_per_worker=args.cpus_per_worker,
+        gpus_per_worker=args.gpus_per_worker,
+        ray_address=args.ray_address,
         log_sinks=() if args.no_log else _csv(args.log_sinks),
         agent=settings,
         retry_crashed=args.retry_crashed,
@@ -125,13 +142,23 @@ def _run(args) -> int:
     jobs, todo = pending(config)
     print(f"{len(jobs)} episodes ({len(jobs) - len(todo)} already done) -> {config.out}", file=sys.stderr)
     bar = tqdm(total=len(jobs), initial=len(jobs) - len(todo), unit="episode", desc="bench")
+    counts = Counter()
+
+    def show(last: str) -> None:
+        tally = ", ".join(f"{counts[k]} {k}" for k in ("ok", "failed", "crashed", "retried") if counts[k])
+        bar.set_postfix_str(f"{tally} | {last}")
 
     def on_record(record: dict) -> None:
-        bar.set_postfix_str(f"{record['method']} {record['task_id'].split('/')[-1]} {record['target']}: "
-                            f"{'ok' if record['success'] else record.get('failure_category') or 'fail'}")  # fmt: skip
+        counts["crashed" if crashed(record) else "ok" if record["success"] else "failed"] += 1
+        show(f"{record['method']} {record['task_id'].split('/')[-1]} {record['target']}: "
+             f"{'ok' if record['success'] else record.get('failure_category') or 'fail'}")  # fmt: skip
         bar.update(1)
 
-    ran = run_bench(config, on_record=on_record)
+    def on_retry(job, reason: str) -> None:
+        counts["retried"] += 1
+        show(f"{reason}: {job.method} {job.task_id.split('/')[-1]} {job.target} queued again")
+
+    run = run_bench(config, on_record=on_record, on_retry=on_retry)
     bar.close()
     header = {
         "command": command_line(config),
@@ -142,6 +169,7 @@ def _run(args) -> int:
         "model": getattr(settings.infiller, "model", ""),
         "max_retries": settings.max_retries,
         "machine": machine(),
+        **run.plan,  # engine, address, workers and the resources each reserved
         "suites": list(config.suites),
         "targets": list(config.targets) or "per suite",
         "methods": list(config.methods),
@@ -155,7 +183,7 @@ def _run(args) -> int:
     write_json(results, {**results_document(records, header), "runs": [*runs, header]})
     report = render_report([config.out], config.out)
     print(f"{len(records)} episodes; results: {config.out / 'results.json'}; report: {report}")
-    broken = [r for r in ran if crashed(r)]
+    broken = [r for r in run.records if crashed(r)]  # the grid asked for is not done while any crashed
     if broken:  # what was asked was not done: say which, and how to finish it
         for r in broken:
             print(
@@ -163,7 +191,7 @@ def _run(args) -> int:
                 file=sys.stderr,
             )
         print(
-            f"{len(broken)} of {len(ran)} episodes crashed (in no aggregate); "
+            f"{len(broken)} of {len(run.records)} episodes crashed (in no aggregate); "
             "fix the cause, then rerun the same command with --retry-crashed",
             file=sys.stderr,
         )
@@ -200,7 +228,10 @@ def command_line(config) -> str:
     words += [f"--target={','.join(config.targets)}"] if config.targets else []
     words += [f"--tasks={','.join(config.tasks)}"] if config.tasks else []
     words += settings_flags(run_settings(config))
-    words += [f"--workers={config.workers}", f"--out={config.out}"]
+    words += [f"--workers={config.workers}"] if config.workers else []
+    words += [f"--cpus-per-worker={config.cpus_per_worker:g}"] if config.cpus_per_worker is not None else []
+    words += [f"--gpus-per-worker={config.gpus_per_worker:g}"] if config.gpus_per_worker is not None else []
+    words += [f"--out={config.out}"]
     words += [f"--log-sinks={','.join(config.log_sinks)}"] if config.log_sinks else ["--no-log"]
     return shlex.join(words)
 

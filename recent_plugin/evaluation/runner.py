@@ -1,10 +1,11 @@
-"""Run the benchmark's episodes: one JSON record per (method, task, target, seed), resumable, in parallel.
+"""Run the benchmark's episodes: one JSON record per (method, task, target, seed), resumable, on Ray.
 
 Each finished episode is written to ``DIR/episodes/<method>/<target>/<task>__s<seed>.json`` as
-soon as it ends (atomically), so a restarted run skips what is done. Workers are processes; each
-loads the LM once and shares it between the agents of all methods, so every method runs on the
-same backend and model. Episodes are logged as ``recent run`` logs them, one log directory per
-episode under ``DIR/logs/`` (MCAP, Rerun, LeRobotDataset, grounding events).
+soon as it ends (atomically), so a restarted run skips what is done. Episodes run on Ray
+(:mod:`.ray_engine`): each worker loads the LM once (an :class:`EpisodeRunner`) and shares it
+between the agents of all methods, so every method runs on the same backend and model. Episodes
+are logged as ``recent run`` logs them, one log directory per episode under ``DIR/logs/``
+(MCAP, Rerun, LeRobotDataset, grounding events).
 """
 
 from __future__ import annotations
@@ -15,10 +16,8 @@ import os
 import platform
 import shutil
 import time
-from collections.abc import Callable, Iterable
-from concurrent.futures import ProcessPoolExecutor, as_completed
-from dataclasses import asdict, astuple, dataclass, field
-from multiprocessing import get_context
+from collections.abc import Callable
+from dataclasses import asdict, astuple, dataclass, field, replace
 from pathlib import Path
 
 from lerobot_policy_recent.recent_plugin.agent import RecentAgent
@@ -58,7 +57,10 @@ class BenchConfig:
     seeds: tuple[int, ...] = SEEDS
     tasks: tuple[str, ...] = ()  # task names or ids within the suites; empty: all
     variations: str = "on"
-    workers: int = 1
+    workers: int = 0  # Ray workers (each holds one LM); 0: as many as the cluster's CPUs hold
+    cpus_per_worker: float | None = None  # CPUs a worker reserves (None: 2, or the CPUs shared by `workers`)
+    gpus_per_worker: float | None = None  # GPUs a worker reserves (None: 1 for a transformers LM on a GPU cluster)
+    ray_address: str | None = None  # an existing Ray cluster (None: $RAY_ADDRESS, else a local instance)
     log_sinks: tuple[str, ...] = ("mcap", "rerun", "dataset")  # empty: no logs
     retry_crashed: bool = False  # run again the episodes whose record says an error broke them off
     agent: RecentSettings = field(default_factory=RecentSettings)
@@ -97,56 +99,59 @@ def machine() -> dict[str, object]:
     return {"cpu": cpu, "cores": os.cpu_count(), "python": platform.python_version(), "platform": platform.platform()}
 
 
-# ---------------------------------------------------------------------------------------------- workers
-_WORKER: dict[str, object] = {}
+# ---------------------------------------------------------------------------------------------- one worker
+class EpisodeRunner:
+    """Runs episodes of one bench config in one process: loads the LM once; agents of every method share it."""
+
+    def __init__(self, config: BenchConfig) -> None:
+        self.config = config
+        self.infiller = config.agent.infiller.build(config.agent.lm_seed)
+        self.agents: dict[str, RecentAgent] = {}
+
+    def agent(self, method: str) -> RecentAgent:
+        if method not in self.agents:
+            shared = next(iter(self.agents.values()), None)
+            settings = settings_for(method, self.config.agent)
+            self.agents[method] = RecentAgent(
+                settings, infiller=self.infiller, ontology=shared.ontology if shared else None
+            )
+        return self.agents[method]
+
+    def run(self, job: Job) -> dict:
+        """One episode of ``job``; its record (a failure to run is a record too)."""
+        from lerobot_policy_recent.logs.recorder import Recorder
+        from lerobot_policy_recent.recent_plugin.episode import run_episode
+
+        config = self.config
+        recorder = Recorder(job.log_dir(config.out), config.log_sinks) if config.log_sinks else None
+        started = time.perf_counter()
+        try:
+            result = run_episode(
+                self.agent(job.method),
+                job.task_id,
+                job.target,
+                seed=job.seed,
+                variations=config.variations,
+                recorder=recorder,
+            )
+        except Exception as exc:  # noqa: BLE001 - a crashed episode is a failed record, the run goes on
+            return crash_record(job, f"{type(exc).__name__}: {exc}", time.perf_counter() - started)
+        finally:
+            if recorder is not None:
+                recorder.close()
+        return episode_record(job, result, job.log_dir(config.out) if recorder else None)
 
 
-def _init_worker(config: BenchConfig) -> None:
-    """Load the LM once per worker process; agents of every method share it."""
-    _WORKER["config"] = config
-    _WORKER["infiller"] = config.agent.infiller.build(config.agent.lm_seed)
-    _WORKER["agents"] = {}
-
-
-def _agent(method: str) -> RecentAgent:
-    agents: dict[str, RecentAgent] = _WORKER["agents"]  # type: ignore[assignment]
-    if method not in agents:
-        config: BenchConfig = _WORKER["config"]  # type: ignore[assignment]
-        shared = next(iter(agents.values()), None)
-        settings = settings_for(method, config.agent)
-        agents[method] = RecentAgent(
-            settings,
-            infiller=_WORKER["infiller"],  # type: ignore[arg-type]
-            ontology=shared.ontology if shared else None,
-        )
-    return agents[method]
-
-
-def run_job(job: Job) -> dict:
-    """One episode of ``job`` in this worker; its record (a failure to run is a record too)."""
-    from lerobot_policy_recent.logs.recorder import Recorder
-    from lerobot_policy_recent.recent_plugin.episode import run_episode
-
-    config: BenchConfig = _WORKER["config"]  # type: ignore[assignment]
-    recorder = Recorder(job.log_dir(config.out), config.log_sinks) if config.log_sinks else None
-    started = time.perf_counter()
-    try:
-        result = run_episode(
-            _agent(job.method), job.task_id, job.target, seed=job.seed, variations=config.variations, recorder=recorder
-        )
-    except Exception as exc:  # noqa: BLE001 - a crashed episode is a failed record, the run goes on
-        return {
-            **asdict(job),
-            "success": False,
-            "gc": 0.0,
-            "crashed": f"{type(exc).__name__}: {exc}",
-            "failure_category": str(FailureCategory.CRASH),
-            "wall_seconds": time.perf_counter() - started,
-        }
-    finally:
-        if recorder is not None:
-            recorder.close()
-    return episode_record(job, result, job.log_dir(config.out) if recorder else None)
+def crash_record(job: Job, reason: str, seconds: float = 0.0) -> dict:
+    """The record of an episode that an error broke off: no result (``recent bench --retry-crashed`` reruns it)."""
+    return {
+        **asdict(job),
+        "success": False,
+        "gc": 0.0,
+        "crashed": reason,
+        "failure_category": str(FailureCategory.CRASH),
+        "wall_seconds": seconds,
+    }
 
 
 def episode_record(job: Job, result, log_dir: Path | None) -> dict:
@@ -169,36 +174,36 @@ def pending(config: BenchConfig) -> tuple[list[Job], list[Job]]:
     return jobs, [j for j in jobs if astuple(j) not in done]
 
 
-def run_bench(config: BenchConfig, *, on_record: Callable[[dict], None] | None = None) -> list[dict]:
-    """Run every pending episode; returns the records of all episodes of ``config`` (old and new)."""
+def run_bench(
+    config: BenchConfig,
+    *,
+    on_record: Callable[[dict], None] | None = None,
+    on_retry: Callable[[Job, str], None] | None = None,
+) -> BenchRun:
+    """Run every pending episode on Ray; the records of all episodes of ``config`` (old and new)."""
+    from lerobot_policy_recent.recent_plugin.evaluation.ray_engine import RayEngine
+
     jobs, todo = pending(config)
     config.out.mkdir(parents=True, exist_ok=True)
-    for record in _execute(config, todo):
-        path = Job(*record_key(record)).record_path(config.out)
-        write_json(path, record)
-        if on_record is not None:
-            on_record(record)
+    config = replace(config, out=config.out.resolve())  # workers may start elsewhere (a cluster's nodes)
+    ran = []
+    with RayEngine(config) as engine:
+        for record in engine.run(todo, on_retry=on_retry):
+            write_json(Job(*record_key(record)).record_path(config.out), record)
+            ran.append(record)
+            if on_record is not None:
+                on_record(record)
     wanted = {astuple(j) for j in jobs}
-    return [r for r in load_records(config.out) if record_key(r) in wanted]
+    return BenchRun([r for r in load_records(config.out) if record_key(r) in wanted], ran, engine.plan)
 
 
-def _execute(config: BenchConfig, jobs: list[Job]) -> Iterable[dict]:
-    if not jobs:
-        return
-    if config.workers <= 1:
-        _init_worker(config)
-        try:
-            for job in jobs:
-                yield run_job(job)
-        finally:
-            _WORKER.clear()
-        return
-    with ProcessPoolExecutor(
-        config.workers, mp_context=get_context("spawn"), initializer=_init_worker, initargs=(config,)
-    ) as pool:
-        futures = [pool.submit(run_job, job) for job in jobs]
-        for future in as_completed(futures):
-            yield future.result()
+@dataclass
+class BenchRun:
+    """What a ``run_bench`` call leaves: every record of its grid, the ones it ran now, and how it ran them."""
+
+    records: list[dict]
+    ran: list[dict]
+    plan: dict
 
 
 def write_json(path: Path, data: object) -> None:

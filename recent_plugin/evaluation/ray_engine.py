@@ -1,0 +1,173 @@
+"""Ray as the engine of ``recent bench``: one episode a Ray task, on a local instance or a cluster.
+
+Each worker is a Ray actor that loads the LM once and keeps it (and its agents' grounding caches)
+across episodes; it reserves the CPUs its LM threads and simulator use, and a GPU for a
+``transformers`` LM when asked. The driver keeps every worker busy with one episode at a time and
+hands each record back as it ends, so the caller writes it at once: a killed driver loses only
+the episodes in flight. A worker that dies (its process or its node) is dropped and its episode
+goes back to the queue, up to :data:`MAX_ATTEMPTS` times; after that the episode is a ``crash``
+record that ``--retry-crashed`` runs again.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from collections import Counter, deque
+from collections.abc import Callable, Iterator
+from dataclasses import replace
+
+from lerobot_policy_recent.recent_plugin.evaluation.runner import BenchConfig, EpisodeRunner, Job, crash_record
+
+MAX_ATTEMPTS = 3  # an episode whose worker died this often is recorded as a crash, not retried for ever
+DEFAULT_CPUS_PER_WORKER = 2  # the protocol's LM threads (the paper's timings are for 2 threads)
+# Forwarded to a cluster's workers (a local instance inherits the whole environment anyway).
+FORWARDED_ENV = ("RECENT_", "MUJOCO_GL", "PYOPENGL_PLATFORM", "HF_", "XDG_CACHE_HOME")
+
+
+class EpisodeWorker:
+    """The Ray actor: one process, one loaded LM, episodes one after another."""
+
+    def __init__(self, config: BenchConfig) -> None:
+        self.error: Exception | None = None
+        try:
+            self.runner = EpisodeRunner(config)
+        except Exception as exc:  # noqa: BLE001 - handed to the driver by ready(), with its own type
+            self.error = exc
+
+    def ready(self) -> Exception | None:
+        """None once the LM is loaded; else what stopped it (a missing model, a bad setting)."""
+        return self.error
+
+    def run(self, job: Job) -> dict:
+        import ray
+
+        started = time.perf_counter()
+        record = self.runner.run(job)
+        record["worker_seconds"] = round(time.perf_counter() - started, 4)
+        record["node"] = ray.get_runtime_context().get_node_id()[:12]
+        return record
+
+
+def plan_workers(config: BenchConfig, cluster_cpus: float, cluster_gpus: float) -> dict:
+    """How many workers, with which resources: ``--workers`` and ``--cpus-per-worker`` as given, else
+    as many 2-CPU workers as the cluster holds (at least one), each LM on as many threads as it reserves."""
+    if config.cpus_per_worker is not None:
+        cpus = config.cpus_per_worker
+    elif config.workers:
+        cpus = max(1.0, cluster_cpus // config.workers)
+    else:
+        cpus = float(min(DEFAULT_CPUS_PER_WORKER, max(1, cluster_cpus)))
+    workers = config.workers or max(1, int(cluster_cpus // cpus))
+    gpus = config.gpus_per_worker
+    if gpus is None:
+        on_gpu = (
+            config.agent.infiller.backend == "transformers" and getattr(config.agent.infiller, "device", None) != "cpu"
+        )
+        gpus = 1.0 if on_gpu and cluster_gpus >= 1 else 0.0
+    return {"engine": "ray", "workers": workers, "cpus_per_worker": cpus, "gpus_per_worker": gpus}
+
+
+class RayEngine:
+    """Connects to Ray (or starts a local instance) for one run, and runs its episodes on workers."""
+
+    def __init__(self, config: BenchConfig) -> None:
+        self.config = config
+        self.plan: dict = {"engine": "ray"}
+        self._owned = False
+
+    def __enter__(self) -> RayEngine:
+        address = self.config.ray_address or os.environ.get("RAY_ADDRESS") or None
+        if address is None:
+            # A local instance listens on loopback only (Ray otherwise binds the host's address for other nodes).
+            os.environ.setdefault("RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER", "0")
+        os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")
+        import ray
+
+        if not ray.is_initialized():
+            env = {k: v for k, v in os.environ.items() if k.startswith(FORWARDED_ENV)}
+            ray.init(
+                address=address,
+                include_dashboard=False,
+                log_to_driver=False,  # workers' output stays in Ray's session logs; records carry the errors
+                logging_level="warning",
+                runtime_env={"env_vars": env} if address and env else None,
+            )
+            self._owned = True
+        resources = ray.cluster_resources()
+        self.plan = plan_workers(self.config, resources.get("CPU", 1.0), resources.get("GPU", 0.0))
+        self.plan["address"] = address or "local"
+        return self
+
+    def __exit__(self, *exc) -> None:
+        if self._owned:
+            import ray
+
+            ray.shutdown()
+
+    def _settings(self):
+        """The agent settings a worker runs with: an LM with no thread count uses the CPUs its worker reserves."""
+        agent = self.config.agent
+        if getattr(agent.infiller, "n_threads", 0) is None:
+            threads = max(1, int(self.plan["cpus_per_worker"]))
+            agent = replace(agent, infiller=replace(agent.infiller, n_threads=threads))
+        return agent
+
+    def _start_worker(self):
+        import ray
+
+        actor = ray.remote(EpisodeWorker).options(
+            num_cpus=self.plan["cpus_per_worker"], num_gpus=self.plan["gpus_per_worker"], max_restarts=0
+        )
+        return actor.remote(replace(self.config, agent=self._settings()))
+
+    def run(self, jobs: list[Job], *, on_retry: Callable[[Job, str], None] | None = None) -> Iterator[dict]:
+        """Every job's record, in the order they end; lost workers' episodes are run again elsewhere."""
+        if not jobs:
+            return
+        import ray
+        from ray.exceptions import ActorDiedError, ActorUnavailableError, NodeDiedError, RayActorError
+
+        lost_worker = (RayActorError, ActorDiedError, ActorUnavailableError, NodeDiedError)
+        starting = time.perf_counter()
+        workers = [self._start_worker() for _ in range(min(self.plan["workers"], len(jobs)))]
+        for error in ray.get([w.ready.remote() for w in workers]):
+            if error is not None:
+                raise error  # the LM did not load: the same error a single episode would give
+        self.plan["start_seconds"] = round(time.perf_counter() - starting, 2)  # processes up, LMs loaded
+        queue, attempts = deque(jobs), Counter()
+        idle = list(workers)
+        in_flight: dict = {}  # ObjectRef -> (worker, job, submitted at)
+
+        def feed() -> None:
+            while idle and queue:
+                worker, job = idle.pop(), queue.popleft()
+                in_flight[worker.run.remote(job)] = (worker, job, time.perf_counter())
+
+        feed()
+        while in_flight:
+            (ref,), _ = ray.wait(list(in_flight), num_returns=1)
+            worker, job, submitted = in_flight.pop(ref)
+            try:
+                record = ray.get(ref)
+            except lost_worker as error:
+                ray.kill(worker)
+                workers.remove(worker)
+                attempts[job] += 1
+                reason = f"worker lost: {type(error).__name__}"
+                if attempts[job] < MAX_ATTEMPTS:
+                    queue.appendleft(job)
+                    if on_retry is not None:
+                        on_retry(job, reason)
+                else:
+                    yield crash_record(job, f"{reason} ({attempts[job]} times)")
+                if not workers and queue:  # every worker is gone: start one (it waits for the cluster's resources)
+                    workers.append(self._start_worker())
+                    idle.append(workers[-1])
+                feed()
+                continue
+            # what Ray added to the episode: scheduling, transfer and result handling, not the episode itself
+            record["ray_overhead_seconds"] = round(time.perf_counter() - submitted - record["worker_seconds"], 4)
+            yield record
+            idle.append(worker)
+            feed()
