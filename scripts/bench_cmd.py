@@ -81,13 +81,24 @@ def register(sub) -> None:
     report.set_defaults(handler=_report)
     compare = sub_bench.add_parser(
         "compare",
-        help="whether RERUN reproduced REFERENCE, episode by episode (exit 1 if an outcome differs)",
+        help="whether RERUN reproduced REFERENCE, episode by episode (exit 1 if an outcome or the model differs, "
+        "3 if it covers too little of REFERENCE)",
         description="Compare the episodes two run directories share: success, GC, steps, failure category, "
         "GO and tokens must be identical (the simulation is seeded, decoding greedy); IT and IGT are reported "
-        "as ratios (the host's speed). Exit status 1 when an episode's outcome differs.",
+        "as ratios (the host's speed). The reference's episodes the re-run lacks are listed, and the two "
+        "results.json are compared: another model sha256 or backend is another experiment; another commit or "
+        "settings tree is flagged. Exit status: 0 reproduced; 1 an outcome differs or the model differs; "
+        "3 every shared episode is identical but the re-run covers less than --min-coverage of the reference.",
     )
     compare.add_argument("reference", help="the run to reproduce, e.g. results/snapshot")
     compare.add_argument("rerun", help="a `recent bench --out` directory re-running some of its episodes")
+    compare.add_argument(
+        "--min-coverage",
+        type=float,
+        default=1.0,
+        help="fraction of the reference's episodes the re-run must hold to be called reproduced (default: 1.0); "
+        "state it when you report a sliced re-run",
+    )
     compare.set_defaults(handler=_compare)
     pack = sub_bench.add_parser(
         "pack",
@@ -116,6 +127,7 @@ def _run(args) -> int:
         run_bench,
         write_json,
     )
+    from lerobot_policy_recent.recent_plugin.models import model_sha256
     from lerobot_policy_recent.scripts.common import settings_from_args
 
     suites = _csv(args.suite)
@@ -167,6 +179,7 @@ def _run(args) -> int:
         "config": run_settings(config),
         "backend": settings.infiller.backend,
         "model": getattr(settings.infiller, "model", ""),
+        "model_sha256": model_sha256(settings.infiller.model) if hasattr(settings.infiller, "model") else None,
         "max_retries": settings.max_retries,
         "machine": machine(),
         **run.plan,  # engine, address, workers and the resources each reserved
@@ -260,6 +273,8 @@ def _pack(args) -> int:
 def _compare(args) -> int:
     from lerobot_policy_recent.recent_plugin.evaluation.compare import compare_dirs
 
-    comparisons, text = compare_dirs(Path(args.reference), Path(args.rerun))
+    if not 0.0 < args.min_coverage <= 1.0:
+        raise ValueError(f"--min-coverage must be in (0, 1], got {args.min_coverage}")
+    run, text = compare_dirs(Path(args.reference), Path(args.rerun), args.min_coverage)
     print(text)
-    return 0 if comparisons and all(c.reproduced for c in comparisons) else 1
+    return {"reproduced": 0, "partial": 3}.get(run.verdict, 1)

@@ -48,6 +48,9 @@ def test_every_episode_has_a_record_and_results_json_aggregates_them(bench_dir):
     assert results["command"].startswith("recent bench") and results["runs"][-1]["command"] == results["command"]
     setting = results["by_setting"]["recent|kinematic"]
     assert setting["episodes"] == 2 and set(setting) >= {"sr", "gc", "go", "ei", "it", "igt"}
+    assert setting["sr_ci95"] == [100.0, 100.0] and "gc_ci95" in setting
+    assert results["paired"]["recent vs recent-no-insitu|kinematic"]["sr_diff"] == 100.0
+    assert results["engine"] == "ray" and results["workers"] >= 1 and results["model_sha256"] is None  # rule: no model
     assert "recent|UR5e|kinematic/cube_on_plate" in results["by_task"]
 
 
@@ -72,14 +75,17 @@ def test_a_rerun_is_compared_episode_by_episode_with_the_run_it_reproduces(bench
     rerun = tmp_path / "rerun"
     assert main([*RUN, "--method=recent", "--seeds=1", "--no-log", f"--out={rerun}"]) == 0
     capsys.readouterr()
-    assert main(["bench", "compare", str(bench_dir), str(rerun)]) == 0
+    assert main(["bench", "compare", str(bench_dir), str(rerun)]) == 3  # 1 of 4 episodes: not "reproduced"
     text = capsys.readouterr().out
-    assert "1 of 1 shared episodes reproduced" in text
+    assert "**Verdict: partial.** 1 of 1 shared episodes reproduced" in text and "(25.0 %; at least 100 %" in text
+    assert "Reference episodes the re-run lacks (3):" in text and "- recent-no-insitu kinematic UR5e" in text
+    assert main(["bench", "compare", str(bench_dir), str(rerun), "--min-coverage=0.25"]) == 0
+    assert "**Verdict: reproduced.**" in capsys.readouterr().out
 
     record = next((rerun / "episodes").rglob("*.json"))
     tampered = {**json.loads(record.read_text()), "steps": 1, "success": False}
     record.write_text(json.dumps(tampered))
-    assert main(["bench", "compare", str(bench_dir), str(rerun)]) == 1
+    assert main(["bench", "compare", str(bench_dir), str(rerun), "--min-coverage=0.25"]) == 1
     text = capsys.readouterr().out
     assert "0 of 1 shared episodes reproduced" in text
     assert "| recent | kinematic | UR5e | kinematic/cube_on_plate | 1 | success: True → False; steps:" in text
@@ -90,9 +96,10 @@ def test_a_rerun_is_compared_episode_by_episode_with_the_run_it_reproduces(bench
 def test_report_renders_tables_checks_and_plots(bench_dir, tmp_path, capsys):
     assert main(["bench", "report", str(bench_dir), "--out", str(tmp_path)]) == 0
     report = (tmp_path / "report.md").read_text()
-    assert "| **recent** | 100.0 ± 0.0 |" in report  # main table, kinematic SR first
+    assert "| **recent** | 100.0 ± 0.0 [100.0, 100.0] |" in report  # main table: SR ± std over seeds [95 % CI]
+    assert "| recent vs recent-no-insitu | kinematic | 2 | +100.0 [+100.0, +100.0] |" in report  # paired
     assert "| paper: recent (7B) | 73.00 | 81.76 | 7.85 | 0.72 | 1.77 |" in report
-    assert "| **recent-no-insitu** | 0.0 ± 0.0 |" in report  # ablation table
+    assert "| **recent-no-insitu** | 0.0 ± 0.0 [0.0, 0.0] |" in report  # ablation table
     assert "- `recent-no-insitu`: SR (%) expected lower: -100.00 ✓" in report
     # the rule backend has no LM: the paper's targets are listed with their values, never ticked
     assert "not checked against the paper's targets: the rule backend has no LM" in report
@@ -171,7 +178,7 @@ def test_a_packed_run_reads_resumes_and_compares_as_the_files_did(bench_dir, tmp
     assert sorted(load_records(packed), key=key) == sorted(load_records(bench_dir), key=key)
     assert main([*RUN, f"--out={packed}"]) == 0
     assert "4 episodes (4 already done)" in capsys.readouterr().err
-    assert main(["bench", "compare", str(bench_dir), str(packed)]) == 0
+    assert main(["bench", "compare", str(bench_dir), str(packed)]) == 0  # every episode: reproduced
     assert main(["bench", "pack", str(tmp_path / "nowhere")]) == 2
 
 

@@ -17,6 +17,8 @@ import statistics
 from collections import defaultdict
 from collections.abc import Callable, Iterable
 
+from lerobot_policy_recent.recent_plugin.evaluation.confidence import paired_comparisons, rate_intervals
+
 METRICS = ("sr", "gc", "go", "ei", "it", "igt", "go_pre", "patches")
 LABELS = {
     "sr": "SR (%)",
@@ -60,7 +62,7 @@ def seed_metrics(records: list[dict]) -> dict[str, float]:
 
 
 def summarize(records: list[dict]) -> dict[str, object]:
-    """Mean ± std over seeds of each metric, plus the episode count."""
+    """Mean ± std over seeds of each metric, the episode count, and 95 % bootstrap intervals of SR and GC."""
     by_seed: dict[int, list[dict]] = defaultdict(list)
     for r in records:
         by_seed[int(r["seed"])].append(r)
@@ -69,7 +71,7 @@ def summarize(records: list[dict]) -> dict[str, object]:
     for metric in METRICS:
         values = [m[metric] for m in per_seed]
         out[metric] = {"mean": statistics.fmean(values), "std": statistics.pstdev(values) if len(values) > 1 else 0.0}
-    return out
+    return {**out, **rate_intervals(records)}
 
 
 def group(records: Iterable[dict], key: Callable[[dict], tuple]) -> dict[tuple, list[dict]]:
@@ -80,7 +82,8 @@ def group(records: Iterable[dict], key: Callable[[dict], tuple]) -> dict[tuple, 
 
 
 def aggregate(records: list[dict]) -> dict[str, object]:
-    """The results.json body: per method × suite (the paper's settings), × target, and × task."""
+    """The results.json body: per method × suite (the paper's settings), × target, and × task; and RECENT
+    against every other method on the episodes both ran."""
     return {
         "by_setting": {
             f"{m}|{s}": summarize(rs)
@@ -94,13 +97,20 @@ def aggregate(records: list[dict]) -> dict[str, object]:
             f"{m}|{t}|{task}": summarize(rs)
             for (m, t, task), rs in sorted(group(records, lambda r: (r["method"], r["target"], r["task_id"])).items())
         },
+        "paired": paired_comparisons(records),
     }
 
 
 def fmt(summary: dict, metric: str) -> str:
-    """``73.0 ± 3.7`` — how tables show one metric."""
+    """``73.0 ± 3.7 [65.0, 80.0]`` — how tables show one metric: mean ± std over seeds (no std for one
+    seed), and for SR and GC the 95 % bootstrap interval over episodes."""
     cell = summary.get(metric)
     if not cell:
         return "–"
     digits = 2 if metric in ("ei", "it", "igt", "patches") else 1
-    return f"{cell['mean']:.{digits}f} ± {cell['std']:.{digits}f}"
+    text = f"{cell['mean']:.{digits}f}"
+    if len(summary.get("seeds", ())) > 1:
+        text += f" ± {cell['std']:.{digits}f}"
+    if interval := summary.get(f"{metric}_ci95"):
+        text += f" [{interval[0]:.{digits}f}, {interval[1]:.{digits}f}]"
+    return text

@@ -17,7 +17,7 @@ from collections import Counter, deque
 from collections.abc import Callable, Iterator
 from dataclasses import replace
 
-from lerobot_policy_recent.recent_plugin.evaluation.runner import BenchConfig, EpisodeRunner, Job, crash_record
+from lerobot_policy_recent.recent_plugin.evaluation.jobs import BenchConfig, EpisodeRunner, Job, crash_record
 
 MAX_ATTEMPTS = 3  # an episode whose worker died this often is recorded as a crash, not retried for ever
 DEFAULT_CPUS_PER_WORKER = 2  # the protocol's LM threads (the paper's timings are for 2 threads)

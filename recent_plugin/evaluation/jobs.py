@@ -1,0 +1,140 @@
+"""What one benchmark episode is (a :class:`Job` of a :class:`BenchConfig`) and how a worker runs it.
+
+A worker process holds one :class:`EpisodeRunner`: it loads the LM once and shares it between the
+agents of all methods, so every method runs on the same backend and model. Its record of an
+episode is the episode's own record (``recent run --json``) plus the job; an error that breaks an
+episode off is a record too (a ``crash``).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+from lerobot_policy_recent.recent_plugin.agent import RecentAgent
+from lerobot_policy_recent.recent_plugin.evaluation.methods import settings_for
+from lerobot_policy_recent.recent_plugin.failures import FailureCategory
+from lerobot_policy_recent.recent_plugin.settings import RecentSettings
+from lerobot_policy_recent.robosuite_envs.embodiments import EMBODIMENTS
+from lerobot_policy_recent.robosuite_envs.suites import SEEDS, get_suite
+
+SUITE_TARGETS = {"kinematic": ("UR5e", "Sawyer"), "end_effector": ("Robotiq85", "Suction")}
+
+
+@dataclass(frozen=True)
+class Job:
+    method: str
+    suite: str
+    task_id: str
+    target: str
+    seed: int
+
+    def record_path(self, out: Path) -> Path:
+        task = self.task_id.split("/")[-1]
+        return out / "episodes" / self.method / self.target / f"{task}__s{self.seed}.json"
+
+    def log_dir(self, out: Path) -> Path:
+        task = self.task_id.split("/")[-1]
+        return out / "logs" / self.method / self.target / f"{task}__s{self.seed}"
+
+
+@dataclass
+class BenchConfig:
+    out: Path
+    suites: tuple[str, ...] = ("kinematic",)
+    targets: tuple[str, ...] = ()  # empty: each suite's own targets (SUITE_TARGETS)
+    methods: tuple[str, ...] = ("recent",)
+    seeds: tuple[int, ...] = SEEDS
+    tasks: tuple[str, ...] = ()  # task names or ids within the suites; empty: all
+    variations: str = "on"
+    workers: int = 0  # Ray workers (each holds one LM); 0: as many as the cluster's CPUs hold
+    cpus_per_worker: float | None = None  # CPUs a worker reserves (None: 2, or the CPUs shared by `workers`)
+    gpus_per_worker: float | None = None  # GPUs a worker reserves (None: 1 for a transformers LM on a GPU cluster)
+    ray_address: str | None = None  # an existing Ray cluster (None: $RAY_ADDRESS, else a local instance)
+    log_sinks: tuple[str, ...] = ("mcap", "rerun", "dataset")  # empty: no logs
+    retry_crashed: bool = False  # run again the episodes whose record says an error broke them off
+    agent: RecentSettings = field(default_factory=RecentSettings)
+
+    def jobs(self) -> list[Job]:
+        """Every episode of the run, grouped by method then target so each worker reuses its groundings."""
+        jobs = []
+        for method in self.methods:
+            for suite in self.suites:
+                specs = get_suite(suite)
+                chosen = [s for s in specs if not self.tasks or {s.task_id, s.task_id.split("/")[-1]} & set(self.tasks)]
+                for target in self.targets or SUITE_TARGETS[suite]:
+                    for spec in chosen:
+                        for seed in self.seeds:
+                            jobs.append(Job(method, suite, spec.task_id, target, seed))
+        robots = [t for t in self.targets if t not in EMBODIMENTS]
+        if robots:
+            raise ValueError(f"unknown target(s) {', '.join(robots)}; known robots: {', '.join(EMBODIMENTS)}")
+        known = {t for suite in self.suites for s in get_suite(suite) for t in (s.task_id, s.task_id.split("/")[-1])}
+        unknown = sorted(set(self.tasks) - known)
+        if unknown:
+            raise ValueError(f"unknown task(s) {', '.join(unknown)} in suite(s) {', '.join(self.suites)}")
+        return jobs
+
+
+# ---------------------------------------------------------------------------------------------- one worker
+class EpisodeRunner:
+    """Runs episodes of one bench config in one process: loads the LM once; agents of every method share it."""
+
+    def __init__(self, config: BenchConfig) -> None:
+        self.config = config
+        self.infiller = config.agent.infiller.build(config.agent.lm_seed)
+        self.agents: dict[str, RecentAgent] = {}
+
+    def agent(self, method: str) -> RecentAgent:
+        if method not in self.agents:
+            shared = next(iter(self.agents.values()), None)
+            settings = settings_for(method, self.config.agent)
+            self.agents[method] = RecentAgent(
+                settings, infiller=self.infiller, ontology=shared.ontology if shared else None
+            )
+        return self.agents[method]
+
+    def run(self, job: Job) -> dict:
+        """One episode of ``job``; its record (a failure to run is a record too)."""
+        from lerobot_policy_recent.logs.recorder import Recorder
+        from lerobot_policy_recent.recent_plugin.episode import run_episode
+
+        config = self.config
+        recorder = Recorder(job.log_dir(config.out), config.log_sinks) if config.log_sinks else None
+        started = time.perf_counter()
+        try:
+            result = run_episode(
+                self.agent(job.method),
+                job.task_id,
+                job.target,
+                seed=job.seed,
+                variations=config.variations,
+                recorder=recorder,
+            )
+        except Exception as exc:  # noqa: BLE001 - a crashed episode is a failed record, the run goes on
+            return crash_record(job, f"{type(exc).__name__}: {exc}", time.perf_counter() - started)
+        finally:
+            if recorder is not None:
+                recorder.close()
+        return episode_record(job, result, job.log_dir(config.out) if recorder else None)
+
+
+def crash_record(job: Job, reason: str, seconds: float = 0.0) -> dict:
+    """The record of an episode that an error broke off: no result (``recent bench --retry-crashed`` reruns it)."""
+    return {
+        **asdict(job),
+        "success": False,
+        "gc": 0.0,
+        "crashed": reason,
+        "failure_category": str(FailureCategory.CRASH),
+        "wall_seconds": seconds,
+    }
+
+
+def episode_record(job: Job, result, log_dir: Path | None) -> dict:
+    """One bench record: the job, then the episode's own record (the same one ``recent run --json`` prints)."""
+    record = {**asdict(job), **result.to_record(), "log_dir": str(log_dir) if log_dir else None}
+    record["success"] = bool(record["success"])
+    record["gc"] = float(record["gc"] or 0.0)
+    return record

@@ -1,0 +1,71 @@
+"""Bootstrap intervals and paired comparisons, and a comparison of two runs that cannot pass by accident."""
+
+from __future__ import annotations
+
+import pytest
+
+from lerobot_policy_recent.recent_plugin.evaluation.compare import RunComparison, setup_differences
+from lerobot_policy_recent.recent_plugin.evaluation.confidence import paired_difference, rate_intervals
+from lerobot_policy_recent.recent_plugin.evaluation.metrics import fmt, summarize
+
+
+def episodes(method: str, successes: list[bool], subtasks: int = 1) -> list[dict]:
+    return [
+        {
+            "method": method,
+            "suite": "kinematic",
+            "target": "UR5e",
+            "task_id": f"t{i}",
+            "seed": 0,
+            "success": ok,
+            "gc": 1.0 if ok else 0.0,
+            "subtasks": subtasks,
+        }  # fmt: skip
+        for i, ok in enumerate(successes)
+    ]
+
+
+def test_intervals_hold_the_rate_and_narrow_with_more_episodes():
+    few = rate_intervals(episodes("recent", [True, False] * 5))
+    many = rate_intervals(episodes("recent", [True, False] * 200))
+    assert few["sr_ci95"][0] < 50.0 < few["sr_ci95"][1]
+    assert many["sr_ci95"][1] - many["sr_ci95"][0] < few["sr_ci95"][1] - few["sr_ci95"][0]
+    assert rate_intervals(episodes("recent", [True] * 4)) == {"sr_ci95": [100.0, 100.0], "gc_ci95": [100.0, 100.0]}
+    assert rate_intervals(episodes("recent", [True, False] * 5)) == few  # seeded: the same every time
+
+
+def test_a_paired_difference_is_taken_on_shared_episodes_only():
+    recent = episodes("recent", [True] * 10)
+    cap = episodes("cap", [True] * 5 + [False] * 5)[:8]  # cap ran 8 of the 10 episodes
+    paired = paired_difference(recent, cap)
+    assert paired["episodes"] == 8 and paired["sr_diff"] == pytest.approx(37.5)
+    assert paired["sr_diff_ci95"][0] > 0  # every shared episode favours RECENT or ties: the interval excludes 0
+    assert paired_difference(recent, []) is None
+
+
+def test_one_seed_shows_no_std_and_the_interval_is_in_brackets():
+    summary = summarize(episodes("recent", [True, True, False, True]))
+    assert fmt(summary, "sr").startswith("75.0 [") and "±" not in fmt(summary, "sr")
+
+
+def test_another_model_is_another_experiment_and_a_small_slice_is_only_partial():
+    reference = {"backend": "llamacpp", "model": "qwen2.5-coder-1.5b", "model_sha256": "aa", "git_commit": "c1",
+                 "config": {"infiller": {"type": "llamacpp", "n_threads": 2}, "max_retries": 3}}  # fmt: skip
+    rerun = {**reference, "model_sha256": "bb", "git_commit": "c2",
+             "config": {"infiller": {"type": "llamacpp", "n_threads": 4}, "max_retries": 3}}  # fmt: skip
+    differences = setup_differences(reference, rerun)
+    assert differences == {
+        "model_sha256": ("aa", "bb"),
+        "git_commit": ("c1", "c2"),
+        "config.infiller.n_threads": (2, 4),
+    }
+    assert setup_differences({"backend": "llamacpp"}, rerun)["config"] == ("(not recorded)", "recorded")
+
+    from lerobot_policy_recent.recent_plugin.evaluation.compare import EpisodeComparison
+
+    same = [EpisodeComparison(("recent",), {}, {})]
+    assert RunComparison(same, [], 1, 1.0, differences).verdict == "different setup"
+    assert RunComparison(same, [("cap",)] * 9, 10, 0.5).verdict == "partial"
+    assert RunComparison(same, [], 1, 1.0, {"git_commit": ("c1", "c2")}).verdict == "reproduced"
+    differs = [EpisodeComparison(("recent",), {"success": (True, False)}, {})]
+    assert RunComparison(differs, [], 1, 1.0).verdict == "outcome differs"
