@@ -156,7 +156,7 @@ def main() -> None:
         rows = scaling(
             [int(w) for w in args.workers.split(",")], tuple(int(s) for s in args.seeds.split(",")), Path(tmp)
         )
-    cost = costs(Path(args.costs_from))
+        cost = costs(tuple(args.cost_tasks.split(",")), Path(tmp))
     plan = projection(cost, [int(n) for n in args.nodes.split(",")], args.cores)
     base = rows[0]["episodes_per_hour"]
     print(
