@@ -6,6 +6,7 @@ names a robot pair or a task, so a new embodiment is a metadata file and two MJC
 
 from __future__ import annotations
 
+import hashlib
 import time
 from collections.abc import Iterable
 from dataclasses import dataclass, field
@@ -133,6 +134,12 @@ class Ontology:
             }} ORDER BY ?name"""
         api = self.api(target)
         return [p for s in self.store.query(query) if (p := api.get(s["name"].value)) is not None]
+
+    def content_hash(self) -> str:
+        """The sha256 of the graph's triples in a canonical order: the same for the same inputs in any
+        process (Turtle groups objects in set order, which changes from one process to the next)."""
+        triples = self.store.dump(format=ox.RdfFormat.N_TRIPLES, from_graph=ox.DefaultGraph()).decode()
+        return hashlib.sha256("\n".join(sorted(triples.splitlines())).encode()).hexdigest()
 
     def to_turtle(self) -> str:
         prefixes = {

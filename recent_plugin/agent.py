@@ -1,12 +1,13 @@
 """The RECENT agent: from a task id and a robot to a task executor of grounded skills.
 
 It owns what lives across episodes — the ontology, the infiller (the loaded LM) and a cache of
-grounded skills keyed by everything that could change the result — and nothing per-step.
+grounded skills keyed by everything that could change the result, in memory and on disk (a new
+process reads back what an earlier one grounded) — and nothing per-step.
 """
 
 from __future__ import annotations
 
-import hashlib
+import json
 import logging
 import time
 from dataclasses import dataclass, field
@@ -18,6 +19,7 @@ from lerobot_policy_recent.ontology.builder import Ontology, build_ontology
 from lerobot_policy_recent.ontology.target import Target
 from lerobot_policy_recent.recent_plugin.executor import Adapter, PlannedSkill, TaskExecutor
 from lerobot_policy_recent.recent_plugin.grounding.grounder import GroundedSkill
+from lerobot_policy_recent.recent_plugin.grounding.store import GroundingStore, default_store
 from lerobot_policy_recent.recent_plugin.infillers import Infiller
 from lerobot_policy_recent.recent_plugin.methods import Adaptation, Grounding
 from lerobot_policy_recent.recent_plugin.settings import RecentSettings
@@ -47,18 +49,26 @@ class RecentAgent:
         *,
         infiller: Infiller | None = None,
         ontology: Ontology | None = None,
+        store: GroundingStore | bool | None = None,
     ):
         """Load the LM now, before any task arrives, so IGT measures grounding and not model loading.
 
         ``infiller``: an LM already loaded (agents of several methods share one); the method may put
-        something in front of it (the fast path).
+        something in front of it (the fast path). ``store``: where grounded skills persist across
+        processes. True: the default store (unless ``$RECENT_GROUNDING_CACHE=off``); False: none;
+        None: the default store only when the agent builds its LM from ``settings`` (an LM handed in
+        may be anything, and its groundings must never be served to a real one).
         """
         self.settings = settings or RecentSettings()
         s = self.settings
         self.infiller = s.method.infiller(infiller or s.infiller.build(s.lm_seed))
         self.ontology = ontology or build_ontology()
-        self._ontology_hash = hashlib.sha256(self.ontology.to_turtle().encode()).hexdigest()
+        self._ontology_hash = self.ontology.content_hash()
         self._cache: dict[tuple[str, ...], GroundedSkill] = {}
+        if store is None:
+            store = infiller is None
+        self.store = default_store() if store is True else store or None
+        self._lm_key: str | None = None
         self.library = Path(s.skill_library) if s.skill_library else LIBRARY
 
     def ground(self, skill_name: str, robot: str | Target, task: TaskSpec | None = None) -> tuple[GroundedSkill, bool]:
@@ -66,28 +76,26 @@ class RecentAgent:
         method's way, reusing a cached result.
 
         The cache key holds everything that could change the result: the code, the ontology, the
-        LM and the method (a baseline's prompt also shows ``task``).
+        LM (its weights' sha256 and the backend's settings), the method and the budgets (a
+        baseline's prompt also shows ``task``).
         """
         target = robot if isinstance(robot, Target) else self.ontology.target(robot)
         skill = self.skill(skill_name)
         method = self.settings.method
-        key = (
-            skill.name,
-            skill.code_sha256,
-            target.name,
-            self._ontology_hash,
-            self.infiller.name,
-            self.infiller.model,
-            method.name,
-            method.grounding_key(task),
-        )
+        key = self.grounding_key(skill, target, task)
         if key in self._cache:
             return self._cache[key], True
+        stored = self.store.get(key) if self.store else None
+        if stored is not None:
+            self._cache[key] = stored
+            return stored, True
         grounded = method.ground(
             Grounding(skill, target, self.ontology, self.infiller, task, max_retries=self.settings.max_retries)
         )
         if grounded.valid:
             self._cache[key] = grounded
+            if self.store:
+                self.store.put(key, grounded)
         else:
             log.warning(
                 "grounding %s for %s failed: %s",
@@ -96,6 +104,41 @@ class RecentAgent:
                 grounded.verdict.message if grounded.verdict else "",
             )
         return grounded, False
+
+    def grounding_key(self, skill: Skill, target: Target, task: TaskSpec | None = None) -> tuple[str, ...]:
+        """Everything a grounding of ``skill`` for ``target`` depends on: the cache key, in memory and on disk."""
+        method = self.settings.method
+        return (
+            skill.name,
+            skill.code_sha256,
+            target.name,
+            self._ontology_hash,  # every robot's API spec and MJCF, the schema and the relations
+            self.infiller.name,
+            self.infiller.model,
+            method.name,
+            method.grounding_key(task),
+            self.lm_key(),
+        )
+
+    def lm_key(self) -> str:
+        """The LM and budgets a grounding depends on: the weights' sha256, the backend's settings, the
+        seed and the retry budget (computed once: hashing a local GGUF file reads it)."""
+        if self._lm_key is None:
+            from lerobot_policy_recent.recent_plugin.models import model_sha256
+
+            settings = self.settings.to_dict()
+            model = getattr(self.settings.infiller, "model", None)
+            self._lm_key = json.dumps(
+                {
+                    "model_sha256": model_sha256(model) if model else None,
+                    "infiller": settings["infiller"],
+                    "lm_seed": self.settings.lm_seed,
+                    "max_retries": self.settings.max_retries,
+                },
+                sort_keys=True,
+                default=str,
+            )
+        return self._lm_key
 
     def start_episode(
         self, task_id: str, robot: str, first_obs: Observation, emit: Emit = ignore

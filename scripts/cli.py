@@ -3,6 +3,7 @@
 recent run                 ground a Panda skill onto a robot and execute it (the main job)
 recent ground              ground one skill and print the diff and the numbers
 recent bench [report]      RECENT vs ablations and baselines on the suites; tables and plots
+recent cache info|clear    grounded skills kept on disk across processes
 recent model fetch|list|path
 recent ontology build|stats|diagnose
 recent skills list|show
@@ -21,6 +22,7 @@ import sys
 
 from lerobot_policy_recent.scripts import (
     bench_cmd,
+    cache_cmd,
     envs_cmd,
     episode_cmd,
     ground_cmd,
@@ -30,7 +32,7 @@ from lerobot_policy_recent.scripts import (
     skills_cmd,
 )
 
-COMMANDS = (episode_cmd, ground_cmd, bench_cmd, envs_cmd, model_cmd, ontology_cmd, skills_cmd, logs_cmd)
+COMMANDS = (episode_cmd, ground_cmd, bench_cmd, cache_cmd, envs_cmd, model_cmd, ontology_cmd, skills_cmd, logs_cmd)
 
 
 def build_parser() -> argparse.ArgumentParser:

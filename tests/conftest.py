@@ -2,7 +2,13 @@
 
 from __future__ import annotations
 
+import os
+
 import pytest
+
+# Hermetic tests: no grounded skill is read from or written to the user's grounding cache (the
+# subprocesses and Ray workers of the tests inherit this). tests/test_grounding_store.py turns it on.
+os.environ["RECENT_GROUNDING_CACHE"] = "off"
 
 import lerobot_policy_recent.robosuite_envs  # noqa: F401  (headless GL and quiet robosuite before anything imports it)
 

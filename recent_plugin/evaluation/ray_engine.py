@@ -28,7 +28,8 @@ FORWARDED_ENV = ("RECENT_", "MUJOCO_GL", "PYOPENGL_PLATFORM", "HF_", "XDG_CACHE_
 class EpisodeWorker:
     """The Ray actor: one process, one loaded LM, episodes one after another."""
 
-    def __init__(self, config: BenchConfig) -> None:
+    def __init__(self, config: BenchConfig, env: dict[str, str]) -> None:
+        os.environ.update(env)  # the driver's RECENT_* settings, before anything reads them
         self.error: Exception | None = None
         try:
             self.runner = EpisodeRunner(config)
@@ -85,13 +86,12 @@ class RayEngine:
         import ray
 
         if not ray.is_initialized():
-            env = {k: v for k, v in os.environ.items() if k.startswith(FORWARDED_ENV)}
             ray.init(
-                address=address,
+                # "local": a new instance for this run, never whatever cluster was started last on this host
+                address=address or "local",
                 include_dashboard=False,
                 log_to_driver=False,  # workers' output stays in Ray's session logs; records carry the errors
                 logging_level="warning",
-                runtime_env={"env_vars": env} if address and env else None,
             )
             self._owned = True
         resources = ray.cluster_resources()
@@ -119,7 +119,10 @@ class RayEngine:
         actor = ray.remote(EpisodeWorker).options(
             num_cpus=self.plan["cpus_per_worker"], num_gpus=self.plan["gpus_per_worker"], max_restarts=0
         )
-        return actor.remote(replace(self.config, agent=self._settings()))
+        # The environment travels with the worker (not as a Ray runtime env, which needs the node's
+        # runtime-env agent): a cluster's nodes were started from other shells.
+        env = {k: v for k, v in os.environ.items() if k.startswith(FORWARDED_ENV)}
+        return actor.remote(replace(self.config, agent=self._settings()), env)
 
     def run(self, jobs: list[Job], *, on_retry: Callable[[Job, str], None] | None = None) -> Iterator[dict]:
         """Every job's record, in the order they end; lost workers' episodes are run again elsewhere."""

@@ -1,0 +1,111 @@
+"""Grounded skills on disk, so a second process grounding the same skill for the same robot reads it back.
+
+A grounding is keyed by everything that could change it: the skill's code, the target, the
+ontology (built from every robot's API spec and MJCF, so a changed spec changes it), the model's
+sha256, the backend's settings, the method and its budgets. A key that differs in any of them
+is another file; nothing is ever invalidated in place. The store lives under the project's cache
+dir (``$RECENT_GROUNDING_CACHE`` overrides the directory; ``off`` turns it off), is bounded in
+size (oldest-read files go first), and ``recent cache clear`` empties it.
+
+Files are pickles written by this package into the user's own cache directory; one that does not
+load (another version, a truncated write) is deleted and grounded again, never an error.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import logging
+import os
+import pickle
+from pathlib import Path
+
+from lerobot_policy_recent.recent_plugin.cache import cache_dir
+from lerobot_policy_recent.recent_plugin.grounding.grounder import GroundedSkill
+
+log = logging.getLogger(__name__)
+
+ENV = "RECENT_GROUNDING_CACHE"
+FORMAT = 1  # bump when GroundedSkill's shape changes: old files then simply never match
+MAX_BYTES = 256 * 1024 * 1024
+SUFFIX = ".grounding"
+
+
+def store_dir() -> Path | None:
+    """Where grounded skills are kept: ``$RECENT_GROUNDING_CACHE``, else ``<cache dir>/groundings``; None if off."""
+    value = os.environ.get(ENV, "").strip()
+    if value.lower() in ("off", "0", "false", "no"):
+        return None
+    return Path(value).expanduser() if value else cache_dir() / "groundings"
+
+
+class GroundingStore:
+    """A size-bounded directory of grounded skills, one file per key."""
+
+    def __init__(self, root: Path, max_bytes: int = MAX_BYTES) -> None:
+        self.root = root
+        self.max_bytes = max_bytes
+
+    def path(self, key: tuple[str, ...]) -> Path:
+        digest = hashlib.sha256(json.dumps([FORMAT, *key]).encode()).hexdigest()
+        return self.root / f"{digest}{SUFFIX}"
+
+    def get(self, key: tuple[str, ...]) -> GroundedSkill | None:
+        path = self.path(key)
+        try:
+            with open(path, "rb") as handle:
+                grounded = pickle.load(handle)
+        except FileNotFoundError:
+            return None
+        except Exception as exc:  # noqa: BLE001 - a file that does not load is a miss, and is removed
+            log.warning("grounding cache: dropping %s (%s: %s)", path.name, type(exc).__name__, exc)
+            path.unlink(missing_ok=True)
+            return None
+        if not isinstance(grounded, GroundedSkill):
+            path.unlink(missing_ok=True)
+            return None
+        os.utime(path)  # read recently: evicted last
+        return grounded
+
+    def put(self, key: tuple[str, ...], grounded: GroundedSkill) -> None:
+        self.root.mkdir(parents=True, exist_ok=True)
+        path = self.path(key)
+        tmp = path.with_suffix(f".{os.getpid()}.tmp")
+        try:
+            with open(tmp, "wb") as handle:
+                pickle.dump(grounded, handle, protocol=pickle.HIGHEST_PROTOCOL)
+            os.replace(tmp, path)  # whole or not at all: another process never reads half a file
+        except OSError as exc:  # a full or read-only disk costs the cache, not the episode
+            log.warning("grounding cache: could not write %s (%s)", path, exc)
+            tmp.unlink(missing_ok=True)
+            return
+        self.evict()
+
+    def files(self) -> list[Path]:
+        return sorted(self.root.glob(f"*{SUFFIX}"), key=lambda p: p.stat().st_mtime) if self.root.is_dir() else []
+
+    def size(self) -> int:
+        return sum(p.stat().st_size for p in self.files())
+
+    def evict(self) -> None:
+        """Remove the least recently read files until the store fits ``max_bytes``."""
+        files = self.files()
+        total = sum(p.stat().st_size for p in files)
+        for path in files:
+            if total <= self.max_bytes:
+                break
+            total -= path.stat().st_size
+            path.unlink(missing_ok=True)
+
+    def clear(self) -> tuple[int, int]:
+        """Remove every stored grounding; (files, bytes) removed."""
+        files = self.files()
+        size = sum(p.stat().st_size for p in files)
+        for path in files:
+            path.unlink(missing_ok=True)
+        return len(files), size
+
+
+def default_store() -> GroundingStore | None:
+    root = store_dir()
+    return GroundingStore(root) if root else None
