@@ -222,3 +222,19 @@ def test_a_crashed_episode_is_no_result_and_is_retried_on_request(tmp_path, caps
     assert results["episodes"] == 1 and results["crashed"] == []
     report = (out / "report.md").read_text()
     assert "not checked against the paper's targets: the rule backend has no LM" in report
+
+
+def test_workers_share_the_cluster_and_never_wait_for_cpus_that_do_not_exist():
+    from lerobot_policy_recent.recent_plugin.evaluation.jobs import BenchConfig
+    from lerobot_policy_recent.recent_plugin.evaluation.ray_engine import plan_workers
+
+    def plan(**fields):
+        return plan_workers(BenchConfig(out="/tmp/x", **fields), cluster_cpus=2.0, cluster_gpus=0.0)
+
+    assert plan()["workers"] == 1 and plan()["cpus_per_worker"] == 2.0  # the protocol: 2 threads per LM
+    assert plan(workers=2)["cpus_per_worker"] == 1.0
+    assert plan(workers=4)["cpus_per_worker"] == 0.5  # more workers than cores: they share them
+    with pytest.raises(ValueError, match="3 workers x 1 CPUs need 3 CPUs; the Ray cluster has 2"):
+        plan(workers=3, cpus_per_worker=1)
+    big = plan_workers(BenchConfig(out="/tmp/x"), cluster_cpus=64.0, cluster_gpus=0.0)
+    assert big["workers"] == 32 and big["gpus_per_worker"] == 0.0

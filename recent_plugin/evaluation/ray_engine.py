@@ -43,6 +43,8 @@ class EpisodeWorker:
     def run(self, job: Job) -> dict:
         import ray
 
+        if self.error is not None:  # a replacement worker whose LM did not load: the driver says why
+            raise self.error
         started = time.perf_counter()
         record = self.runner.run(job)
         record["worker_seconds"] = round(time.perf_counter() - started, 4)
@@ -56,10 +58,15 @@ def plan_workers(config: BenchConfig, cluster_cpus: float, cluster_gpus: float) 
     if config.cpus_per_worker is not None:
         cpus = config.cpus_per_worker
     elif config.workers:
-        cpus = max(1.0, cluster_cpus // config.workers)
+        cpus = min(float(DEFAULT_CPUS_PER_WORKER), cluster_cpus / config.workers)  # Ray takes fractions
     else:
         cpus = float(min(DEFAULT_CPUS_PER_WORKER, max(1, cluster_cpus)))
     workers = config.workers or max(1, int(cluster_cpus // cpus))
+    if workers * cpus > cluster_cpus + 1e-9:  # the rest would wait for CPUs that never come
+        raise ValueError(
+            f"{workers} workers x {cpus:g} CPUs need {workers * cpus:g} CPUs; the Ray cluster has {cluster_cpus:g}: "
+            "lower --workers or --cpus-per-worker"
+        )
     gpus = config.gpus_per_worker
     if gpus is None:
         on_gpu = (
