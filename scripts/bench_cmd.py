@@ -170,8 +170,10 @@ def _run(args) -> int:
         counts["retried"] += 1
         show(f"{reason}: {job.method} {job.task_id.split('/')[-1]} {job.target} queued again")
 
-    run = run_bench(config, on_record=on_record, on_retry=on_retry)
-    bar.close()
+    try:
+        run = run_bench(config, on_record=on_record, on_retry=on_retry)
+    finally:
+        bar.close()
     header = {
         "command": command_line(config),
         "date": dt.datetime.now(dt.UTC).isoformat(timespec="seconds"),

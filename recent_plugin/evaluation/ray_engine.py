@@ -102,7 +102,11 @@ class RayEngine:
             )
             self._owned = True
         resources = ray.cluster_resources()
-        self.plan = plan_workers(self.config, resources.get("CPU", 1.0), resources.get("GPU", 0.0))
+        try:
+            self.plan = plan_workers(self.config, resources.get("CPU", 1.0), resources.get("GPU", 0.0))
+        except ValueError:
+            self.__exit__()  # the instance this run started goes with it
+            raise
         self.plan["address"] = address or "local"
         return self
 
