@@ -30,9 +30,10 @@ def _store() -> GroundingStore | None:
 def _info(args) -> int:
     store = _store()
     if store:
-        files = store.files()
-        size = sum(p.stat().st_size for p in files)
-        print(f"{store.root}: {len(files)} grounded skills, {size / 1e6:.2f} MB (bound {store.max_bytes / 1e6:.0f} MB)")
+        print(
+            f"{store.root}: {len(store.files())} grounded skills, {store.size() / 1e6:.2f} MB "
+            f"(bound {store.max_bytes / 1e6:.0f} MB)"
+        )
     return 0
 
 

@@ -20,6 +20,7 @@ os.environ.pop("RAY_ADDRESS", None)
 
 from ray.cluster_utils import Cluster  # noqa: E402
 
+from lerobot_policy_recent.recent_plugin.evaluation.compare import compare_records  # noqa: E402
 from lerobot_policy_recent.recent_plugin.evaluation.report import results_document  # noqa: E402
 from lerobot_policy_recent.recent_plugin.evaluation.runner import BenchConfig, record_key, run_bench  # noqa: E402
 from lerobot_policy_recent.recent_plugin.infillers.configs import RuleConfig  # noqa: E402
@@ -35,12 +36,6 @@ SLICE = dict(
     agent=RecentSettings(infiller=RuleConfig()),
 )
 TIMINGS = {"it", "igt", "igt_cold", "lm_seconds", "wall_seconds"}
-
-
-def outcomes(records: list[dict]) -> dict:
-    """Each episode's record without its timings and placement, by episode."""
-    skip = TIMINGS | {"node", "worker_seconds", "ray_overhead_seconds", "grounding_cached", "log_dir"}
-    return {str(record_key(r)): {k: v for k, v in r.items() if k not in skip} for r in records}
 
 
 def aggregates(records: list[dict]) -> dict:
@@ -84,7 +79,9 @@ def main(out: Path) -> None:
                 "ended": ended,
                 "retried": retried,
                 "crashed": [r["crashed"] for r in run.records if r.get("crashed")],
-                "same_outcomes": outcomes(run.records) == outcomes(serial.records),
+                # `recent bench compare`'s episode-by-episode check, on every episode of the slice
+                "same_outcomes": len(same := compare_records(serial.records, run.records)) == 6
+                and all(c.reproduced for c in same),
                 "same_aggregates": aggregates(run.records) == aggregates(serial.records),
                 "overheads": [r["ray_overhead_seconds"] for r in run.ran],
             }

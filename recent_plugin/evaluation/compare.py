@@ -176,7 +176,6 @@ def compare_dirs(reference: Path, rerun: Path, min_coverage: float = 1.0) -> tup
     comparisons = compare_records(before, after)
     held = {episode_key(r) for r in after}
     missing = sorted((episode_key(r) for r in before if episode_key(r) not in held), key=lambda k: tuple(map(str, k)))
-    run = RunComparison(comparisons, missing, len(before), min_coverage)
-    if comparisons:
-        run.setup = setup_differences(run_header(reference), run_header(rerun))
+    setup = setup_differences(run_header(reference), run_header(rerun)) if comparisons else {}
+    run = RunComparison(comparisons, missing, len(before), min_coverage, setup)
     return run, render_comparison(run, reference, rerun)

@@ -12,7 +12,7 @@ import datetime as dt
 from collections import Counter
 from pathlib import Path
 
-from lerobot_policy_recent.recent_plugin.evaluation.confidence import paired_comparisons
+from lerobot_policy_recent.recent_plugin.evaluation.confidence import episode_key, paired_comparisons
 from lerobot_policy_recent.recent_plugin.evaluation.methods import ABLATION_METHODS, EXPECTED, METHODS
 from lerobot_policy_recent.recent_plugin.evaluation.metrics import (
     LABELS,
@@ -76,9 +76,9 @@ def ablation_table(records: list[dict]) -> tuple[str, list[str]]:
     RECENT's row counts only the (suite, target, task, seed) episodes some ablation also ran, so
     every row of the table answers the same question.
     """
-    ran = {_episode_key(r) for r in records if r["method"] in ABLATION_METHODS}
+    ran = {episode_key(r) for r in records if r["method"] in ABLATION_METHODS}
     records = [
-        r for r in records if r["method"] in ABLATION_METHODS or (r["method"] == "recent" and _episode_key(r) in ran)
+        r for r in records if r["method"] in ABLATION_METHODS or (r["method"] == "recent" and episode_key(r) in ran)
     ]
     by = {k[0]: summarize(v) for k, v in group(records, lambda r: (r["method"],)).items()}
     methods = [m for m in _ordered(by) if m == "recent" or m in ABLATION_METHODS]
@@ -104,10 +104,6 @@ def ablation_table(records: list[dict]) -> tuple[str, list[str]]:
             note = _why_not(method, by[method], base)
             checks.append(f"- `{method}`: " + "; ".join(parts) + (f" — {note}" if note else ""))
     return "\n".join(lines), checks
-
-
-def _episode_key(record: dict) -> tuple:
-    return record["suite"], record["target"], record["task_id"], record["seed"]
 
 
 def _why_not(method: str, ablated: dict, base: dict) -> str:
@@ -177,8 +173,8 @@ def model_table(records: list[dict]) -> str | None:
     models = sorted({r["model"] for r in ours})
     if len(models) < 2:
         return None
-    common = set.intersection(*({_episode_key(r) for r in ours if r["model"] == m} for m in models))
-    ours = [r for r in ours if _episode_key(r) in common]  # every row on the same episodes
+    common = set.intersection(*({episode_key(r) for r in ours if r["model"] == m} for m in models))
+    ours = [r for r in ours if episode_key(r) in common]  # every row on the same episodes
     lines = ["| model | " + " | ".join(LABELS[m] for m in ABLATION_METRICS) + " |", "|---|" + "---:|" * 4]
     for model in models:
         summary = summarize([r for r in ours if r["model"] == model])

@@ -99,8 +99,7 @@ class GroundingStore:
 
     def clear(self) -> tuple[int, int]:
         """Remove every stored grounding; (files, bytes) removed."""
-        files = self.files()
-        size = sum(p.stat().st_size for p in files)
+        files, size = self.files(), self.size()
         for path in files:
             path.unlink(missing_ok=True)
         return len(files), size
