@@ -7,6 +7,7 @@ DIR/dataset/                          the LeRobotDataset (v3) of observations an
 DIR/grounding_events/episode_000003.parquet   every grounding event of the episode, one row each
 DIR/results/episode_000003.parquet    the episode's result row (SR, GC, GO, EI, IT, IGT, failure)
 DIR/interrupted/                      files of episodes that never finished (see `recent logs verify --recover`)
+DIR/pending/episode_000003.pkl        an ended episode whose dataset commit has not finished (the next run commits it)
 ```
 An episode is committed when its ``results`` file exists: that file is written last.
 """
@@ -52,6 +53,13 @@ class LogLayout:
     def interrupted_dir(self) -> Path:
         return self.root / "interrupted"
 
+    @property
+    def pending_dir(self) -> Path:
+        return self.root / "pending"
+
+    def journal(self, episode: int) -> Path:
+        return self.pending_dir / f"{episode_name(episode)}.pkl"
+
     def mcap(self, episode: int) -> Path:
         return self.mcap_dir / f"{episode_name(episode)}.mcap"
 
@@ -74,7 +82,7 @@ class LogLayout:
 
 
 def log_roots(paths: list[str | Path]) -> list[Path]:
-    """Each path that is a log directory, or the log directories below it (``recent bench`` writes one per episode)."""
+    """Each path that is a log directory, or the log directories below it (older ``recent bench`` runs wrote one per episode)."""
     roots: list[Path] = []
     for path in map(Path, paths):
         if (path / "results").is_dir() or (path / "mcap").is_dir():

@@ -2,7 +2,7 @@
 
 Foxglove protobuf schemas where one fits — ``/tf`` (``FrameTransforms``: end effector and every
 object in ``world``), ``/log`` (``Log``: every event, by level), ``/joint_states`` (``JointStates``:
-the gripper opening), ``/camera/front`` (``CompressedImage``) — and JSON schemas with stable names
+the arm's joint positions and velocities, and the gripper opening), ``/camera/front`` (``CompressedImage``) — and JSON schemas with stable names
 (``recent.<event>``) for grounding events on ``/recent/<event>`` and the action on ``/action``.
 Messages are written unchunked and the file is flushed after every step and event, so a killed
 process loses at most the step in flight; ``recent logs verify --recover`` rewrites such a file
@@ -29,7 +29,8 @@ from mcap_protobuf.schema import build_file_descriptor_set
 
 from lerobot_policy_recent.logs.events import EVENT_TYPES, Stamped, Step, json_schema
 from lerobot_policy_recent.logs.layout import LogLayout
-from lerobot_policy_recent.robosuite_envs.observation import SLOT_DIM
+from lerobot_policy_recent.robosuite_envs.embodiments import EMBODIMENTS
+from lerobot_policy_recent.robosuite_envs.observation import MAX_ARM_DOF, SLOT_DIM
 
 LOG_LEVELS = {"debug": Log.DEBUG, "info": Log.INFO, "warning": Log.WARNING, "error": Log.ERROR}
 ACTION_SCHEMA = {
@@ -44,6 +45,7 @@ class _EpisodeFile:
     stream: IO[bytes]
     writer: Writer
     object_names: list[str]
+    arm_dof: int
     channels: dict[str, int] = field(default_factory=dict)
     sequence: int = 0
 
@@ -60,7 +62,10 @@ class McapSink:
         stream = open(path, "wb")  # noqa: SIM115 - kept open for the episode, closed in end()
         writer = Writer(stream, use_chunking=False)
         writer.start(profile="", library="lerobot_policy_recent")
-        self._files[start.episode_index] = _EpisodeFile(stream, writer, list(start.event.object_names))
+        robot = EMBODIMENTS.get(start.event.robot)
+        self._files[start.episode_index] = _EpisodeFile(
+            stream, writer, list(start.event.object_names), robot.arm_dof if robot else MAX_ARM_DOF
+        )
         self.event(start)
 
     def event(self, stamped: Stamped) -> None:
@@ -90,7 +95,7 @@ class McapSink:
         self._write(
             f, "/tf", "protobuf", FrameTransforms(transforms=transforms).SerializeToString(), t, FrameTransforms
         )
-        joints = JointStates(timestamp=stamp, joints=[JointState(name="gripper", position=float(step.state[7]))])
+        joints = JointStates(timestamp=stamp, joints=_joint_states(step.state, f.arm_dof))
         self._write(f, "/joint_states", "protobuf", joints.SerializeToString(), t, JointStates)
         action = {"frame_index": step.frame_index, "sim_time": step.sim_time, "action": step.action.tolist()}
         self._write(f, "/action", "json", json.dumps(action).encode(), t, "action")
@@ -147,6 +152,15 @@ def _transform(stamp: Timestamp, child: str, pos: np.ndarray, quat_xyzw: np.ndar
     t.translation.x, t.translation.y, t.translation.z = (float(v) for v in pos)
     t.rotation.x, t.rotation.y, t.rotation.z, t.rotation.w = (float(v) for v in quat_xyzw)
     return t
+
+
+def _joint_states(state: np.ndarray, arm_dof: int) -> list[JointState]:
+    """The arm's joints (``joint0`` .. in the robot's order) and the gripper, from the state vector."""
+    joints = [
+        JointState(name=f"joint{i}", position=float(state[8 + i]), velocity=float(state[8 + MAX_ARM_DOF + i]))
+        for i in range(min(arm_dof, MAX_ARM_DOF))
+    ]
+    return [*joints, JointState(name="gripper", position=float(state[7]))]
 
 
 def _png(image: np.ndarray) -> bytes:

@@ -104,12 +104,17 @@ def read_table(path: Path) -> list[dict]:
 
 
 def dataset_lengths(dataset_dir: Path) -> dict[int, int]:
-    """Frames per episode of the LeRobotDataset (empty when there is none)."""
+    """Frames per log episode in the LeRobotDataset (empty when there is none); a dataset episode is
+    keyed by the log episode it holds (``meta/recent_episodes.json``), which is its own index where
+    the two agree."""
     if not (dataset_dir / "meta" / "info.json").exists():
         return {}
     from lerobot.datasets.lerobot_dataset import LeRobotDatasetMetadata
 
-    from lerobot_policy_recent.logs.dataset_sink import REPO_ID
+    from lerobot_policy_recent.logs.dataset_sink import REPO_ID, log_episodes
 
     meta = LeRobotDatasetMetadata(REPO_ID, root=dataset_dir)
-    return {int(e): int(n) for e, n in zip(meta.episodes["episode_index"], meta.episodes["length"], strict=True)}
+    lengths = [int(n) for n in meta.episodes["length"]]
+    held = log_episodes(dataset_dir)
+    keys = held if len(held) == len(lengths) else [int(e) for e in meta.episodes["episode_index"]]
+    return dict(zip(keys, lengths, strict=True))

@@ -3,6 +3,11 @@
 The agent only ever calls :meth:`EpisodeLog.emit` / :meth:`EpisodeLog.step`; a sink that raises
 is reported once and switched off for the rest of the run, so logging can never stop a robot.
 Sinks never call back into the agent.
+
+A recorder :meth:`~Recorder.in_memory` keeps its episodes as :class:`CapturedEpisode` s instead of
+writing files; :meth:`Recorder.write` logs such an episode into a run's files later, in another
+process or on another machine (``recent bench``: Ray workers capture, the driver alone writes one
+log directory and one dataset for the whole run).
 """
 
 from __future__ import annotations
@@ -11,6 +16,7 @@ import logging
 import shutil
 import time
 from collections.abc import Sequence
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Protocol
 
@@ -57,26 +63,98 @@ def make_sinks(layout: LogLayout, names: Sequence[str]) -> list[Sink]:
     return sinks
 
 
+@dataclass
+class CapturedEpisode:
+    """One episode's stamped events and steps, in the order the sinks received them."""
+
+    items: list[tuple[str, Stamped | Step]] = field(default_factory=list)  # (sink method, what it got)
+
+    @property
+    def started(self) -> EpisodeStarted:
+        return self.items[0][1].event  # type: ignore[union-attr]
+
+    @property
+    def steps(self) -> int:
+        return sum(1 for method, _ in self.items if method == "step")
+
+
+class CaptureSink:
+    """Keeps each episode in memory until it ends; :attr:`ended` holds the finished ones."""
+
+    def __init__(self) -> None:
+        self._open: dict[int, CapturedEpisode] = {}
+        self.ended: list[CapturedEpisode] = []
+
+    def begin(self, start: Stamped) -> None:
+        self._open[start.episode_index] = CapturedEpisode([("begin", start)])
+
+    def event(self, stamped: Stamped) -> None:
+        self._open[stamped.episode_index].items.append(("event", stamped))
+
+    def step(self, step: Step) -> None:
+        self._open[step.episode_index].items.append(("step", step))
+
+    def end(self, result: Stamped) -> None:
+        episode = self._open.pop(result.episode_index, None)
+        if episode is not None:
+            episode.items.append(("end", result))
+            self.ended.append(episode)
+
+    def close(self) -> None:
+        self._open.clear()
+
+
 class Recorder:
     """One run's logs under ``root``; episodes are numbered on from the ones already committed there."""
 
-    def __init__(self, root: str | Path, sinks: Sequence[str] = SINKS):
-        self.layout = LogLayout(Path(root))
+    def __init__(self, root: str | Path | None, sinks: Sequence[str] = SINKS):
+        """``root=None``: write nothing and keep each ended episode in :attr:`captured` (see :meth:`in_memory`)."""
+        self.failed: dict[str, str] = {}  # sink class -> the error that switched it off
+        self.layout = None if root is None else LogLayout(Path(root))
+        if self.layout is None:
+            self._next = self._first = 0
+            self.sinks: list[Sink] = [CaptureSink()]
+            return
         self.layout.root.mkdir(parents=True, exist_ok=True)
+        if "dataset" in sinks:
+            from lerobot_policy_recent.logs.dataset_sink import recover_pending
+
+            recover_pending(self.layout)  # episodes that ended but whose commit a kill cut short
         self._next = self._first = self.layout.next_episode()
         set_aside_interrupted(self.layout, self._next)
         self.sinks = make_sinks(self.layout, sinks)
-        self.failed: dict[str, str] = {}  # sink class -> the error that switched it off
+
+    @classmethod
+    def in_memory(cls) -> Recorder:
+        """A recorder that writes nothing: its episodes wait in :attr:`captured` for another's :meth:`write`."""
+        return cls(None)
+
+    @property
+    def captured(self) -> list[CapturedEpisode]:
+        """The ended episodes of an :meth:`in_memory` recorder."""
+        return [e for s in self.sinks if isinstance(s, CaptureSink) for e in s.ended]
+
+    def write(self, episode: CapturedEpisode) -> int:
+        """Log a captured episode as this run's next one, with its own stamps; its index here."""
+        index = self._next
+        self._next += 1
+        for method, item in episode.items:
+            self._fan_out(method, replace(item, episode_index=index))
+        self._commit(replace(episode.items[-1][1], episode_index=index), episode.started, episode.steps)
+        return index
 
     @property
     def last_episode(self) -> int | None:
         """Index of the most recently started episode (None before the first)."""
         return self._next - 1 if self._next > self._first else None
 
-    @property
-    def writes_results(self) -> bool:
-        """Whether a sink writes the result row that commits an episode (else the recorder does)."""
-        return any(type(s).__name__ == "DatasetSink" for s in self.sinks)
+    def _commit(self, result: Stamped, started: EpisodeStarted, frames: int) -> None:
+        """Write the result row that commits an ended episode, unless a sink (the dataset's) does."""
+        if self.layout is None or any(type(s).__name__ in ("DatasetSink", "CaptureSink") for s in self.sinks):
+            return
+        from lerobot_policy_recent.logs.dataset_sink import result_row
+
+        write_parquet_atomically([result_row(result, started, frames)], self.layout.results(result.episode_index))
 
     def start_episode(self, started: EpisodeStarted) -> EpisodeLog:
         episode = EpisodeLog(self, self._next, started)
@@ -142,12 +220,7 @@ class EpisodeLog:
             self.ended = True
             stamped = self.stamp(result)
             self.recorder._fan_out("end", stamped)
-            if not self.recorder.writes_results:  # without the dataset sink, commit the episode here
-                from lerobot_policy_recent.logs.dataset_sink import result_row
-
-                write_parquet_atomically(
-                    [result_row(stamped, self.started, self.frame_index)], self.recorder.layout.results(self.index)
-                )
+            self.recorder._commit(stamped, self.started, self.frame_index)
 
 
 def set_aside_interrupted(layout: LogLayout, next_episode: int) -> list[Path]:

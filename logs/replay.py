@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from lerobot_policy_recent.logs.dataset_sink import CAMERA_KEY, REPO_ID, VIDEO_BACKEND
+from lerobot_policy_recent.logs.dataset_sink import CAMERA_KEY, REPO_ID, VIDEO_BACKEND, dataset_episode
 from lerobot_policy_recent.logs.events import EVENT_TYPES, Stamped, Step
 from lerobot_policy_recent.logs.layout import LogLayout, episode_name
 from lerobot_policy_recent.logs.readers import read_table
@@ -40,11 +40,17 @@ def replay_episode(root: str | Path, episode: int, out: Path) -> Path:
         )
         for r in rows
     ]
-    frames = LeRobotDataset(
-        REPO_ID, root=layout.dataset_dir, episodes=[episode], video_backend=VIDEO_BACKEND
-    ).hf_dataset.with_format("numpy")[:]
+    dataset = LeRobotDataset(
+        REPO_ID,
+        root=layout.dataset_dir,
+        episodes=[dataset_episode(layout.dataset_dir, episode)],
+        video_backend=VIDEO_BACKEND,
+    )
+    frames = dataset.hf_dataset.with_format("numpy")[:]
     start_ns = stamped[0].log_time_ns
-    images = frames.get(CAMERA_KEY)
+    images = None
+    if CAMERA_KEY in dataset.meta.video_keys:  # decoded from the episode's video, frame by frame
+        images = [dataset[i][CAMERA_KEY].numpy() for i in range(len(frames["frame_index"]))]
     steps = [
         Step(
             episode,

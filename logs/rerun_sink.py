@@ -1,14 +1,18 @@
 """Rerun sink: one ``.rrd`` per episode with a blueprint, on the ``step`` and ``sim_time`` timelines.
 
-Layout: ``world/eef`` and ``world/objects`` (3D view), ``action`` and ``gripper`` (time series),
+Layout: ``world/eef`` and ``world/objects`` (3D view), ``action``, ``gripper`` and ``joints``
+(the arm's joint positions, radians) as time series,
 ``grounding/lm_seconds`` (latency of every infiller call), ``events`` (text log by level),
 ``skill/code`` (the skill as it stands, with the last patch as a diff, in markdown) and
-``camera/front`` when a camera is logged. Per-step streams are buffered and sent as columns every
-``BATCH`` steps, so logging a step costs a few list appends.
+``camera/front`` when a camera is logged. Per-step streams are buffered and sent as columns, so
+logging a step costs a few list appends; the buffer is sent and flushed to disk at every event,
+every ``BATCH`` steps and at least every ``FLUSH_S`` seconds, so a killed process loses at most
+the steps of its last ``FLUSH_S`` (and never an event).
 """
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -19,10 +23,12 @@ import rerun.blueprint as rrb
 
 from lerobot_policy_recent.logs.events import EpisodeStarted, InfillCall, PatchApplied, Stamped, Step
 from lerobot_policy_recent.logs.layout import episode_name
-from lerobot_policy_recent.robosuite_envs.observation import ACTION_NAMES, SLOT_DIM
+from lerobot_policy_recent.robosuite_envs.embodiments import EMBODIMENTS
+from lerobot_policy_recent.robosuite_envs.observation import ACTION_NAMES, JOINT_POS_NAMES, MAX_ARM_DOF, SLOT_DIM
 from lerobot_policy_recent.robosuite_envs.primitives.session import CONTROL_FREQ
 
 BATCH = 64  # steps buffered before they are sent as one column chunk
+FLUSH_S = 0.25  # wall-clock bound on how long a step waits in the buffer
 _LEVELS = {"debug": rr.TextLogLevel.DEBUG, "info": rr.TextLogLevel.INFO, "warning": rr.TextLogLevel.WARN}
 
 
@@ -37,6 +43,7 @@ def blueprint() -> rrb.Blueprint:
             rrb.Vertical(
                 rrb.TimeSeriesView(name="actions", origin="action"),
                 rrb.TimeSeriesView(name="gripper", origin="gripper"),
+                rrb.TimeSeriesView(name="arm joints (rad)", origin="joints"),
                 rrb.TimeSeriesView(name="LM latency (s)", origin="grounding"),
             ),
             rrb.Vertical(
@@ -54,7 +61,9 @@ def blueprint() -> rrb.Blueprint:
 class _Episode:
     rec: rr.RecordingStream
     object_names: list[str]
+    arm_dof: int
     steps: list[Step] = field(default_factory=list)
+    sent_at: float = field(default_factory=time.monotonic)
 
 
 class RerunSink:
@@ -71,8 +80,11 @@ class RerunSink:
         rec = rr.RecordingStream("recent", recording_id=f"{episode_name(start.episode_index)}-{start.log_time_ns}")
         rec.save(path, default_blueprint=blueprint())
         rec.send_recording_name(f"{event.task_id} on {event.robot} (seed {event.seed})")
+        robot = EMBODIMENTS.get(event.robot)
+        arm_dof = robot.arm_dof if robot else MAX_ARM_DOF
         rec.log("action", rr.SeriesLines(names=list(ACTION_NAMES)), static=True)
-        self._episodes[start.episode_index] = _Episode(rec, list(event.object_names))
+        rec.log("joints", rr.SeriesLines(names=list(JOINT_POS_NAMES[:arm_dof])), static=True)
+        self._episodes[start.episode_index] = _Episode(rec, list(event.object_names), arm_dof)
         self.event(start)
 
     def event(self, stamped: Stamped) -> None:
@@ -87,6 +99,7 @@ class RerunSink:
         if isinstance(e, PatchApplied):
             rec.log("skill/code", rr.TextDocument(_code_markdown(e), media_type=rr.MediaType.MARKDOWN))
         rec.flush()
+        episode.sent_at = time.monotonic()
 
     def step(self, step: Step) -> None:
         episode = self._episodes[step.episode_index]
@@ -95,8 +108,10 @@ class RerunSink:
             episode.rec.set_time("step", sequence=step.frame_index)
             episode.rec.set_time("sim_time", duration=step.sim_time)
             episode.rec.log("camera/front", rr.Image(step.image))
-        if len(episode.steps) >= BATCH:
+        if len(episode.steps) >= BATCH or time.monotonic() - episode.sent_at >= FLUSH_S:
             self._send_steps(episode)
+            episode.rec.flush()
+            episode.sent_at = time.monotonic()
 
     def end(self, result: Stamped) -> None:
         if result.episode_index not in self._episodes:
@@ -124,6 +139,7 @@ class RerunSink:
         states = np.stack([s.state for s in steps])
         rec.send_columns("action", index, rr.Scalars.columns(scalars=np.stack([s.action for s in steps])))
         rec.send_columns("gripper", index, rr.Scalars.columns(scalars=states[:, 7]))
+        rec.send_columns("joints", index, rr.Scalars.columns(scalars=states[:, 8 : 8 + episode.arm_dof]))
         rec.send_columns("world/eef", index, rr.Points3D.columns(positions=states[:, 0:3]))
         positions, labels, counts = [], [], []
         for s in steps:

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 from lerobot.policies.pretrained import PreTrainedPolicy
-from lerobot.utils.constants import OBS_ENV_STATE, OBS_STATE
+from lerobot.utils.constants import OBS_ENV_STATE, OBS_IMAGE, OBS_STATE
 
 from lerobot_policy_recent.logs.events import ignore
 from lerobot_policy_recent.logs.recorder import EpisodeLog, Recorder
@@ -128,7 +128,7 @@ class RecentPolicy(PreTrainedPolicy):
                 _end_crashed(episode.log, task_id, robot, episode.seed, episode.started, exc)
                 raise
             if episode.log is not None:
-                episode.log.step(state, env_state, action)
+                episode.log.step(state, env_state, action, _camera_frame(batch, b))
             actions.append(action)
         return torch.as_tensor(np.stack(actions), dtype=torch.float32)
 
@@ -145,6 +145,15 @@ class RecentPolicy(PreTrainedPolicy):
             raise
         self.groundings.append(report)
         return _Episode(executor, report, log, started, seed, task_id, robot)
+
+
+def _camera_frame(batch: dict, b: int) -> np.ndarray | None:
+    """The env's front camera for batch element ``b`` (``--env.camera=true``), as the HxWx3 bytes the logs keep."""
+    image = batch.get(OBS_IMAGE)
+    if image is None:
+        return None
+    chw = image[b].detach().cpu().float().clamp(0.0, 1.0)
+    return (chw.permute(1, 2, 0) * 255).round().to(torch.uint8).numpy()
 
 
 def _end_crashed(log: EpisodeLog | None, task_id: str, robot: str, seed: int, started: float, exc: Exception) -> None:

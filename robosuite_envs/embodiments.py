@@ -25,6 +25,7 @@ class Embodiment:
     robot_mjcf: str  # MJCF files read by the ontology builder: relative paths are inside robosuite's package
     gripper_mjcf: str
     description: str
+    arm_dof: int = 7  # arm joints (the observation's joint slots it fills; the rest stay 0)
 
 
 EMBODIMENTS: dict[str, Embodiment] = {
@@ -47,6 +48,7 @@ EMBODIMENTS: dict[str, Embodiment] = {
             robot_mjcf="models/assets/robots/ur5e/robot.xml",
             gripper_mjcf="models/assets/grippers/robotiq_gripper_85.xml",
             description="Universal Robots UR5e, 6-DoF, Robotiq 2F-85",
+            arm_dof=6,
         ),
         Embodiment(
             name="Sawyer",

@@ -1,8 +1,9 @@
 """A gymnasium env around :class:`RecentTabletopEnv`, in LeRobot's observation conventions.
 
-Observations: ``agent_pos`` (8) and ``environment_state`` (object slots), see
+Observations: ``agent_pos`` and ``environment_state`` (object slots), see
 :mod:`lerobot_policy_recent.robosuite_envs.observation`, as the robot senses them (with the ``sensing_noise``
-variation, noisy). ``info["is_success"]`` is true once every subtask of the plan succeeded (in
+variation, noisy); with ``camera=True`` also ``pixels``, the front camera (HxWx3 uint8, LeRobot's
+``observation.image``), which the policy logs and never acts on. ``info["is_success"]`` is true once every subtask of the plan succeeded (in
 order), ``info["gc"]`` is the fraction that did; the reward is ``gc``. An episode terminates on
 success and truncates at ``max_episode_steps``.
 """
@@ -36,6 +37,7 @@ class RecentEnv(gym.Env):
         render_camera: str = "frontview",
         variations: str | tuple[str, ...] = (),
         verdict_dir: str | None = None,
+        camera: bool = False,
     ):
         """``verdict_dir``: where each finished episode's success and GC are written for the logs
         (``lerobot-eval``'s policy cannot see them; :mod:`~lerobot_policy_recent.robosuite_envs.verdicts`)."""
@@ -56,12 +58,16 @@ class RecentEnv(gym.Env):
         self._render_camera = render_camera
         self.task_description = task_string(self.spec_task, self.embodiment.name)
         self.task = self.task_description
-        self.observation_space = spaces.Dict(
-            {
-                "agent_pos": spaces.Box(-np.inf, np.inf, (AGENT_POS_DIM,), np.float32),
-                "environment_state": spaces.Box(-np.inf, np.inf, (ENV_STATE_DIM,), np.float32),
-            }
-        )
+        self.camera = camera
+        if camera and render_mode != "rgb_array":
+            raise ValueError(f"camera=True renders the front view: it needs render_mode='rgb_array', not {render_mode!r}")
+        spaces_ = {
+            "agent_pos": spaces.Box(-np.inf, np.inf, (AGENT_POS_DIM,), np.float32),
+            "environment_state": spaces.Box(-np.inf, np.inf, (ENV_STATE_DIM,), np.float32),
+        }
+        if camera:
+            spaces_["pixels"] = spaces.Box(0, 255, (visualization_height, visualization_width, 3), np.uint8)
+        self.observation_space = spaces.Dict(spaces_)
         self.action_space = spaces.Box(-1.0, 1.0, (ACTION_DIM,), np.float32)
         self._env = None
         self._steps = 0
@@ -89,7 +95,10 @@ class RecentEnv(gym.Env):
 
     def _observation(self) -> dict[str, np.ndarray]:
         agent, env_state = self._env.sensed().encode(self.spec_task.object_names())
-        return {"agent_pos": agent, "environment_state": env_state}
+        observation = {"agent_pos": agent, "environment_state": env_state}
+        if self.camera:
+            observation["pixels"] = self.render()
+        return observation
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         super().reset(seed=seed)

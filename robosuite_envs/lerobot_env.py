@@ -7,7 +7,7 @@ from dataclasses import dataclass, field
 import gymnasium as gym
 from lerobot.configs import FeatureType, PolicyFeature
 from lerobot.envs.configs import EnvConfig
-from lerobot.utils.constants import ACTION, OBS_ENV_STATE, OBS_STATE
+from lerobot.utils.constants import ACTION, OBS_ENV_STATE, OBS_IMAGE, OBS_STATE
 
 from lerobot_policy_recent.robosuite_envs.observation import ACTION_DIM, AGENT_POS_DIM, ENV_STATE_DIM
 from lerobot_policy_recent.robosuite_envs.primitives.session import CONTROL_FREQ
@@ -19,7 +19,8 @@ from lerobot_policy_recent.robosuite_envs.variations import parse_variations
 @dataclass
 class RecentEnvConfig(EnvConfig):
     """Our robosuite tasks; ``task`` may list several comma-separated task ids or a whole suite
-    (``kinematic``, ``end_effector``); ``variations``: off, on, all, or a comma list."""
+    (``kinematic``, ``end_effector``); ``variations``: off, on, all, or a comma list; ``camera``:
+    also observe the front camera (``observation.image``), which the policy logs as video."""
 
     task: str = "cube_in_bin"
     robot: str = "UR5e"
@@ -29,6 +30,7 @@ class RecentEnvConfig(EnvConfig):
     render_mode: str = "rgb_array"
     visualization_width: int = 128
     visualization_height: int = 128
+    camera: bool = False
     # Where each finished episode's success and GC go, for the policy's result rows (it cannot see
     # them); the same directory as --policy.log_dir. None: the rows leave them empty.
     verdict_dir: str | None = "outputs/recent_logs"
@@ -44,6 +46,11 @@ class RecentEnvConfig(EnvConfig):
     )
 
     def __post_init__(self):
+        if self.camera:
+            self.features["pixels"] = PolicyFeature(
+                type=FeatureType.VISUAL, shape=(self.visualization_height, self.visualization_width, 3)
+            )
+            self.features_map["pixels"] = OBS_IMAGE
         from lerobot_policy_recent.robosuite_envs.embodiments import get_embodiment
         from lerobot_policy_recent.robosuite_envs.suites import get_task
 
@@ -69,6 +76,7 @@ class RecentEnvConfig(EnvConfig):
             "visualization_width": self.visualization_width,
             "visualization_height": self.visualization_height,
             "verdict_dir": self.verdict_dir,
+            "camera": self.camera,
         }
 
     def create_envs(self, n_envs: int, use_async_envs: bool = False) -> dict[str, dict[int, gym.vector.VectorEnv]]:

@@ -305,7 +305,12 @@ class RecentTabletopEnv(ManipulationEnv):
                 state=state,
             )
         return Observation(
-            eef_pos=self._grip_site_pos(), eef_quat=eef_quat, gripper_opening=self.gripper_opening(), objects=objects
+            eef_pos=self._grip_site_pos(),
+            eef_quat=eef_quat,
+            gripper_opening=self.gripper_opening(),
+            objects=objects,
+            joint_pos=np.array(self.sim.data.qpos[robot._ref_arm_joint_pos_indexes]),
+            joint_vel=np.array(self.sim.data.qvel[robot._ref_arm_joint_vel_indexes]),
         )
 
     def gripper_opening(self) -> float:

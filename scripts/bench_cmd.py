@@ -66,8 +66,8 @@ def register(sub) -> None:
         action="store_true",
         help="run again the episodes an error broke off (their records say 'crash'); otherwise a rerun skips them",
     )
-    parser.add_argument("--no-log", action="store_true", help="no per-episode MCAP/Rerun/dataset logs")
-    parser.add_argument("--log-sinks", default="mcap,rerun,dataset", help="sinks of the per-episode logs")
+    parser.add_argument("--no-log", action="store_true", help="no logs (MCAP, Rerun, the run's LeRobotDataset)")
+    parser.add_argument("--log-sinks", default="mcap,rerun,dataset", help="sinks of the run's logs in DIR/logs")
     from lerobot_policy_recent.scripts.common import add_settings_arguments
 
     add_settings_arguments(parser, with_method=False)
@@ -104,7 +104,7 @@ def register(sub) -> None:
         "pack",
         help="put a finished run's per-episode records into one compressed file (how results/ commits runs)",
         description=f"Write DIR/{PACKED} from DIR/episodes/ and remove the per-episode files; report, compare "
-        "and resume read either form. The per-episode logs (DIR/logs) are not touched: they belong in a dataset.",
+        "and resume read either form. The logs (DIR/logs) are not touched: they belong in a dataset.",
     )
     pack.add_argument("dir", help="a `recent bench --out` directory")
     pack.set_defaults(handler=_pack)

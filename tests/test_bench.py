@@ -20,7 +20,7 @@ RUN = [
     "--seeds=0,1",
     "--variations=on",
     "--infiller.type=rule",
-    "--log-sinks=mcap",
+    "--log-sinks=mcap,dataset",
 ]
 
 
@@ -42,7 +42,7 @@ def test_every_episode_has_a_record_and_results_json_aggregates_them(bench_dir):
     for r in records:
         assert {"success", "gc", "go", "go_pre", "ei", "it", "igt", "igt_cold", "failure_category", "model"} <= r.keys()
         assert r["go"] == pytest.approx(100 * r["adaptation_tokens"] / r["skill_tokens"], abs=1e-3)
-        assert (bench_dir / "logs" / r["method"] / "UR5e" / f"cube_on_plate__s{r['seed']}" / "mcap").is_dir()
+        assert r["log_dir"] == str(bench_dir / "logs") and (bench_dir / "logs" / "mcap").is_dir()
     results = json.loads((bench_dir / "results.json").read_text())
     assert results["backend"] == "rule" and results["seeds"] == [0, 1] and results["machine"]["cores"]
     assert results["command"].startswith("recent bench") and results["runs"][-1]["command"] == results["command"]
@@ -52,6 +52,10 @@ def test_every_episode_has_a_record_and_results_json_aggregates_them(bench_dir):
     assert results["paired"]["recent vs recent-no-insitu|kinematic"]["sr_diff"] == 100.0
     assert results["engine"] == "ray" and results["workers"] >= 1 and results["model_sha256"] is None  # rule: no model
     assert "recent|UR5e|kinematic/cube_on_plate" in results["by_task"]
+    from lerobot_policy_recent.logs.readers import dataset_lengths
+
+    lengths = dataset_lengths(bench_dir / "logs" / "dataset")  # one dataset for the whole run
+    assert lengths == {r["log_episode"]: r["steps"] for r in records}
 
 
 def test_in_situ_adaptation_is_what_saves_the_obstacle_episodes(bench_dir):
@@ -134,11 +138,26 @@ def test_unknown_methods_and_tasks_are_named():
 
 
 @pytest.mark.slow
-def test_parallel_workers_write_the_same_records(tmp_path):
+def test_parallel_workers_write_the_same_records_and_one_dataset(tmp_path):
+    """Two workers run episodes at once; the driver alone writes their logs: one dataset for the run."""
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset
+
+    from lerobot_policy_recent.logs.layout import LogLayout
+    from lerobot_policy_recent.logs.readers import read_table
+    from lerobot_policy_recent.logs.verify import verify
+
     out = tmp_path / "parallel"
-    assert main([*RUN, "--method=recent", f"--out={out}", "--workers=2", "--no-log"]) == 0
+    assert main([*RUN, "--method=recent", f"--out={out}", "--workers=2", "--log-sinks=mcap,rerun,dataset"]) == 0
     records = load_records(out)
     assert len(records) == 2 and all(r["success"] for r in records)
+    layout = LogLayout(out / "logs")
+    assert sorted(r["log_episode"] for r in records) == layout.committed() == [0, 1]
+    for r in records:  # each record names its episode in the run's logs
+        row = read_table(layout.results(r["log_episode"]))[0]
+        assert (row["task_id"], row["seed"], row["method"]) == (r["task_id"], r["seed"], "recent")
+    dataset = LeRobotDataset("local/recent_episodes", root=layout.dataset_dir, video_backend="pyav")
+    assert dataset.num_episodes == 2 and dataset.num_frames == sum(r["steps"] for r in records)
+    assert verify(layout.root).ok
 
 
 def test_the_headline_targets_are_checked_for_recent_and_its_fast_path():

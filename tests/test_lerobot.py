@@ -52,8 +52,9 @@ def test_policy_factory_builds_recent_and_returns_batched_actions():
 
 
 def test_lerobot_eval_runs_two_tasks_with_batch_size_two(tmp_path):
-    """The README's lerobot-eval line on two suite tasks, two envs per batch (rule backend keeps it fast;
-    the policy path is the same as with the LM)."""
+    """The README's lerobot-eval line on two suite tasks, two envs per batch, with the camera (rule
+    backend keeps it fast; the policy path is the same as with the LM); then LeRobot's ACT trains on
+    the dataset it logged."""
     out = tmp_path / "eval"
     tasks = ["kinematic/press_button", "end_effector/open_drawer"]
     cmd = [
@@ -68,6 +69,9 @@ def test_lerobot_eval_runs_two_tasks_with_batch_size_two(tmp_path):
         f"--output_dir={out}",
         f"--policy.log_dir={tmp_path / 'logs'}",
         f"--env.verdict_dir={tmp_path / 'logs'}",
+        "--env.camera=true",
+        "--env.visualization_width=64",
+        "--env.visualization_height=64",
     ]
     proc = subprocess.run(cmd, capture_output=True, text=True, timeout=900, env={**os.environ, "TQDM_DISABLE": "1"})
     assert proc.returncode == 0, proc.stderr[-3000:]
@@ -91,3 +95,36 @@ def test_lerobot_eval_runs_two_tasks_with_batch_size_two(tmp_path):
     # the env's verdicts fill the policy's result rows (lerobot-eval keeps them from the policy)
     assert all(row["success"] is True and row["gc"] == 1.0 for row in rows), rows
     assert not list((tmp_path / "logs" / "verdicts").glob("*.json"))  # each taken once
+    check_trainable_dataset(layout.dataset_dir, sum(row["num_frames"] for row in rows), tmp_path / "train")
+
+
+def check_trainable_dataset(root: Path, frames: int, out: Path) -> None:
+    """The logged dataset is one LeRobot trains on: named features, reward/done/success, arm joints, video."""
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset
+
+    dataset = LeRobotDataset("local/recent_episodes", root=root, video_backend="pyav")
+    assert dataset.num_episodes == 4 and dataset.num_frames == frames
+    assert dataset.meta.video_keys == ["observation.images.front"]
+    assert all(dataset.features[k]["names"] for k in ("observation.state", "observation.environment_state", "action"))
+    assert {"next.reward", "next.done", "next.success"} <= set(dataset.features)
+    names = dataset.features["observation.state"]["names"]
+    last = dataset[frames - 1]
+    joints = last["observation.state"][names.index("joint0_pos") : names.index("joint5_pos") + 1]
+    assert bool(last["next.done"]) and float(joints.abs().max()) > 0.1  # UR5e's arm joints are logged
+    cmd = [
+        str(Path(sys.executable).with_name("lerobot-train")),
+        "--policy.type=act",
+        "--dataset.repo_id=local/recent_episodes",
+        f"--dataset.root={root}",
+        "--steps=3",
+        "--batch_size=2",
+        "--num_workers=0",
+        "--policy.device=cpu",
+        "--policy.push_to_hub=false",
+        "--policy.pretrained_backbone_weights=null",  # no network here: ResNet from scratch
+        "--save_checkpoint=false",
+        "--wandb.enable=false",
+        f"--output_dir={out}",
+    ]
+    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=600, env={**os.environ, "TQDM_DISABLE": "1"})
+    assert proc.returncode == 0 and "End of training" in proc.stdout + proc.stderr, proc.stderr[-3000:]

@@ -79,6 +79,9 @@ def test_mcap_holds_foxglove_messages_and_json_events(run):
     assert len(transforms) == good.steps
     children = {t.child_frame_id for t in transforms[0].transforms}
     assert {"eef", "cube", "plate"} <= children and all(t.parent_frame_id == "world" for t in transforms[0].transforms)
+    joints = decoded_protobuf(path, "/joint_states")[-1].joints  # the UR5e's six arm joints, then the gripper
+    assert [j.name for j in joints] == [f"joint{i}" for i in range(6)] + ["gripper"]
+    assert any(abs(j.position) > 0.1 for j in joints[:6])
     logs = decoded_protobuf(path, "/log")
     assert len(logs) == len(events)
     assert any(log.name == "check_verdict" and "object_unmoved" in log.message for log in logs)
@@ -100,7 +103,7 @@ def test_rerun_recording_matches_the_mcap(run):
     root, (good, _) = run
     path = LogLayout(root).rrd(0)
     contents = read_rrd(path)
-    assert contents.steps == good.steps and contents.rows["/world/eef"] == good.steps
+    assert contents.steps == good.steps and contents.rows["/world/eef"] == contents.rows["/joints"] == good.steps
     assert contents.events == len(read_mcap(LogLayout(root).mcap(0)).events)
     assert contents.rows["/skill/code"] == 3  # the grounding patch and two in-situ patches
     subprocess.run([rerun_executable(), "rrd", "verify", str(path)], check=True, capture_output=True)
@@ -128,7 +131,8 @@ def test_datasets_load_and_join_on_episode_index(run):
     assert int(frame["episode_index"]) == 0 and int(frame["frame_index"]) == patch["frame_index"]
     np.testing.assert_allclose(frames[0]["action"].numpy(), read_mcap_action(layout.mcap(0)), atol=1e-6)
     features = frames.meta.features
-    assert features["observation.state"]["names"][-1] == "gripper_opening"
+    assert features["observation.state"]["names"][7:9] == ["gripper_opening", "joint0_pos"]
+    assert features["observation.state"]["names"][-1] == "joint6_vel"
     assert features["observation.environment_state"]["names"][:3] == ["slot0_x", "slot0_y", "slot0_z"]
     assert features["action"]["names"][-1] == "gripper"
     last_good, last_broken = frames[good.steps - 1], frames[good.steps + broken.steps - 1]
@@ -321,6 +325,147 @@ def test_sigkill_mid_episode_then_recover_salvages_everything_flushed(tmp_path):
     assert verify(tmp_path).ok  # recovered files are accounted for
     Recorder(tmp_path, ["mcap"]).close()  # the next run sets the interrupted files aside
     assert sorted(p.suffix for p in layout.interrupted_dir.iterdir()) == [".mcap", ".mcap", ".rrd", ".rrd"]
+
+
+COMMIT_CHILD = """
+import os, signal, sys
+from lerobot.datasets.lerobot_dataset import LeRobotDataset
+from lerobot_policy_recent.logs import dataset_sink
+from lerobot_policy_recent.logs.recorder import Recorder
+from lerobot_policy_recent.recent_plugin.agent import RecentAgent
+from lerobot_policy_recent.recent_plugin.infillers.configs import RuleConfig
+from lerobot_policy_recent.recent_plugin.settings import RecentSettings
+from lerobot_policy_recent.recent_plugin.episode import run_episode
+
+def die(*_args, **_kwargs):
+    os.kill(os.getpid(), signal.SIGKILL)
+
+def then_die(original, when=lambda *a, **k: True):
+    def wrapped(*args, **kwargs):
+        out = original(*args, **kwargs)
+        if when(*args, **kwargs):
+            die()
+        return out
+    return wrapped
+
+point = sys.argv[2]
+agent = RecentAgent(RecentSettings(infiller=RuleConfig()))
+recorder = Recorder(sys.argv[1])
+run_episode(agent, "kinematic/press_button", "UR5e", seed=0, max_steps=25, recorder=recorder)
+while dataset_sink.os.path.exists(recorder.layout.journal(0)):  # episode 0 is committed before the kill
+    import time; time.sleep(0.05)
+if point == "ended":  # after the last step: the episode ended, its commit never started
+    dataset_sink.commit = die
+elif point == "mid_write":  # LeRobot wrote the episode's files into the staging copy, not its metadata
+    LeRobotDataset.save_episode = then_die(LeRobotDataset.save_episode)
+elif point == "before_swap":  # the staging copy is complete, the dataset not yet swapped
+    dataset_sink.os.replace = then_die(dataset_sink.os.replace, lambda src, dst: str(dst).endswith(".ready"))
+elif point == "mid_swap":  # the old dataset moved aside, the new one not yet in place
+    dataset_sink.os.replace = then_die(dataset_sink.os.replace, lambda src, dst: str(dst).endswith(".old"))
+elif point == "before_result":  # the dataset holds the episode, the result row is not written
+    dataset_sink.write_parquet_atomically = then_die(
+        dataset_sink.write_parquet_atomically, lambda rows, path: "grounding_events" in str(path)
+    )
+run_episode(agent, "kinematic/press_button", "UR5e", seed=1, max_steps=25, recorder=recorder)
+recorder.close()
+print("not killed")
+"""
+
+
+@pytest.mark.parametrize(
+    "point",
+    [
+        "ended",
+        "mid_write",
+        pytest.param("before_swap", marks=pytest.mark.slow),
+        "mid_swap",
+        pytest.param("before_result", marks=pytest.mark.slow),
+    ],
+)
+def test_a_kill_during_the_dataset_commit_loses_no_finished_episode(tmp_path, point):
+    """SIGKILL at each stage of an ended episode's commit; the next recorder finishes it, once."""
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset
+
+    from lerobot_policy_recent.logs.dataset_sink import log_episodes
+    from lerobot_policy_recent.logs.verify import verify
+
+    child = subprocess.run(
+        [sys.executable, "-c", COMMIT_CHILD, str(tmp_path), point],
+        cwd=Path(__file__).parents[1],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert child.returncode == -signal.SIGKILL, child.stdout[-500:] + child.stderr[-2000:]
+    layout = LogLayout(tmp_path)
+    assert layout.committed() == [0]  # killed before episode 1's result row
+    Recorder(tmp_path).close()  # the next run recovers what had ended
+    assert layout.committed() == [0, 1] and not list(layout.pending_dir.glob("*"))
+    assert not [p.name for p in tmp_path.iterdir() if p.name.startswith("dataset.")]  # no staging left
+    dataset = LeRobotDataset("local/recent_episodes", root=layout.dataset_dir, video_backend="pyav")
+    assert dataset.num_episodes == 2 and log_episodes(layout.dataset_dir) == [0, 1]  # whole, and once
+    rows = [read_table(layout.results(i))[0]["num_frames"] for i in (0, 1)]
+    assert dataset.num_frames == sum(rows)
+    report = verify(tmp_path)
+    assert report.ok, (report.problems, [e.problems for e in report.episodes])
+
+
+def test_a_camera_is_logged_as_video(tmp_path, ontology):
+    """With a camera, the dataset holds the front view as LeRobot video (AV1 in mp4), one frame per step."""
+    from lerobot.datasets.lerobot_dataset import LeRobotDataset
+
+    agent = RecentAgent(RecentSettings(infiller=RuleConfig()), ontology=ontology)
+    with Recorder(tmp_path, ["dataset"]) as recorder:
+        result = run_episode(agent, "kinematic/press_button", "UR5e", seed=0, max_steps=12, recorder=recorder, camera=True)
+    dataset = LeRobotDataset("local/recent_episodes", root=LogLayout(tmp_path).dataset_dir, video_backend="pyav")
+    assert dataset.meta.video_keys == ["observation.images.front"] and dataset.num_frames == result.steps
+    assert list((LogLayout(tmp_path).dataset_dir / "videos").rglob("*.mp4"))
+    frame = dataset[result.steps - 1]["observation.images.front"]
+    assert tuple(frame.shape) == (3, 84, 84) and float(frame.std()) > 0.01  # a rendered scene, not a blank
+    from lerobot_policy_recent.logs.replay import replay_episode
+
+    replayed = read_rrd(replay_episode(tmp_path, 0, tmp_path / "replay.rrd"))  # the camera comes back from video
+    assert replayed.steps == result.steps and replayed.rows["/camera/front"] == result.steps
+
+
+RERUN_CHILD = """
+import sys, time
+import numpy as np
+from lerobot_policy_recent.logs.events import EpisodeStarted, Stamped, Step
+from lerobot_policy_recent.logs.rerun_sink import FLUSH_S, RerunSink
+from lerobot_policy_recent.robosuite_envs.observation import AGENT_POS_DIM, ENV_STATE_DIM
+
+sink = RerunSink(lambda _i: __import__("pathlib").Path(sys.argv[1]))
+sink.begin(Stamped(EpisodeStarted("kinematic/press_button", "UR5e", 0, object_names=["button"]), 0, 0, time.time_ns()))
+for i in range(int(sys.argv[2])):
+    sink.step(Step(0, i, i / 20, time.time_ns(), np.zeros(AGENT_POS_DIM), np.zeros(ENV_STATE_DIM), np.zeros(7)))
+    time.sleep(FLUSH_S / 4)
+print("stepped", flush=True)
+time.sleep(600)
+"""
+
+
+def test_a_killed_rerun_recording_keeps_all_but_its_last_moments(tmp_path):
+    """No event and no end: the steps still reach the file within FLUSH_S, so a SIGKILL loses only those."""
+    from lerobot_policy_recent.logs.rerun_sink import BATCH
+    from lerobot_policy_recent.logs.verify import recover_rrd
+
+    steps = 20  # fewer than a batch: only the time bound can have sent them
+    assert steps < BATCH
+    path = tmp_path / "episode_000000.rrd"
+    child = subprocess.Popen(
+        [sys.executable, "-c", RERUN_CHILD, str(path), str(steps)], stdout=subprocess.PIPE, text=True
+    )
+    try:
+        assert child.stdout.readline().strip() == "stepped"
+        child.send_signal(signal.SIGKILL)
+        child.wait(timeout=30)
+    finally:
+        if child.poll() is None:
+            child.kill()
+    recover_rrd(path, tmp_path / "recovered.rrd")
+    kept = read_rrd(tmp_path / "recovered.rrd").rows["/world/eef"]
+    assert steps - 4 <= kept <= steps  # at most the last FLUSH_S of steps (4 steps here) is lost
 
 
 def test_log_commands_refuse_what_they_cannot_do_and_say_so(run, tmp_path, capsys, monkeypatch):

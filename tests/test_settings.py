@@ -76,7 +76,7 @@ def test_one_record_per_episode(ontology, rule_infiller, capsys):
     record = result.to_record()
     event = result.ended_event().payload()
     assert event == {key: record[key] for key in event}  # the event is the record's subset
-    bench = episode_record(Job("recent", "kinematic", "cube_in_bin", "UR5e", 0), result, None)
+    bench = episode_record(Job("recent", "kinematic", "cube_in_bin", "UR5e", 0), result)
     assert {key: bench[key] for key in record} == record
     assert main(["run", "--infiller.type", "rule", "--no-log", "--json"]) == 0
     printed = json.loads(capsys.readouterr().out)

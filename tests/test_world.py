@@ -193,6 +193,7 @@ def test_every_embodiment_builds_a_suite_scene_and_steps(robot):
     obs, _ = env.reset(seed=0)
     obs, *_ = env.step(np.zeros(7))
     assert np.all(np.isfinite(obs["agent_pos"])) and obs["environment_state"][_slot(env, "drawer")][7] == 1.0
+    assert env.embodiment.arm_dof == len(env._env.robots[0].robot_arm_joints)  # the joint slots it fills
     env.close()
 
 

@@ -3,7 +3,9 @@
 A worker process holds one :class:`EpisodeRunner`: it loads the LM once and shares it between the
 agents of all methods, so every method runs on the same backend and model. Its record of an
 episode is the episode's own record (``recent run --json``) plus the job; an error that breaks an
-episode off is a record too (a ``crash``).
+episode off is a record too (a ``crash``). The episode's logs are captured in memory and handed
+back with the record (an :class:`Outcome`): the driver alone writes them, into one log directory
+and one LeRobotDataset per run, wherever the worker ran.
 """
 
 from __future__ import annotations
@@ -12,6 +14,7 @@ import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
+from lerobot_policy_recent.logs.recorder import CapturedEpisode, Recorder
 from lerobot_policy_recent.recent_plugin.agent import RecentAgent
 from lerobot_policy_recent.recent_plugin.evaluation.methods import settings_for
 from lerobot_policy_recent.recent_plugin.failures import FailureCategory
@@ -34,9 +37,10 @@ class Job:
         task = self.task_id.split("/")[-1]
         return out / "episodes" / self.method / self.target / f"{task}__s{self.seed}.json"
 
-    def log_dir(self, out: Path) -> Path:
-        task = self.task_id.split("/")[-1]
-        return out / "logs" / self.method / self.target / f"{task}__s{self.seed}"
+
+def log_dir(out: Path) -> Path:
+    """A run's one log directory (MCAP, Rerun, the LeRobotDataset, events and results of every episode)."""
+    return out / "logs"
 
 
 @dataclass
@@ -52,7 +56,7 @@ class BenchConfig:
     cpus_per_worker: float | None = None  # CPUs a worker reserves (None: 2, or the CPUs shared by `workers`)
     gpus_per_worker: float | None = None  # GPUs a worker reserves (None: 1 for a transformers LM on a GPU cluster)
     ray_address: str | None = None  # an existing Ray cluster (None: $RAY_ADDRESS, else a local instance)
-    log_sinks: tuple[str, ...] = ("mcap", "rerun", "dataset")  # empty: no logs
+    log_sinks: tuple[str, ...] = ("mcap", "rerun", "dataset")  # the driver's sinks; empty: no logs
     retry_crashed: bool = False  # run again the episodes whose record says an error broke them off
     agent: RecentSettings = field(default_factory=RecentSettings)
 
@@ -95,13 +99,12 @@ class EpisodeRunner:
             )
         return self.agents[method]
 
-    def run(self, job: Job) -> dict:
-        """One episode of ``job``; its record (a failure to run is a record too)."""
-        from lerobot_policy_recent.logs.recorder import Recorder
+    def run(self, job: Job) -> Outcome:
+        """One episode of ``job``: its record (a failure to run is a record too) and its captured logs."""
         from lerobot_policy_recent.recent_plugin.episode import run_episode
 
         config = self.config
-        recorder = Recorder(job.log_dir(config.out), config.log_sinks) if config.log_sinks else None
+        recorder = Recorder.in_memory() if config.log_sinks else None
         started = time.perf_counter()
         try:
             result = run_episode(
@@ -112,12 +115,20 @@ class EpisodeRunner:
                 variations=config.variations,
                 recorder=recorder,
             )
+            record = episode_record(job, result)
         except Exception as exc:  # noqa: BLE001 - a crashed episode is a failed record, the run goes on
-            return crash_record(job, f"{type(exc).__name__}: {exc}", time.perf_counter() - started)
-        finally:
-            if recorder is not None:
-                recorder.close()
-        return episode_record(job, result, job.log_dir(config.out) if recorder else None)
+            record = crash_record(job, f"{type(exc).__name__}: {exc}", time.perf_counter() - started)
+        captured = recorder.captured if recorder is not None else []
+        return Outcome(record, captured[0] if captured else None)
+
+
+@dataclass
+class Outcome:
+    """What a worker hands back for one job: the record, and the episode's logs for the driver to write
+    (None without logs, or where the worker was lost mid-episode)."""
+
+    record: dict
+    log: CapturedEpisode | None = None
 
 
 def crash_record(job: Job, reason: str, seconds: float = 0.0) -> dict:
@@ -132,9 +143,9 @@ def crash_record(job: Job, reason: str, seconds: float = 0.0) -> dict:
     }
 
 
-def episode_record(job: Job, result, log_dir: Path | None) -> dict:
+def episode_record(job: Job, result) -> dict:
     """One bench record: the job, then the episode's own record (the same one ``recent run --json`` prints)."""
-    record = {**asdict(job), **result.to_record(), "log_dir": str(log_dir) if log_dir else None}
+    record = {**asdict(job), **result.to_record()}
     record["success"] = bool(record["success"])
     record["gc"] = float(record["gc"] or 0.0)
     return record

@@ -17,7 +17,7 @@ from collections import Counter, deque
 from collections.abc import Callable, Iterator
 from dataclasses import replace
 
-from lerobot_policy_recent.recent_plugin.evaluation.jobs import BenchConfig, EpisodeRunner, Job, crash_record
+from lerobot_policy_recent.recent_plugin.evaluation.jobs import BenchConfig, EpisodeRunner, Job, Outcome, crash_record
 
 MAX_ATTEMPTS = 3  # an episode whose worker died this often is recorded as a crash, not retried for ever
 DEFAULT_CPUS_PER_WORKER = 2  # the protocol's LM threads (the paper's timings are for 2 threads)
@@ -40,16 +40,16 @@ class EpisodeWorker:
         """None once the LM is loaded; else what stopped it (a missing model, a bad setting)."""
         return self.error
 
-    def run(self, job: Job) -> dict:
+    def run(self, job: Job) -> Outcome:
         import ray
 
         if self.error is not None:  # a replacement worker whose LM did not load: the driver says why
             raise self.error
         started = time.perf_counter()
-        record = self.runner.run(job)
-        record["worker_seconds"] = round(time.perf_counter() - started, 4)
-        record["node"] = ray.get_runtime_context().get_node_id()[:12]
-        return record
+        outcome = self.runner.run(job)
+        outcome.record["worker_seconds"] = round(time.perf_counter() - started, 4)
+        outcome.record["node"] = ray.get_runtime_context().get_node_id()[:12]
+        return outcome
 
 
 def plan_workers(config: BenchConfig, cluster_cpus: float, cluster_gpus: float) -> dict:
@@ -135,8 +135,8 @@ class RayEngine:
         env = {k: v for k, v in os.environ.items() if k.startswith(FORWARDED_ENV)}
         return actor.remote(replace(self.config, agent=self._settings()), env)
 
-    def run(self, jobs: list[Job], *, on_retry: Callable[[Job, str], None] | None = None) -> Iterator[dict]:
-        """Every job's record, in the order they end; lost workers' episodes are run again elsewhere."""
+    def run(self, jobs: list[Job], *, on_retry: Callable[[Job, str], None] | None = None) -> Iterator[Outcome]:
+        """Every job's outcome, in the order they end; lost workers' episodes are run again elsewhere."""
         if not jobs:
             return
         import ray
@@ -163,7 +163,7 @@ class RayEngine:
             (ref,), _ = ray.wait(list(in_flight), num_returns=1)
             worker, job, submitted = in_flight.pop(ref)
             try:
-                record = ray.get(ref)
+                outcome = ray.get(ref)
             except lost_worker as error:
                 ray.kill(worker)
                 workers.remove(worker)
@@ -174,14 +174,15 @@ class RayEngine:
                     if on_retry is not None:
                         on_retry(job, reason)
                 else:
-                    yield crash_record(job, f"{reason} ({attempts[job]} times)")
+                    yield Outcome(crash_record(job, f"{reason} ({attempts[job]} times)"))
                 if not workers and queue:  # every worker is gone: start one (it waits for the cluster's resources)
                     workers.append(self._start_worker())
                     idle.append(workers[-1])
                 feed()
                 continue
             # what Ray added to the episode: scheduling, transfer and result handling, not the episode itself
+            record = outcome.record
             record["ray_overhead_seconds"] = round(time.perf_counter() - submitted - record["worker_seconds"], 4)
-            yield record
+            yield outcome
             idle.append(worker)
             feed()

@@ -2,9 +2,12 @@
 
 Each finished episode is written to ``DIR/episodes/<method>/<target>/<task>__s<seed>.json`` as
 soon as it ends (atomically), so a restarted run skips what is done. Episodes run on Ray
-(:mod:`.ray_engine`), each on a worker that holds one :class:`~.jobs.EpisodeRunner`. Episodes
-are logged as ``recent run`` logs them, one log directory per episode under ``DIR/logs/``
-(MCAP, Rerun, LeRobotDataset, grounding events).
+(:mod:`.ray_engine`), each on a worker that holds one :class:`~.jobs.EpisodeRunner`. Workers
+capture each episode's logs and hand them back; the driver writes them, as ``recent run`` would,
+into the run's one log directory ``DIR/logs/`` (an MCAP and a Rerun recording per episode, one
+LeRobotDataset, the grounding-event and result tables). A record names its episode there
+(``log_dir``, ``log_episode``); the log is written before the record, so a record never points
+at a log that is not there.
 """
 
 from __future__ import annotations
@@ -15,10 +18,12 @@ import os
 import platform
 import shutil
 from collections.abc import Callable
+from contextlib import nullcontext
 from dataclasses import astuple, dataclass, replace
 from pathlib import Path
 
-from lerobot_policy_recent.recent_plugin.evaluation.jobs import SUITE_TARGETS, BenchConfig, Job
+from lerobot_policy_recent.logs.recorder import Recorder
+from lerobot_policy_recent.recent_plugin.evaluation.jobs import SUITE_TARGETS, BenchConfig, Job, log_dir
 from lerobot_policy_recent.recent_plugin.evaluation.metrics import crashed
 from lerobot_policy_recent.recent_plugin.evaluation.ray_engine import RayEngine
 
@@ -62,8 +67,12 @@ def run_bench(
     config.out.mkdir(parents=True, exist_ok=True)
     config = replace(config, out=config.out.resolve())  # workers may start elsewhere (a cluster's nodes)
     ran = []
-    with RayEngine(config) as engine:
-        for record in engine.run(todo, on_retry=on_retry):
+    recorder = Recorder(log_dir(config.out), config.log_sinks) if config.log_sinks and todo else None
+    with RayEngine(config) as engine, recorder or nullcontext():
+        for outcome in engine.run(todo, on_retry=on_retry):
+            record = outcome.record
+            if recorder is not None and outcome.log is not None:
+                record.update(log_dir=str(recorder.layout.root), log_episode=recorder.write(outcome.log))
             write_json(Job(*record_key(record)).record_path(config.out), record)
             ran.append(record)
             if on_record is not None:
