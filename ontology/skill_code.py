@@ -280,6 +280,57 @@ def unroll(stmt: ast.stmt) -> list[tuple[ast.Assign, list[ast.stmt]]] | None:
     return iterations
 
 
+@dataclass(frozen=True)
+class CallCount:
+    """How many calls a piece of skill code makes when it runs, counted as the paper counts them."""
+
+    primitives: int  # calls of the robot's primitives (actions), literal loops unrolled
+    position_reads: int  # ``task.get_object_position(...)``, left out of the paper's count
+
+    def __add__(self, other: CallCount) -> CallCount:
+        return CallCount(self.primitives + other.primitives, self.position_reads + other.position_reads)
+
+
+def count_calls(code: str, entry: str, primitives: set[str]) -> CallCount:
+    """The calls ``entry`` makes: a loop over a literal list, tuple or ``range`` of constants counts
+    its body once per item (other loops once); both branches of an ``if`` count."""
+
+    def count(statements: list[ast.stmt]) -> CallCount:
+        total = CallCount(0, 0)
+        for stmt in statements:
+            if isinstance(stmt, ast.For | ast.While | ast.If | ast.With | ast.Try):
+                nested = [s for field in ("body", "orelse", "finalbody") for s in getattr(stmt, field, [])]
+                nested += [s for handler in getattr(stmt, "handlers", []) for s in handler.body]
+                header = [stmt.iter] if isinstance(stmt, ast.For) else [getattr(stmt, "test", None)]
+                times = _literal_iterations(stmt) if isinstance(stmt, ast.For) else 1
+                inner = count(nested)
+                total += CallCount(inner.primitives * times, inner.position_reads * times)
+                total += _calls_in([h for h in header if h is not None], primitives)
+            else:
+                total += _calls_in([stmt], primitives)
+        return total
+
+    return count(body_statements(entry_function(code, entry)))
+
+
+def _literal_iterations(loop: ast.For) -> int:
+    """How often a ``for`` loop runs where the code says it: a literal sequence or ``range`` of constants; else 1."""
+    if isinstance(loop.iter, ast.List | ast.Tuple):
+        return len(loop.iter.elts)
+    call = loop.iter
+    if isinstance(call, ast.Call) and isinstance(call.func, ast.Name) and call.func.id == "range":
+        if all(isinstance(a, ast.Constant) and isinstance(a.value, int) for a in call.args) and call.args:
+            return len(range(*(a.value for a in call.args)))
+    return 1
+
+
+def _calls_in(nodes: list[ast.AST], primitives: set[str]) -> CallCount:
+    calls = [n for node in nodes for n in ast.walk(node) if isinstance(n, ast.Call)]
+    actions = sum(1 for c in calls if isinstance(c.func, ast.Name) and c.func.id in primitives)
+    reads = sum(1 for c in calls if isinstance(c.func, ast.Attribute) and c.func.attr == "get_object_position")
+    return CallCount(actions, reads)
+
+
 def _nested_source(code: str, node: ast.stmt, indent: str) -> str:
     """A statement from inside a loop as segments keep it: first line bare, later lines at ``indent``."""
     text = textwrap.dedent(ast.get_source_segment(code, node, padded=True) or ast.unparse(node))

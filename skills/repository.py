@@ -12,7 +12,7 @@ from pathlib import Path
 
 import yaml
 
-from lerobot_policy_recent.ontology.skill_code import CallSite, call_sites, parse_skill
+from lerobot_policy_recent.ontology.skill_code import CallCount, CallSite, call_sites, count_calls, parse_skill
 from lerobot_policy_recent.ontology.specs import ApiSpec, load_api_spec
 from lerobot_policy_recent.robosuite_envs.embodiments import get_embodiment
 from lerobot_policy_recent.robosuite_envs.primitives import api_spec_path
@@ -107,6 +107,11 @@ def derived_capabilities(skill: Skill) -> list[str]:
     """Capabilities of the primitives the code calls, read from the source API's metadata."""
     api = source_api(skill)
     return sorted({cap for site in source_call_sites(skill) for cap in api.get(site.name).capabilities})
+
+
+def skill_calls(skill: Skill) -> CallCount:
+    """The primitive calls (and position reads) the skill makes, counted as the paper counts them."""
+    return count_calls(skill.code, skill.entry, set(source_api(skill).names()))
 
 
 def source_api(skill: Skill) -> ApiSpec:
