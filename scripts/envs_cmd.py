@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 import json
+import statistics
 
 from lerobot_policy_recent.robosuite_envs.embodiments import EMBODIMENTS
 from lerobot_policy_recent.robosuite_envs.primitives import api_functions
 from lerobot_policy_recent.robosuite_envs.subtasks import SUBTASKS, get_subtask
 from lerobot_policy_recent.robosuite_envs.suites import SUITES, get_task
 from lerobot_policy_recent.robosuite_envs.variations import ON, VARIATIONS
+from lerobot_policy_recent.skills.repository import task_calls
 
 
 def register(sub) -> None:
@@ -31,6 +33,7 @@ def _list(args) -> int:
         "subtasks": len(SUBTASKS),
         "suites": {name: len(tasks) for name, tasks in SUITES.items()},
         "variations": list(VARIATIONS),
+        "calls_per_task": {name: call_stats(tasks) for name, tasks in SUITES.items()},
     }
     if args.json:
         print(json.dumps(summary, indent=2))
@@ -42,13 +45,31 @@ def _list(args) -> int:
     for s in SUBTASKS.values():
         print(f"  {s.name:<18} {s.family:<12} {s.category:<27} {s.description}")
     for name, tasks in SUITES.items():
-        print(f"\nSuite {name} ({len(tasks)} tasks):")
+        stats = summary["calls_per_task"][name]
+        print(
+            f"\nSuite {name} ({len(tasks)} tasks; primitive calls per task: mean {stats['mean']}, max {stats['max']}; "
+            f"subtasks per task: mean {stats['subtasks_mean']}):"
+        )
         for t in tasks:
-            print(f"  {t.task_id:<32} {len(t.plan)} subtask(s)  {t.instruction}")
+            calls = task_calls([s.skill for s in t.plan]).primitives
+            print(f"  {t.task_id:<32} {len(t.plan)} subtask(s) {calls:>3} calls  {t.instruction}")
     print("\nVariations (--variations on = " + ", ".join(ON) + "):")
     for name, text in VARIATIONS.items():
         print(f"  {name:<18} {text}")
     return 0
+
+
+def call_stats(tasks) -> dict:
+    """Primitive calls per task as the paper counts them (literal loops unrolled, position reads left
+    out, which are reported beside), and subtasks per task."""
+    counts = [task_calls([s.skill for s in t.plan]) for t in tasks]
+    calls = [c.primitives for c in counts]
+    return {
+        "mean": round(statistics.mean(calls), 2),
+        "max": max(calls),
+        "mean_with_position_reads": round(statistics.mean(c.primitives + c.position_reads for c in counts), 2),
+        "subtasks_mean": round(statistics.mean(len(t.plan) for t in tasks), 2),
+    }
 
 
 def _show(args) -> int:

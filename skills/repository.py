@@ -114,6 +114,14 @@ def skill_calls(skill: Skill) -> CallCount:
     return count_calls(skill.code, skill.entry, set(source_api(skill).names()))
 
 
+def task_calls(plan_skills: list[str], library: Path = LIBRARY) -> CallCount:
+    """The calls a task's plan makes: the sum over the reference skills of its subtasks."""
+    total = CallCount(0, 0)
+    for name in plan_skills:
+        total += skill_calls(load_skill(name, library))
+    return total
+
+
 def source_api(skill: Skill) -> ApiSpec:
     return load_api_spec(api_spec_path(get_embodiment(skill.source_embodiment).api))
 

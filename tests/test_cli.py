@@ -76,6 +76,8 @@ def test_envs_list_json_counts_the_world(capsys):
     assert world["primitives"] >= 40 and world["subtasks"] >= 16
     assert world["suites"] == {"kinematic": 20, "end_effector": 12}
     assert "obstacle" in world["variations"]
+    calls = world["calls_per_task"]  # the paper's way of counting (test_skill_code has the rules)
+    assert set(calls) == {"kinematic", "end_effector"} and calls["kinematic"]["max"] >= calls["kinematic"]["mean"] > 0
 
 
 def test_envs_show_prints_instruction_plan_and_objects(capsys):

@@ -45,3 +45,28 @@ def test_segments_unroll_literal_loops_and_data_flow_finds_what_a_call_needs():
     nodes = [node for node, _ in statements]
     # the last pick needs goal, which needs pos (a task query, no primitive), which needs name
     assert dependency_indices(nodes[:-1], nodes[-1], {"pick"}) == [0, 1, 2]
+
+
+def test_calls_are_counted_as_the_paper_counts_them():
+    """Primitive calls, literal loops unrolled (a list, a range of constants), position reads apart."""
+    from lerobot_policy_recent.ontology.skill_code import count_calls
+
+    code = """def skill(env, task, n=3):
+    \"\"\"Doc.\"\"\"
+    p = task.get_object_position("cube")
+    open_gripper(env, task)
+    for dy in [-0.1, 0.0, 0.1]:
+        push(env, task, start_pos=[p[0], p[1] + dy, p[2]], target_pos=p)
+    for _ in range(2):
+        q = task.get_object_position("cube")
+        move(env, task, target_pos=q)
+    for _ in range(n):  # not literal: counted once
+        close_gripper(env, task)
+    if p[2] > 0.1:
+        place(env, task, target_pos=p)
+    else:
+        pick(env, task, target_pos=p)
+    helper(p)
+"""
+    counted = count_calls(code, "skill", {"open_gripper", "push", "move", "close_gripper", "place", "pick"})
+    assert (counted.primitives, counted.position_reads) == (1 + 3 + 2 + 1 + 2, 1 + 2)
