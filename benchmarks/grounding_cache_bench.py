@@ -39,7 +39,11 @@ def main() -> None:
         print("| process | skills | served from disk | grounding (s) |\n|---:|---:|---:|---:|")
         for n in range(1, args.processes + 1):
             out = subprocess.run(
-                [sys.executable, "-c", CHILD, args.task, args.robot], env=env, capture_output=True, text=True, check=True
+                [sys.executable, "-c", CHILD, args.task, args.robot],
+                env=env,
+                capture_output=True,
+                text=True,
+                check=True,
             )
             row = json.loads(out.stdout.strip().splitlines()[-1])
             print(f"| {n} | {len(row['hits'])} | {sum(row['hits'])} | {row['seconds']:.3f} |")

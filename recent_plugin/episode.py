@@ -43,9 +43,13 @@ class EpisodeResult:
         )
 
     def patch_calls(self) -> list[LMCall]:
-        """Every repair and revise call: during execution, and a baseline's answers to a rejected program."""
-        before = [c for s in self.grounding.skills for c in s.calls if c.kind in INTERRUPTING_CALLS]
-        return before + [c for c in self.runtime_calls if c.kind in INTERRUPTING_CALLS]
+        """Every repair and revise call made while the robot ran: the same rule for every method.
+
+        Calls before the first action (grounding, and any retry of code rejected before it ran:
+        RECENT's validation, a baseline's syntax or security rejection) are no interruption; they
+        count in GO-pre and IGT.
+        """
+        return [c for c in self.runtime_calls if c.kind in INTERRUPTING_CALLS]
 
     def interruptions(self) -> list[LMCall]:
         """The repair and revise calls the model answered (a span the fast path rendered made no one wait)."""

@@ -4,7 +4,9 @@ Each top-level statement of a skill's entry function is a *segment*, compiled on
 generator in which every primitive call becomes ``yield from primitive(...)``. LeRobot calls
 ``select_action`` once per step; the executor advances the current segment by one action. A
 segment that has not started yet can still be swapped (in-situ patching) without touching the
-ones that ran. Only code that passed validation is ever compiled here.
+ones that ran. Only code that passed the security gate is ever compiled here; a wrong name or
+keyword in it fails when it is reached, with Python's own error, categorised in the paper's
+taxonomy (:func:`runtime_category`).
 """
 
 from __future__ import annotations
@@ -12,6 +14,7 @@ from __future__ import annotations
 import ast
 import builtins
 import copy
+import functools
 import textwrap
 from collections import Counter
 from collections.abc import Callable, Generator
@@ -23,12 +26,19 @@ import numpy as np
 from lerobot_policy_recent.logs.events import Emit, SegmentEnded, SegmentFailed, SegmentStarted, ignore
 from lerobot_policy_recent.ontology.diagnosis import Warning
 from lerobot_policy_recent.ontology.skill_code import entry_function, segment_statements
+from lerobot_policy_recent.ontology.specs import load_api_spec
 from lerobot_policy_recent.ontology.target import Target
 from lerobot_policy_recent.recent_plugin.failures import PRIMITIVE_FAILURE_CATEGORY, FailureCategory
 from lerobot_policy_recent.recent_plugin.grounding.gate import SAFE_HELPERS
 from lerobot_policy_recent.recent_plugin.grounding.grounder import GroundedSkill
 from lerobot_policy_recent.robosuite_envs.observation import Observation
-from lerobot_policy_recent.robosuite_envs.primitives import PrimitiveFailure, RobotSession, TaskContext
+from lerobot_policy_recent.robosuite_envs.primitives import (
+    PrimitiveFailure,
+    RobotSession,
+    TaskContext,
+    api_spec_path,
+    available_apis,
+)
 from lerobot_policy_recent.robosuite_envs.primitives.control import servo_action
 
 _SAFE_BUILTINS = {name: getattr(builtins, name) for name in SAFE_HELPERS}
@@ -232,12 +242,8 @@ class SkillExecutor:
                 self.cursor += 1
             except PrimitiveFailure as exc:
                 self._fail(PRIMITIVE_FAILURE_CATEGORY[exc.kind], str(exc))
-            except NameError as exc:
-                self._fail(FailureCategory.HALLUCINATED_NAME, f"NameError: {exc}")
-            except TypeError as exc:
-                self._fail(FailureCategory.HALLUCINATED_KWARG, f"TypeError: {exc}")
             except Exception as exc:  # noqa: BLE001 - any error in skill code fails the skill, not the episode
-                self._fail(FailureCategory.NON_EXECUTABLE, f"{type(exc).__name__}: {exc}")
+                self._fail(runtime_category(exc), f"{type(exc).__name__}: {exc}")
         return None
 
     def _fail(self, category: FailureCategory, message: str, *, repairable: bool = True) -> None:
@@ -248,6 +254,27 @@ class SkillExecutor:
         if repairable and self.adapter is not None and self.adapter.repair(self, failure):
             return  # the failed segment was replaced by a repair; it runs again from the current state
         self.failure = failure
+
+
+def runtime_category(error: Exception) -> FailureCategory:
+    """The paper's category of an error raised by safe skill code: NameError is a hallucinated name,
+    or a hallucinated API where the name is a primitive of some robot; AttributeError (a task query
+    that does not exist) a hallucinated API; TypeError (a wrong or missing keyword) a hallucinated kwarg."""
+    if isinstance(error, NameError) and not isinstance(error, UnboundLocalError):
+        return (
+            FailureCategory.HALLUCINATED_API if error.name in known_primitives() else FailureCategory.HALLUCINATED_NAME
+        )
+    if isinstance(error, AttributeError):
+        return FailureCategory.HALLUCINATED_API
+    if isinstance(error, TypeError):
+        return FailureCategory.HALLUCINATED_KWARG
+    return FailureCategory.NON_EXECUTABLE
+
+
+@functools.cache
+def known_primitives() -> frozenset[str]:
+    """Every bundled robot's primitive names (a NameError on one is a call of an API this robot lacks)."""
+    return frozenset(name for api in available_apis() for name in load_api_spec(api_spec_path(api)).names())
 
 
 @dataclass

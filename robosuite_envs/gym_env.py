@@ -60,7 +60,9 @@ class RecentEnv(gym.Env):
         self.task = self.task_description
         self.camera = camera
         if camera and render_mode != "rgb_array":
-            raise ValueError(f"camera=True renders the front view: it needs render_mode='rgb_array', not {render_mode!r}")
+            raise ValueError(
+                f"camera=True renders the front view: it needs render_mode='rgb_array', not {render_mode!r}"
+            )
         spaces_ = {
             "agent_pos": spaces.Box(-np.inf, np.inf, (AGENT_POS_DIM,), np.float32),
             "environment_state": spaces.Box(-np.inf, np.inf, (ENV_STATE_DIM,), np.float32),

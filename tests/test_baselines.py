@@ -14,7 +14,6 @@ from lerobot_policy_recent.recent_plugin.baselines.program_prompt import PROGRAM
 from lerobot_policy_recent.recent_plugin.episode import run_episode
 from lerobot_policy_recent.recent_plugin.infillers.configs import RuleConfig
 from lerobot_policy_recent.recent_plugin.methods import method_named
-from lerobot_policy_recent.recent_plugin.refactoring.fim_prompt import build_prompt
 from lerobot_policy_recent.recent_plugin.settings import RecentSettings
 from lerobot_policy_recent.robosuite_envs.suites import get_task
 
@@ -55,30 +54,33 @@ def test_agentless_prompt_adds_descriptions_objects_and_workspace(ontology):
     assert "  -- " in prefix  # each primitive's description
 
 
-def test_cap_regenerates_the_whole_program_with_the_error_and_counts_a_repair(ontology):
+def test_cap_runs_a_wrong_program_until_it_fails_then_regenerates_it_with_pythons_error(ontology):
+    """The paper's protocol: no interface validation; the Panda call fails when reached (NameError),
+    and cap regenerates the whole program with that error appended, from the current state."""
     wrong = UR5E_BODY.replace("open_ur5_ee(env, task)", PANDA_LINE)
     agent, infiller = _agent(ontology, "cap", [wrong, UR5E_BODY])
     result = run_episode(agent, "cube_in_bin", "UR5e", seed=0)
     assert result.success
     grounded = result.grounding.skills[0]
-    assert [c.kind for c in grounded.calls] == ["ground", "repair"]
-    assert [c.span_type for c in grounded.calls] == [PROGRAM, PROGRAM]
-    assert "# Failed before: open_gripper is a Panda primitive" in build_prompt(infiller.units[1], 0).prefix
-    # the paper's accounting: GO counts the repair's tokens (the first program is GO-pre), one interruption
+    assert [c.kind for c in grounded.calls] == ["ground"] and grounded.valid  # it ran as written
+    assert [(c.kind, c.span_type) for c in result.runtime_calls] == [("repair", PROGRAM)]
+    assert result.failures == [] and result.adaptations[0].checks == ("hallucinated_api",)  # the taxonomy
+    feedback = infiller.units[1].hints.feedback
+    assert "NameError: name 'open_gripper' is not defined" in feedback  # Python's own error
+    # the paper's accounting: the first program is GO-pre, the repair is GO, one interruption
     assert result.generated_tokens == 14 and result.skill_tokens == 100 and result.adaptation_tokens == 7
     assert result.go == pytest.approx(7.0) and result.go_pre == pytest.approx(7.0)
     assert result.ei == 1 and result.it == pytest.approx(0.01)
 
 
 @pytest.mark.parametrize("method", ["repair", "agentless"])
-def test_repair_and_agentless_rewrite_only_the_statement_the_error_points_at(ontology, method):
+def test_repair_and_agentless_rewrite_only_the_statement_that_failed(ontology, method):
     wrong = UR5E_BODY.replace("open_ur5_ee(env, task)", PANDA_LINE)
     agent, infiller = _agent(ontology, method, [wrong, "open_ur5_ee(env, task)"])
-    grounded, _ = agent.ground("put_in_bin", "UR5e", get_task("cube_in_bin"))
-    assert grounded.valid
-    assert [c.span_type for c in grounded.calls] == [PROGRAM, STATEMENT]
-    assert grounded.calls[1].span == PANDA_LINE and grounded.calls[1].kind == "repair"
-    assert "    open_ur5_ee(env, task)\n" in grounded.code and PANDA_LINE not in grounded.code
+    result = run_episode(agent, "cube_in_bin", "UR5e", seed=0)
+    assert result.success
+    assert [(c.kind, c.span_type, c.span) for c in result.runtime_calls] == [("repair", STATEMENT, PANDA_LINE)]
+    assert "NameError" in infiller.units[1].hints.feedback
 
 
 def test_unsafe_or_empty_output_is_never_accepted(ontology):
@@ -116,3 +118,114 @@ def test_real_lm_writes_a_cap_program(ontology, llama_infiller):
     grounded = result.grounding.skills[0]
     assert grounded.calls and grounded.calls[0].kind == "ground" and grounded.calls[0].generated_tokens > 0
     assert result.go_pre > 50.0  # a whole program: far above RECENT's localized edits
+
+
+def _rule_body(ontology, skill: str, task: str) -> str:
+    """The UR5e body RECENT's rule backend grounds for ``skill`` (a correct program to script with)."""
+    from lerobot_policy_recent.ontology.skill_code import body_span
+
+    grounded, _ = RecentAgent(RecentSettings(infiller=RuleConfig()), ontology=ontology).ground(
+        skill, "UR5e", get_task(task)
+    )
+    start, end = body_span(grounded.code, grounded.entry)
+    return grounded.code[start:end]
+
+
+def test_a_safe_but_wrong_program_runs_up_to_the_failing_call_and_gc_counts_what_ran(ontology):
+    """Two subtasks: the first program is right, the second passes a keyword the robot's primitive
+    lacks. It runs until that call raises Python's TypeError; the first subtask stays achieved."""
+    task = "kinematic/plate_then_button"
+    place = _rule_body(ontology, "place_on_plate", task)
+    press = _rule_body(ontology, "press_button", task).replace("(env, task", "(env, task, speed=1.0", 1)
+    infiller = ScriptedInfiller([place, press])
+    agent = RecentAgent(
+        RecentSettings(infiller=RuleConfig(), method=method_named("cap"), max_repairs=0),
+        ontology=ontology,
+        infiller=infiller,
+    )
+    result = run_episode(agent, task, "UR5e", seed=0)
+    assert all(s.valid for s in result.grounding.skills)  # both ran as written: no interface validation
+    assert not result.success and result.gc == pytest.approx(0.5)  # the plate subtask counts
+    (failure,) = result.failures
+    assert failure.skill == "press_button" and failure.category == "hallucinated_kwarg"
+    assert failure.message.startswith("TypeError:") and "speed" in failure.message
+
+
+HOSTILE_OUTPUT = [  # what an LM must never get to run, whichever method asked it
+    "open({path!r}, 'w').write('x')",
+    "__import__('os').system('touch {path}')",
+    "import os\n    os.system('touch {path}')",
+    "x = env.__class__.__subclasses__()",
+    "x = env.sim.data.qpos",
+    "getattr(env, 'sim')",
+    "exec(\"open({path!r}, 'w')\")",
+]
+
+
+@pytest.mark.parametrize(
+    ("method", "robot"),
+    [
+        ("recent", "UR5e"),
+        ("recent+fast-path", "Sawyer"),  # on UR5e the fast path renders every span and never asks the LM
+        ("recent-full-regen", "UR5e"),
+        ("cap", "UR5e"),
+        ("repair", "UR5e"),
+        ("agentless", "UR5e"),
+    ],
+)
+def test_the_security_gate_blocks_hostile_output_for_every_method(ontology, tmp_path, method, robot):
+    marker = tmp_path / "pwned"
+    texts = [t.format(path=str(marker)) for t in HOSTILE_OUTPUT] * 20
+    agent, infiller = _agent(ontology, method, texts)
+    result = run_episode(agent, "cube_in_bin", robot, seed=0, max_steps=40)
+    assert infiller.units, "the method never asked the LM"
+    assert not marker.exists()  # nothing hostile ran
+    assert not result.success and all(c.category != "crash" for c in result.failures)
+
+
+@pytest.mark.parametrize("method", ["recent", "cap"])
+def test_calls_before_the_first_action_count_the_same_for_every_method(ontology, method):
+    """A retry before anything ran is grounding (GO-pre, IGT) for RECENT and a baseline alike: no EI, IT or GO."""
+    recorded = _recorded_completions(ontology, method)
+    agent, infiller = _agent(ontology, method, ["", *recorded])  # the first answer is empty: rejected
+    result = run_episode(agent, "cube_in_bin", "UR5e", seed=0)
+    assert result.success
+    calls = [c for s in result.grounding.skills for c in s.calls]
+    assert [c.kind for c in calls] == ["ground"] * len(calls) and calls[0].category == "empty_continuation"
+    assert result.ei == 0 and result.it == 0.0 and result.go == 0.0 and not result.runtime_calls
+    assert result.go_pre == pytest.approx(100 * infiller.tokens * len(calls) / result.skill_tokens)
+
+
+def _recorded_completions(ontology, method: str) -> list[str]:
+    """What a correct run of ``method`` is answered with: the rule backend's spans for RECENT, the
+    grounded body for a baseline's whole-program span."""
+    if method == "cap":
+        return [UR5E_BODY]
+    rule = RuleConfig().build(0)
+    texts: list[str] = []
+
+    class Recording:
+        name, model = "recording", "rule"
+
+        def infill(self, unit):
+            completion = rule.infill(unit)
+            texts.append(completion.text)
+            return completion
+
+        def count_tokens(self, text):
+            return rule.count_tokens(text)
+
+    RecentAgent(RecentSettings(infiller=RuleConfig()), ontology=ontology, infiller=Recording()).ground(
+        "put_in_bin", "UR5e", get_task("cube_in_bin")
+    )
+    return texts
+
+
+@pytest.mark.parametrize(("robot", "succeeds"), [("UR5e", True), ("Sawyer", False)])
+def test_oracle_rule_is_the_ontology_alone_and_never_asks_the_lm(ontology, robot, succeeds):
+    """The sanity row: where the ontology decides every span it succeeds without an LM; Sawyer's
+    object-name parameter is what only an LM (or a person) can bind."""
+    agent, infiller = _agent(ontology, "oracle-rule", [])  # any LM call would pop from an empty script
+    result = run_episode(agent, "cube_in_bin", robot, seed=0, max_steps=400)
+    assert infiller.units == [] and result.generated_tokens == 0
+    assert bool(result.success) is succeeds

@@ -69,3 +69,13 @@ def test_another_model_is_another_experiment_and_a_small_slice_is_only_partial()
     assert RunComparison(same, [], 1, 1.0, {"git_commit": ("c1", "c2")}).verdict == "reproduced"
     differs = [EpisodeComparison(("recent",), {"success": (True, False)}, {})]
     assert RunComparison(differs, [], 1, 1.0).verdict == "outcome differs"
+
+
+def test_lm_necessity_says_when_a_suite_does_not_test_the_lm():
+    from lerobot_policy_recent.recent_plugin.evaluation.report import lm_necessity_lines
+
+    same = lm_necessity_lines(episodes("recent", [True] * 6) + episodes("oracle-rule", [True] * 6))
+    assert any("**kinematic**: +0.0 pp SR" in line and "does not test the LM" in line for line in same)
+    needed = lm_necessity_lines(episodes("recent", [True] * 20) + episodes("oracle-rule", [False] * 20))
+    assert any("+100.0 pp SR [+100.0, +100.0]" in line and "the LM adds success" in line for line in needed)
+    assert lm_necessity_lines(episodes("recent", [True] * 3)) == []  # no oracle-rule row: nothing to say

@@ -5,9 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from lerobot_policy_recent.robosuite_envs.embodiments import ROBOT_BASE_XY
+from lerobot_policy_recent.robosuite_envs.embodiments import ROBOT_BASE_XY, get_embodiment
 from lerobot_policy_recent.robosuite_envs.gym_env import RecentEnv
-from lerobot_policy_recent.robosuite_envs.embodiments import get_embodiment
 from lerobot_policy_recent.robosuite_envs.observation import AGENT_POS_DIM, AGENT_POS_NAMES, ENV_STATE_DIM, MAX_ARM_DOF
 from lerobot_policy_recent.robosuite_envs.tasks import parse_task_string
 

@@ -416,7 +416,9 @@ def test_a_camera_is_logged_as_video(tmp_path, ontology):
 
     agent = RecentAgent(RecentSettings(infiller=RuleConfig()), ontology=ontology)
     with Recorder(tmp_path, ["dataset"]) as recorder:
-        result = run_episode(agent, "kinematic/press_button", "UR5e", seed=0, max_steps=12, recorder=recorder, camera=True)
+        result = run_episode(
+            agent, "kinematic/press_button", "UR5e", seed=0, max_steps=12, recorder=recorder, camera=True
+        )
     dataset = LeRobotDataset("local/recent_episodes", root=LogLayout(tmp_path).dataset_dir, video_backend="pyav")
     assert dataset.meta.video_keys == ["observation.images.front"] and dataset.num_frames == result.steps
     assert list((LogLayout(tmp_path).dataset_dir / "videos").rglob("*.mp4"))

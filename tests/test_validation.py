@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from lerobot_policy_recent.recent_plugin.failures import FailureCategory as F
-from lerobot_policy_recent.recent_plugin.grounding.gate import validate_program
+from lerobot_policy_recent.recent_plugin.grounding.gate import security_gate, validate_program
 
 GOOD = """def put_in_bin(env, task, obj="cube", receptacle="bin"):
     obj_pos = task.get_object_position(obj)
@@ -62,6 +62,37 @@ HOSTILE = [
     ("", F.EMPTY_CONTINUATION),
     ("def other(env, task):\n    pass\n", F.HALLUCINATED_NAME),
 ]
+
+
+# Safe code with a wrong interface: it passes the security gate and fails when it runs, with Python's error.
+INTERFACE_ONLY = {
+    _body("pick(env, task, target_pos=[0, 0, 1])"),
+    _body("ur5_grasp_at(env, task, grasp_pos=[0, 0, 1], approach_distance=0.1)"),
+    _body("ur5_grasp_at(env, task)"),
+    _body("ur5_grasp_at(env, task, [0, 0, 1])"),
+    _body("ur5_grasp_at(env, task, grasp_pos=[0, 1])"),
+    _body("open_ur5_ee(env, task, velocity='fast')"),
+    _body("ur5_grasp_at(env, task, grasp_pos=ball_position)"),
+    _body("ur5_open_gripper(env, task)"),
+}
+
+
+@pytest.mark.parametrize(("code", "category"), HOSTILE, ids=[f"hostile{i}" for i in range(len(HOSTILE))])
+def test_the_security_gate_blocks_everything_unsafe_and_lets_wrong_interfaces_run(ontology, code, category):
+    verdict = security_gate(code, "put_in_bin", ontology.api("UR5e").names())
+    if code in INTERFACE_ONLY:
+        assert verdict.ok, verdict.message  # it fails at run time instead (test_baselines)
+    else:
+        assert not verdict.ok and verdict.category == category, verdict.message
+
+
+def test_a_verdict_lists_every_violation_at_once(ontology):
+    code = _body("open_gripper(env, task)", "ur5_grasp_at(env, task, grasp_pos=ball)", "x = env.sim")
+    verdict = validate_program(code, ontology.api("UR5e"), "put_in_bin", ontology.apis)
+    assert verdict.category == F.HALLUCINATED_API and verdict.line == 2  # the first one leads
+    assert verdict.message.startswith("3 problems:")
+    assert "open_gripper is a Panda primitive" in verdict.message and "'ball' is not defined" in verdict.message
+    assert "line 4: attribute access .sim" in verdict.message
 
 
 def test_grounded_program_is_accepted(ontology):

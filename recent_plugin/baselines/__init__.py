@@ -11,7 +11,9 @@ and in how failures are handled (the paper's appendix "Baseline Implementations"
 * ``agentless`` — a constraint-aware prompt (primitive specifications, scene objects, workspace
   bounds); on a failure the failing line is regenerated first, then the whole function.
 
-Generated code still passes validation before it runs (no LM output is ever executed unchecked):
-a program the gate rejects is what would have raised at run time, so it is answered the way the
-baseline answers an execution error, and counted as one (EI, IT).
+One protocol for every method, as in the paper: generated programs run in the simulator until
+they fail. Every program passes the security gate first (no LM output runs unchecked for safety);
+the baselines get no interface validation, so a wrong primitive, keyword or name fails when it is
+reached with Python's own error (NameError, TypeError, AttributeError), categorised in the
+paper's taxonomy, fed back as the baseline does, and what ran before it counts for GC.
 """

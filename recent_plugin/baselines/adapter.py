@@ -4,7 +4,8 @@ Baselines have no run-time checks (they react to errors only), so :meth:`guard` 
 :meth:`before_segment` do nothing. When a segment fails, ``cap`` regenerates the whole program
 with the error appended and runs it from its first statement; ``repair`` rewrites the failed
 statement with the error and the observed scene; ``agentless`` rewrites the statement first and
-the whole function if the skill fails again. Every call is a ``repair`` (EI, IT).
+the whole function if the skill fails again. Every call is a ``repair`` (EI, IT). A repair is held
+to the security gate only, as the first program was: it runs until it fails.
 """
 
 from __future__ import annotations
@@ -28,7 +29,7 @@ from lerobot_policy_recent.recent_plugin.grounding.attempts import (
     infill_until_valid,
     source_diff,
 )
-from lerobot_policy_recent.recent_plugin.grounding.gate import Verdict, validate_program
+from lerobot_policy_recent.recent_plugin.grounding.gate import Verdict, security_gate
 from lerobot_policy_recent.recent_plugin.grounding.grounder import GroundedSkill
 from lerobot_policy_recent.recent_plugin.infillers.base import Infiller
 from lerobot_policy_recent.recent_plugin.refactoring.units import RefactoringUnit, apply_unit
@@ -96,7 +97,7 @@ class BaselineAdapter:
         def judge(unit: RefactoringUnit, text: str) -> tuple[Verdict, str]:
             candidate = apply_unit(base, unit, text)
             return (
-                validate_program(candidate, self.target.api, executor.grounded.entry, self.apis) if text else EMPTY
+                security_gate(candidate, executor.grounded.entry, self.target.api.names()) if text else EMPTY
             ), candidate
 
         before = len(self.calls)

@@ -1,16 +1,18 @@
-"""A baseline's program before execution: generated whole, then answered the baseline's way until it validates.
+"""A baseline's program before execution: generated whole, and run as it is (the paper's protocol).
 
-The first call writes the whole body (``ground``); a rejected program is what would have raised
-once run, so each later call is the baseline's answer to an error (``repair``): ``cap``
-regenerates the whole program with the error appended, ``repair`` and ``agentless`` rewrite the
-statement the error points at (the whole program where it points at none).
+The program passes only the security gate (:func:`~..grounding.gate.security_gate`): no interface
+validation, so a wrong name or keyword fails when the executor reaches it, with Python's error,
+after what came before it ran. Only a program that cannot run at all (empty, a syntax error, an
+unsafe construct) is regenerated before execution, the baseline's way: ``cap`` regenerates the
+whole program with the error appended, ``repair`` and ``agentless`` rewrite the statement the
+error points at (the whole program where it points at none). These retries are grounding calls
+(GO-pre, IGT), as RECENT's rejected spans are.
 """
 
 from __future__ import annotations
 
 import time
 
-from lerobot_policy_recent.ontology.builder import Ontology
 from lerobot_policy_recent.ontology.diagnosis import Diagnosis
 from lerobot_policy_recent.ontology.skill_code import statement_span
 from lerobot_policy_recent.ontology.target import Target
@@ -21,7 +23,7 @@ from lerobot_policy_recent.recent_plugin.baselines.program_prompt import (
     ProgramPrompt,
 )
 from lerobot_policy_recent.recent_plugin.grounding.attempts import infill_until_valid
-from lerobot_policy_recent.recent_plugin.grounding.gate import Verdict, validate_program
+from lerobot_policy_recent.recent_plugin.grounding.gate import Verdict, security_gate
 from lerobot_policy_recent.recent_plugin.grounding.grounder import GroundedSkill, unrecoverable
 from lerobot_policy_recent.recent_plugin.infillers.base import Infiller
 from lerobot_policy_recent.recent_plugin.refactoring.units import RefactoringUnit, apply_unit
@@ -31,7 +33,6 @@ from lerobot_policy_recent.skills.repository import Skill
 def generate_skill(
     skill: Skill,
     target: Target,
-    onto: Ontology,
     infiller: Infiller,
     style: BaselineStyle,
     context: ProgramContext,
@@ -40,7 +41,7 @@ def generate_skill(
 ) -> GroundedSkill:
     """The baseline's program for ``skill`` on ``target`` (validated, or with the reason it is not)."""
     started = time.perf_counter()
-    robot, api, apis = target.name, target.api, onto.apis
+    robot = target.name
     result = GroundedSkill.start(skill, robot, Diagnosis(skill.name, robot), infiller)  # no ontology consulted
     prompt = ProgramPrompt(skill, target, style, context)
     last: dict[str, object] = {"code": None, "verdict": None}  # the previous candidate and why it failed
@@ -57,17 +58,17 @@ def generate_skill(
 
     def judge(unit: RefactoringUnit, text: str) -> tuple[Verdict, str]:
         candidate = apply_unit(last["base"], unit, text)  # type: ignore[arg-type]
-        verdict = validate_program(candidate, api, skill.entry, apis) if text else EMPTY
+        verdict = security_gate(candidate, skill.entry, target.api.names()) if text else EMPTY
         last["code"], last["verdict"] = candidate, verdict
         return verdict, candidate
 
     accepted = infill_until_valid(
-        infiller, make_unit, judge, kind="ground", retry_kind="repair", max_retries=max_retries, calls=result.calls
+        infiller, make_unit, judge, kind="ground", max_retries=max_retries, calls=result.calls
     )
     if accepted is None:
         result.code = last["code"] or skill.code  # type: ignore[assignment]
         result.verdict = unrecoverable(
-            result, f"unrecoverable: no valid {style.name} program after {max_retries + 1} attempts"
+            result, f"unrecoverable: no runnable {style.name} program after {max_retries + 1} attempts"
         )
     else:
         result.code, result.verdict = accepted.candidate, accepted.verdict

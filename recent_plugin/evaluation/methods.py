@@ -7,7 +7,7 @@ from dataclasses import replace
 from lerobot_policy_recent.recent_plugin.methods import Method, method_named, methods_of
 from lerobot_policy_recent.recent_plugin.settings import RecentSettings
 
-_FAMILY_ORDER = ("recent", "variant", "baseline", "ablation")  # how tables list them
+_FAMILY_ORDER = ("recent", "variant", "baseline", "sanity", "ablation")  # how tables list them
 METHODS: tuple[str, ...] = tuple(name for family in _FAMILY_ORDER for name in methods_of(family))
 BASELINE_METHODS = methods_of("baseline")
 ABLATION_METHODS = methods_of("ablation")

@@ -344,6 +344,7 @@ def render_report(dirs: list[Path], out: Path) -> Path:
         "",
         paired_table(records),
         "",
+        *lm_necessity_lines(records),
         "## Headline targets",
         "",
         *(target_checks(records, crashes=len(broken)) or ["- (no RECENT episodes in these runs)"]),
@@ -394,6 +395,30 @@ def paired_table(records: list[dict]) -> str:
             f"{p['gc_diff']:+.1f} [{gc[0]:+.1f}, {gc[1]:+.1f}] |"
         )
     return "\n".join(lines)
+
+
+def lm_necessity_lines(records: list[dict]) -> list[str]:
+    """RECENT's SR minus the no-LM ``oracle-rule`` SR on the same episodes, per suite: what the LM adds.
+    Where it is zero, the suite does not test the LM, and the report says so."""
+    pairs = {
+        k.split("|")[1]: p for k, p in paired_comparisons(records).items() if k.startswith("recent vs oracle-rule|")
+    }
+    if not pairs:
+        return []
+    lines = ["## LM necessity (RECENT minus the ontology's rendering alone)", ""]
+    for suite, p in sorted(pairs.items()):
+        low, high = p["sr_diff_ci95"]
+        verdict = (
+            "the suite does not test the LM: the ontology's rendering alone does as well"
+            if p["sr_diff"] <= 0
+            else "the LM adds success here"
+            + ("" if low > 0 else ", but the interval includes 0: another draw could erase it")
+        )
+        lines.append(
+            f"- **{suite}**: {p['sr_diff']:+.1f} pp SR [{low:+.1f}, {high:+.1f}] over {p['episodes']} shared "
+            f"episodes; {verdict}."
+        )
+    return [*lines, ""]
 
 
 def _per_target(records: list[dict]) -> str:

@@ -99,13 +99,11 @@ def infill_until_valid(
     kind: str,
     max_retries: int,
     calls: list[LMCall],
-    retry_kind: str | None = None,
 ) -> Attempt | None:
     """Ask for a span, judge it, retry with the rejection as feedback; every call is recorded in ``calls``.
 
     ``make_unit(feedback, attempt)`` cuts the unit; ``judge(unit, text)`` returns the verdict and
     the candidate program. The one loop behind grounding, regeneration, revision and repair.
-    ``retry_kind`` records the retries under another kind (a baseline's answer to an error is a repair).
     """
     feedback = None
     for attempt in range(max_retries + 1):
@@ -116,7 +114,7 @@ def infill_until_valid(
         prompt = build_prompt(unit, 0)
         calls.append(
             LMCall(
-                kind=kind if attempt == 0 or retry_kind is None else retry_kind,
+                kind=kind,
                 span_type=unit.span_type,
                 original=unit.hints.original_call,
                 text=text,

@@ -1,15 +1,27 @@
-"""Validation before anything runs: generated code is untrusted.
+"""Checks before anything runs: generated code is untrusted.
 
-An AST allowlist: the skill may define its entry function and call only the target robot's
-primitives (with their declared keywords), the task's read-only queries and a few pure helpers.
-No imports, no dunder or private attributes, no dynamic execution, no unbounded loops, and every
-name must be defined. A verdict carries the paper's failure category for the first violation.
+Two layers over one AST walk:
+
+* the **security gate** (:func:`security_gate`), which every method's code passes before it
+  runs: no imports, no dunder or private names, no dynamic execution (``eval``, ``exec``,
+  ``open``, ``getattr`` …), no unbounded loops or huge literals, no attribute walks into the
+  simulator (skill code reaches the world only through primitives and ``task.<query>(…)``), and
+  nothing that the executor could not run as written (a primitive used as a value, a nested
+  function). Code that passes it is *safe*: a wrong name or keyword in it fails when it is
+  reached, with the error Python gives (the paper's protocol for the baselines);
+* **interface validation** (:func:`validate_program`), RECENT's validation stage: on top of the
+  gate, every call is one of the target robot's primitives with its declared keywords, or a task
+  query or helper, and every name is defined.
+
+A verdict lists every violation (its category and line are the first one's), so a retry hears
+all of them at once.
 """
 
 from __future__ import annotations
 
 import ast
 import builtins
+from collections.abc import Iterable
 from dataclasses import dataclass
 
 from lerobot_policy_recent.ontology.skill_code import name_variables, variable_kinds
@@ -85,17 +97,35 @@ class Verdict:
     def reject(cls, category: FailureCategory, message: str, node: ast.AST | None = None) -> Verdict:
         return cls(False, category, message, getattr(node, "lineno", None))
 
+    @classmethod
+    def of(cls, problems: list[Verdict]) -> Verdict:
+        """Every violation found, the first one's category and line leading."""
+        if not problems:
+            return ACCEPT
+        messages = list(dict.fromkeys(f"line {p.line}: {p.message}" if p.line else p.message for p in problems))
+        first = problems[0]
+        message = first.message if len(messages) == 1 else f"{len(messages)} problems: " + "; ".join(messages)
+        return cls(False, first.category, message, first.line)
+
 
 ACCEPT = Verdict(True)
 
 
-class _Rejected(Exception):
-    def __init__(self, verdict: Verdict):
-        self.verdict = verdict
+def security_gate(code: str, entry: str, primitives: Iterable[str] = ()) -> Verdict:
+    """Whether ``code`` is safe to run as a skill (see the module docstring); names and keywords unchecked.
+
+    ``primitives``: the robot's primitive names, which may only be called (as a value, one would
+    never be driven: the executor runs a primitive where the code calls it by name).
+    """
+    return _check(code, None, entry, {}, set(primitives))
 
 
 def validate_program(code: str, api: ApiSpec, entry: str, other_apis: dict[str, ApiSpec] | None = None) -> Verdict:
-    """Check a whole skill program against ``api`` (the target robot's primitives)."""
+    """The security gate, and every call and name checked against ``api`` (the target robot's primitives)."""
+    return _check(code, api, entry, other_apis or {}, set(api.names()))
+
+
+def _check(code: str, api: ApiSpec | None, entry: str, other_apis: dict[str, ApiSpec], primitives: set[str]) -> Verdict:
     if not code.strip():
         return Verdict.reject(FailureCategory.EMPTY_CONTINUATION, "the program is empty")
     try:
@@ -110,12 +140,10 @@ def validate_program(code: str, api: ApiSpec, entry: str, other_apis: dict[str, 
         )
     if entry not in {f.name for f in functions}:
         return Verdict.reject(FailureCategory.HALLUCINATED_NAME, f"entry function {entry!r} is not defined")
-    try:
-        for func in functions:
-            _Checker(api, other_apis or {}, {f.name for f in functions}).check_function(func)
-    except _Rejected as rejected:
-        return rejected.verdict
-    return ACCEPT
+    checker = _Checker(api, other_apis, {f.name for f in functions}, primitives)
+    for func in functions:
+        checker.check_function(func)
+    return Verdict.of(checker.problems)
 
 
 def _is_docstring(node: ast.stmt) -> bool:
@@ -123,16 +151,20 @@ def _is_docstring(node: ast.stmt) -> bool:
 
 
 class _Checker(ast.NodeVisitor):
-    def __init__(self, api: ApiSpec, other_apis: dict[str, ApiSpec], functions: set[str]):
+    """Collects violations; without an ``api`` only the security gate's (the interface is left to run time)."""
+
+    def __init__(self, api: ApiSpec | None, other_apis: dict[str, ApiSpec], functions: set[str], primitives: set[str]):
         self.api = api
-        self.other = {
-            name: robot for robot, spec in other_apis.items() if robot != api.embodiment for name in spec.names()
-        }
+        self.interface = api is not None
+        robot = api.embodiment if api is not None else None
+        self.other = {name: r for r, spec in other_apis.items() if r != robot for name in spec.names()}
+        self.primitives = primitives
         self.functions = functions
         self.defined: set[str] = set()
+        self.problems: list[Verdict] = []
 
     def fail(self, category: FailureCategory, message: str, node: ast.AST) -> None:
-        raise _Rejected(Verdict.reject(category, message, node))
+        self.problems.append(Verdict.reject(category, message, node))
 
     def check_function(self, func: ast.FunctionDef) -> None:
         if func.decorator_list:
@@ -176,20 +208,27 @@ class _Checker(ast.NodeVisitor):
                 node,
             )
         if isinstance(node.ctx, ast.Load) and node.id not in self.defined | {"True", "False", "None"}:
-            self._unknown_name(node.id, node)
+            self._unknown_name(node.id, node, called=False)
 
-    def _unknown_name(self, name: str, node: ast.AST) -> None:
-        if name in self.other:
+    def _unknown_name(self, name: str, node: ast.AST, *, called: bool) -> None:
+        """A name the code does not define: unsafe as a value where it is a callable or a builtin; else
+        (interface validation only) another robot's primitive or an undefined name."""
+        if not called and (name in self.primitives or name in self.functions or name in SAFE_HELPERS):
+            self.fail(FailureCategory.NON_EXECUTABLE, f"{name!r} may only be called, not used as a value", node)
+        elif name in FORBIDDEN_CALLS or (not called and hasattr(builtins, name) and name not in self.other):
+            self.fail(FailureCategory.NON_EXECUTABLE, f"builtin {name!r} is not allowed in skill code", node)
+        elif not self.interface:
+            return  # an undefined name: a NameError when it is reached
+        elif name in self.other:
             self.fail(
                 FailureCategory.HALLUCINATED_API,
                 f"{name} is a {self.other[name]} primitive, not available on {self.api.embodiment}",
                 node,
             )
-        if name in self.api.names() or name in self.functions or name in SAFE_HELPERS:
-            self.fail(FailureCategory.NON_EXECUTABLE, f"{name!r} may only be called, not used as a value", node)
-        if name in FORBIDDEN_CALLS or hasattr(builtins, name):
+        elif hasattr(builtins, name):
             self.fail(FailureCategory.NON_EXECUTABLE, f"builtin {name!r} is not allowed in skill code", node)
-        self.fail(FailureCategory.HALLUCINATED_NAME, f"name {name!r} is not defined", node)
+        else:
+            self.fail(FailureCategory.HALLUCINATED_NAME, f"name {name!r} is not defined", node)
 
     def visit_Attribute(self, node: ast.Attribute) -> None:
         if node.attr.startswith("_"):
@@ -243,21 +282,26 @@ class _Checker(ast.NodeVisitor):
     def visit_Call(self, node: ast.Call) -> None:
         func = node.func
         if isinstance(func, ast.Attribute):
-            self.visit_Attribute(func)
+            task_call = isinstance(func.value, ast.Name) and func.value.id == "task" and not func.attr.startswith("_")
+            if self.interface or not task_call:  # the gate lets any task.<public>(...) fail at run time
+                self.visit_Attribute(func)
         elif isinstance(func, ast.Name):
-            spec = self.api.get(func.id)
-            if spec is not None:
+            spec = self.api.get(func.id) if self.api is not None else None
+            if func.id.startswith("_"):
+                self.fail(FailureCategory.NON_EXECUTABLE, f"private or dunder name {func.id!r}", node)
+            elif spec is not None:
                 self._check_primitive_call(node, spec.name, {p.name: p for p in spec.parameters})
             elif func.id in FORBIDDEN_CALLS:
                 self.fail(FailureCategory.NON_EXECUTABLE, f"call to {func.id}() is forbidden", node)
             elif func.id in self.defined:
-                self.fail(
-                    FailureCategory.NON_EXECUTABLE,
-                    f"{func.id!r} is a variable; only primitives and helpers may be called",
-                    node,
-                )
+                if self.interface:
+                    self.fail(
+                        FailureCategory.NON_EXECUTABLE,
+                        f"{func.id!r} is a variable; only primitives and helpers may be called",
+                        node,
+                    )
             elif func.id not in SAFE_HELPERS | self.functions:
-                self._unknown_name(func.id, node)
+                self._unknown_name(func.id, node, called=True)
         else:
             self.fail(FailureCategory.NON_EXECUTABLE, "only plain functions and task queries may be called", node)
         for arg in node.args:
@@ -287,6 +331,7 @@ class _Checker(ast.NodeVisitor):
                     f"{name}() got an unexpected keyword argument {kw.arg!r} (accepts: {', '.join(params) or 'none'})",
                     node,
                 )
+                continue
             problem = _literal_type_problem(kw.value, spec) or _variable_kind_problem(kw.value, spec, self.kinds)
             if problem:
                 self.fail(FailureCategory.HALLUCINATED_KWARG, f"{name}({kw.arg}=...): {problem}", node)

@@ -28,7 +28,7 @@ class Baseline(Method):
 
     def ground(self, g: Grounding) -> GroundedSkill:
         return generate_skill(
-            g.skill, g.target, g.ontology, g.infiller, self.style, program_context(g.task), max_retries=g.max_retries
+            g.skill, g.target, g.infiller, self.style, program_context(g.task), max_retries=g.max_retries
         )
 
     def adapter(self, a: Adaptation) -> Adapter:

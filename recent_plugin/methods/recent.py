@@ -62,6 +62,21 @@ class RecentFastPath(Recent):
     fast_path: bool = True
 
 
+@Method.register_subclass("oracle-rule")
+@dataclass
+class OracleRule(Recent):
+    """Sanity row: RECENT's pipeline with the ontology's rendering in place of the LM, for every span
+    and every run-time patch. What the ontology and the checks achieve alone: the floor an LM must
+    beat (RECENT's SR minus this one's, on the same episodes, is the LM's necessity)."""
+
+    family: ClassVar[str] = "sanity"
+
+    def infiller(self, lm: Infiller) -> Infiller:
+        from lerobot_policy_recent.recent_plugin.infillers.rule import RuleInfiller
+
+        return RuleInfiller()
+
+
 @Method.register_subclass("recent-no-insitu")
 @dataclass
 class NoInsitu(Recent):
