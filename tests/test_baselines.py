@@ -14,6 +14,7 @@ from lerobot_policy_recent.recent_plugin.baselines.program_prompt import PROGRAM
 from lerobot_policy_recent.recent_plugin.episode import run_episode
 from lerobot_policy_recent.recent_plugin.infillers.configs import RuleConfig
 from lerobot_policy_recent.recent_plugin.methods import method_named
+from lerobot_policy_recent.recent_plugin.refactoring.fim_prompt import build_prompt
 from lerobot_policy_recent.recent_plugin.settings import RecentSettings
 from lerobot_policy_recent.robosuite_envs.suites import get_task
 
@@ -229,3 +230,16 @@ def test_oracle_rule_is_the_ontology_alone_and_never_asks_the_lm(ontology, robot
     result = run_episode(agent, "cube_in_bin", robot, seed=0, max_steps=400)
     assert infiller.units == [] and result.generated_tokens == 0
     assert bool(result.success) is succeeds
+
+
+def test_whole_programs_are_written_freely_not_cut_by_a_statement_grammar(ontology):
+    """Comments, blank lines and a closing bracket on its own line are ordinary Python: no grammar
+    and no blank-line stop for a whole body; RECENT's localized spans keep theirs."""
+    agent, infiller = _agent(ontology, "cap", [UR5E_BODY])
+    agent.ground("put_in_bin", "UR5e", get_task("cube_in_bin"))
+    prompt = build_prompt(infiller.units[0], 100)
+    assert prompt.grammar is None and "\n\n" not in prompt.stop
+    recorded = _recorded_completions(ontology, "recent")
+    rule, rule_infiller = _agent(ontology, "recent", recorded)
+    rule.ground("put_in_bin", "UR5e", get_task("cube_in_bin"))
+    assert build_prompt(rule_infiller.units[0], 10).grammar is not None

@@ -16,8 +16,11 @@ from lerobot_policy_recent.ontology.skill_code import name_variables, variable_k
 from lerobot_policy_recent.recent_plugin.refactoring.substitution import PLACEHOLDER
 from lerobot_policy_recent.recent_plugin.refactoring.units import Hints, RefactoringUnit
 
-# GBNF grammars for the span: code statements, never comments (a small model otherwise sometimes
-# copies a hint line instead of writing the call). Backends without grammar support ignore them.
+# GBNF grammars for RECENT's localized spans: code statements, never comments (a small model
+# otherwise sometimes copies a hint line instead of writing the call). Whole programs and a
+# baseline's statement rewrites get none (WRITTEN_FREELY): a grammar that forbids comments or a
+# line starting with a closing bracket cuts ordinary Python short. Backends without grammar
+# support ignore them.
 # The span may end where the model ends it (end of the FIM middle) or at a line break: a grammar
 # that demanded the newline would refuse the model's end token, and the next-best admitted tokens
 # ran on (" # <the call again>") to the length cap.
@@ -28,6 +31,8 @@ STATEMENT_LINES = r'root ::= line ("\n" line)* "\n"?' + "\n" + r"line ::= [ ]* [
 RUNTIME_SPAN_TYPES = ("in_situ_revision", "reactive_repair")  # spans patched while the skill runs
 BASELINE_SPAN_TYPES = ("program_synthesis", "localized_repair")  # the baselines' (recent_plugin/baselines)
 NOT_CONFLICT_SPAN_TYPES = (*RUNTIME_SPAN_TYPES, *BASELINE_SPAN_TYPES, "full_regeneration")
+WHOLE_BODY_SPAN_TYPES = ("program_synthesis", "full_regeneration")  # a function body, blank lines and all
+WRITTEN_FREELY = (*BASELINE_SPAN_TYPES, "full_regeneration")  # no grammar: the model writes Python as it would
 
 
 def call_grammar(call: str, names: tuple[str, ...] = ()) -> str:
@@ -67,7 +72,7 @@ class FimPrompt:
     suffix: str
     stop: tuple[str, ...]  # text stops that end the span (on top of the model's special tokens)
     max_tokens: int
-    grammar: str  # GBNF the generated span must match
+    grammar: str | None  # GBNF the generated span must match (None: unconstrained)
 
 
 def hint_lines(span_type: str, hints: Hints) -> list[str]:
@@ -151,10 +156,15 @@ def build_prompt(unit: RefactoringUnit, span_tokens: int) -> FimPrompt:
     grammar = STATEMENT_LINE if single_line else STATEMENT_LINES
     if unit.hints.attempt > 0 and call and unit.span_type not in NOT_CONFLICT_SPAN_TYPES:
         grammar = call_grammar(call, unit_name_variables(unit))  # a retry of a determined conflict
+    stop = ("\n", "  #") if single_line else ("\n\n",)
+    if unit.span_type in WRITTEN_FREELY:
+        grammar = None
+    if unit.span_type in WHOLE_BODY_SPAN_TYPES:
+        stop = ("\ndef ", "\nclass ")  # the body ends where the model ends the middle, or at the next definition
     return FimPrompt(
         prefix=unit.prefix + comments + unit.indent,
         suffix=unit.suffix,
-        stop=("\n", "  #") if single_line else ("\n\n",),
+        stop=stop,
         max_tokens=max(24, 2 * max(span_tokens, approximate_tokens(call or "")) + 16),
         grammar=grammar,
     )
