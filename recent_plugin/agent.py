@@ -18,6 +18,7 @@ from lerobot_policy_recent.logs.events import Emit, EpisodeStarted, ignore
 from lerobot_policy_recent.ontology.builder import Ontology, build_ontology
 from lerobot_policy_recent.ontology.target import Target
 from lerobot_policy_recent.recent_plugin.executor import Adapter, PlannedSkill, TaskExecutor
+from lerobot_policy_recent.recent_plugin.grounding.budget import BudgetedInfiller, CallBudget
 from lerobot_policy_recent.recent_plugin.grounding.grounder import GroundedSkill
 from lerobot_policy_recent.recent_plugin.grounding.store import GroundingStore, default_store
 from lerobot_policy_recent.recent_plugin.infillers import Infiller
@@ -42,6 +43,11 @@ class EpisodeGrounding:
     cached: bool = False
 
 
+def lm_calls(grounded: GroundedSkill) -> int:
+    """The LM calls that produced a grounding (spans the fast path rendered were none)."""
+    return sum(1 for call in grounded.calls if not call.rendered)
+
+
 class RecentAgent:
     def __init__(
         self,
@@ -61,7 +67,8 @@ class RecentAgent:
         """
         self.settings = settings or RecentSettings()
         s = self.settings
-        self.infiller = s.method.infiller(infiller or s.infiller.build(s.lm_seed))
+        self.lm = s.method.model(infiller or s.infiller.build(s.lm_seed))
+        self.infiller = s.method.infiller(self.lm)  # names the LM in cache keys and logs
         self.ontology = ontology or build_ontology()
         self._ontology_hash = self.ontology.content_hash()
         self._cache: dict[tuple[str, ...], GroundedSkill] = {}
@@ -71,26 +78,32 @@ class RecentAgent:
         self._lm_key: str | None = None
         self.library = Path(s.skill_library) if s.skill_library else LIBRARY
 
-    def ground(self, skill_name: str, robot: str | Target, task: TaskSpec | None = None) -> tuple[GroundedSkill, bool]:
+    def ground(
+        self, skill_name: str, robot: str | Target, task: TaskSpec | None = None, budget: CallBudget | None = None
+    ) -> tuple[GroundedSkill, bool]:
         """Ground ``skill_name`` for ``robot`` (a name, or a target already resolved) the configured
         method's way, reusing a cached result.
 
         The cache key holds everything that could change the result: the code, the ontology, the
         LM (its weights' sha256 and the backend's settings), the method and the budgets (a
-        baseline's prompt also shows ``task``).
+        baseline's prompt also shows ``task``). ``budget``: the task's LM calls; a cached
+        grounding takes the calls that produced it, and one that needed more than are left is
+        grounded again within what is left.
         """
         target = robot if isinstance(robot, Target) else self.ontology.target(robot)
         skill = self.skill(skill_name)
         method = self.settings.method
         key = self.grounding_key(skill, target, task)
-        if key in self._cache:
-            return self._cache[key], True
-        stored = self.store.get(key) if self.store else None
-        if stored is not None:
-            self._cache[key] = stored
-            return stored, True
+        cached = self._cache.get(key) or (self.store.get(key) if self.store else None)
+        if cached is not None and (budget is None or budget.affords(lm_calls(cached))):
+            self._cache[key] = cached
+            if budget is not None:
+                budget.used += lm_calls(cached)
+            return cached, True
         grounded = method.ground(
-            Grounding(skill, target, self.ontology, self.infiller, task, max_retries=self.settings.max_retries)
+            Grounding(
+                skill, target, self.ontology, self.episode_lm(budget), task, max_retries=self.settings.max_retries
+            )
         )
         if grounded.valid:
             self._cache[key] = grounded
@@ -119,6 +132,14 @@ class RecentAgent:
             method.grounding_key(task),
             self.lm_key(),
         )
+
+    def budget(self) -> CallBudget | None:
+        """A fresh per-task LM call budget (None for the rule backend: it makes no LM calls)."""
+        return None if self.lm.name == "rule" else CallBudget(self.settings.max_lm_calls)
+
+    def episode_lm(self, budget: CallBudget | None) -> Infiller:
+        """The method's infiller over the LM, every LM call taken from ``budget``."""
+        return self.infiller if budget is None else self.settings.method.infiller(BudgetedInfiller(self.lm, budget))
 
     def lm_key(self) -> str:
         """The LM and budgets a grounding depends on: the weights' sha256, the backend's settings, the
@@ -149,9 +170,10 @@ class RecentAgent:
         started = time.perf_counter()
         task = get_task(task_id)
         report = EpisodeGrounding(task_id=task_id, robot=robot)
+        budget = self.budget()
         plan, cached = [], []
         for step in task.plan:
-            grounded, hit = self.ground(step.skill, target, task)
+            grounded, hit = self.ground(step.skill, target, task, budget)
             cached.append(hit)
             report.skills.append(grounded)
             plan.append(PlannedSkill(grounded, dict(step.args)))
@@ -166,7 +188,7 @@ class RecentAgent:
             target,
             first_obs,
             max_steps=self.settings.max_skill_steps,
-            adapter=self.adapter(task, target, emit),
+            adapter=self.adapter(task, target, emit, budget),
             emit=emit,
         )
         return executor, report
@@ -194,13 +216,14 @@ class RecentAgent:
         """The repository's skill ``name`` as this agent serves it (validated unless the ablation says not)."""
         return serve_skill(name, self.library, require_validated=self.settings.method.require_validated())
 
-    def adapter(self, task: TaskSpec, target: Target, emit: Emit = ignore) -> Adapter:
-        """A fresh run-time adapter for one episode (its calls and events are that episode's), the method's own."""
+    def adapter(self, task: TaskSpec, target: Target, emit: Emit = ignore, budget: CallBudget | None = None) -> Adapter:
+        """A fresh run-time adapter for one episode (its calls and events are that episode's), the
+        method's own, its LM calls taken from the task's ``budget``."""
         return self.settings.method.adapter(
             Adaptation(
                 target=target,
                 ontology=self.ontology,
-                infiller=self.infiller,
+                infiller=self.episode_lm(budget),
                 task=task,
                 skill=self.skill,
                 max_retries=self.settings.max_retries,

@@ -12,6 +12,7 @@ from doubles import ScriptedInfiller
 from lerobot_policy_recent.recent_plugin.agent import RecentAgent
 from lerobot_policy_recent.recent_plugin.baselines.program_prompt import PROGRAM, STATEMENT
 from lerobot_policy_recent.recent_plugin.episode import run_episode
+from lerobot_policy_recent.recent_plugin.grounding.budget import CallBudget
 from lerobot_policy_recent.recent_plugin.infillers.configs import RuleConfig
 from lerobot_policy_recent.recent_plugin.methods import method_named
 from lerobot_policy_recent.recent_plugin.refactoring.fim_prompt import build_prompt
@@ -53,6 +54,17 @@ def test_agentless_prompt_adds_descriptions_objects_and_workspace(ontology):
     assert "# Scene objects: cube (box), bin (bin)" in prefix
     assert "# Workspace: x in [-0.40, 0.40] m" in prefix
     assert "  -- " in prefix  # each primitive's description
+
+
+def test_progprompt_imports_the_targets_actions_lists_the_objects_and_asks_for_a_translation(ontology):
+    agent, infiller = _agent(ontology, "progprompt", [UR5E_BODY])
+    result = run_episode(agent, "cube_in_bin", "UR5e", seed=0)
+    assert result.success
+    prefix = infiller.units[0].prefix
+    assert "from ur5e_actions import ur5_grasp_at  # ur5_grasp_at(env, task, grasp_pos: position [m]" in prefix
+    assert "objects = ['cube', 'bin']" in prefix and "def put_in_bin_panda(env, task" in prefix
+    assert "# Translate the reference program from Panda actions to the UR5e actions imported above" in prefix
+    assert prefix.rstrip().endswith('"""')  # then the body: the whole program is the span
 
 
 def test_cap_runs_a_wrong_program_until_it_fails_then_regenerates_it_with_pythons_error(ontology):
@@ -243,3 +255,38 @@ def test_whole_programs_are_written_freely_not_cut_by_a_statement_grammar(ontolo
     rule, rule_infiller = _agent(ontology, "recent", recorded)
     rule.ground("put_in_bin", "UR5e", get_task("cube_in_bin"))
     assert build_prompt(rule_infiller.units[0], 10).grammar is not None
+
+
+def test_every_method_gets_the_same_lm_call_budget_per_task_cached_groundings_included(ontology):
+    """max_lm_calls=2: cap's program (1 call) fails, its repair (call 2) fails again, and no third
+    call is made; the next episode serves the cached program, which still costs its call."""
+    wrong = UR5E_BODY.replace("open_ur5_ee(env, task)", PANDA_LINE)
+    infiller = ScriptedInfiller([wrong] * 10)
+    settings = RecentSettings(infiller=RuleConfig(), method=method_named("cap"), max_lm_calls=2)
+    agent = RecentAgent(settings, ontology=ontology, infiller=infiller)
+    first = run_episode(agent, "cube_in_bin", "UR5e", seed=0, max_steps=200)
+    assert len(infiller.units) == 2 and len(first.runtime_calls) == 1 and not first.success
+    second = run_episode(agent, "cube_in_bin", "UR5e", seed=1, max_steps=200)
+    assert second.grounding.cached and len(second.runtime_calls) == 1 and len(infiller.units) == 3
+
+
+def test_recent_is_held_to_the_same_budget(ontology):
+    infiller = ScriptedInfiller([""] * 20)  # every answer rejected
+    settings = RecentSettings(infiller=RuleConfig(), max_retries=10, max_lm_calls=3)
+    grounded, _ = RecentAgent(settings, ontology=ontology, infiller=infiller).ground(
+        "put_in_bin", "UR5e", get_task("cube_in_bin"), budget=CallBudget(3)
+    )
+    assert not grounded.valid and len(infiller.units) == 3  # 11 attempts allowed per span, 3 calls per task
+
+
+@pytest.mark.slow
+def test_cap_distilled_runs_caps_protocol_on_a_model_of_its_own(ontology, llama_infiller):
+    """The run's LM is the 1.5B; cap-distilled answers with its own slot (the 0.5B here), and says so."""
+    agent = RecentAgent(
+        RecentSettings(method=method_named("cap-distilled")), ontology=ontology, infiller=llama_infiller
+    )
+    assert "0.5b" in agent.infiller.model and agent.infiller.model != llama_infiller.model
+    result = run_episode(agent, "cube_in_bin", "UR5e", seed=0, max_steps=300)
+    calls = [c for s in result.grounding.skills for c in s.calls]
+    assert calls and calls[0].kind == "ground" and calls[0].generated_tokens > 0
+    assert agent.started_event("cube_in_bin", "UR5e", 0).model == agent.infiller.model  # the logs name it

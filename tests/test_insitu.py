@@ -118,7 +118,8 @@ def test_the_fast_path_renders_the_patches_a_check_writes_without_interrupting(o
     assert [e.checks for e in result.adaptations] == [("object_unmoved",), ("target_clear",)]
     assert result.ei == 0 and result.patches == 2 and result.go == 0 and result.it == 0
     assert all(c.rendered and c.kind == "revise" for c in result.runtime_calls)
-    assert agent.infiller.rendered == 5  # three grounding spans and the two patches
+    calls = [c for s in result.grounding.skills for c in s.calls] + result.runtime_calls
+    assert sum(c.rendered for c in calls) == 5  # three grounding spans and the two patches
 
 
 def test_igt_is_the_time_to_the_first_executable_code(counting_agent):

@@ -3,8 +3,10 @@
 Every baseline asks the same FIM infiller as RECENT. What differs is the prompt: a header of
 comments with the target robot's primitives and the Panda reference skill as the in-context
 example (``cap``, ``repair``), plus primitive descriptions, the scene's objects and the workspace
-bounds (``agentless``). The span is the whole body (program synthesis) or one failing statement
-(localized repair); either way generation stays proportional to what it replaces.
+bounds (``agentless``); or ProgPrompt's Pythonic header, which imports the target's actions, lists
+the scene's objects as a Python list and asks to translate the reference (``progprompt``). The
+span is the whole body (program synthesis) or one failing statement (localized repair); either
+way generation stays proportional to what it replaces.
 """
 
 from __future__ import annotations
@@ -36,6 +38,7 @@ class BaselineStyle:
     # Failures of a skill answered by rewriting the failing statement before the whole program is
     # regenerated: 0 regenerates at once (cap), None never does (repair).
     statement_repairs: int | None = 0
+    pythonic: bool = False  # ProgPrompt's header: the actions imported with their parameters, the objects a list
 
     def rewrites_whole(self, failures: int) -> bool:
         """Whether the ``failures``-th failure of a skill (1 for the first) regenerates the whole program."""
@@ -61,17 +64,10 @@ class ProgramPrompt:
 
     def header(self) -> str:
         """Comment lines (and the example program) that precede the skill's signature in every prompt."""
+        if self.style.pythonic:
+            return self._pythonic_header()
         described = self.style.constraints
-        example = re.sub(
-            rf"\bdef {re.escape(self.skill.entry)}\(",
-            f"def {self.skill.entry}_{self.skill.source_embodiment.lower()}(",
-            self.skill.code,
-        )
-        lines = [
-            f"# Example: this skill written for the {self.skill.source_embodiment} robot",
-            example.rstrip("\n"),
-            "",
-        ]
+        lines = [f"# Example: this skill written for the {self.skill.source_embodiment} robot", self._example(), ""]
         lines.append(
             f"# The {self.target.name} robot has other primitives (env and task are always the first two arguments):"
         )
@@ -89,6 +85,30 @@ class ProgramPrompt:
         lines.append(f"# Task: {self.context.instruction}")
         lines.append(
             f"# This step: {self.skill.intent} Write it for {self.target.name}, calling only the {self.target.name} primitives."
+        )
+        return "\n".join(lines) + "\n"
+
+    def _example(self) -> str:
+        """The reference skill, renamed for its robot (``put_in_bin_panda``), as the in-context example."""
+        return re.sub(
+            rf"\bdef {re.escape(self.skill.entry)}\(",
+            f"def {self.skill.entry}_{self.skill.source_embodiment.lower()}(",
+            self.skill.code,
+        ).rstrip("\n")
+
+    def _pythonic_header(self) -> str:
+        """ProgPrompt: import the target's actions (each with its parameters), list the objects, show
+        the source robot's program, and ask for its translation."""
+        robot, source = self.target.name, self.skill.source_embodiment
+        module = f"{robot.lower()}_actions"
+        lines = [f"from {module} import {p.name}  # {p.signature()}" for p in self.target.api.primitives]
+        lines.append(f"from scene import task  # {', '.join(f'task.{q}(name)' for q in TaskContext.QUERIES)}")
+        lines += ["", f"objects = {[o.split(' ')[0] for o in self.context.objects]!r}", ""]
+        lines += [f"# Reference program for the {source} robot:", self._example(), ""]
+        lines.append(f"# Task: {self.context.instruction}")
+        lines.append(
+            f"# Translate the reference program from {source} actions to the {robot} actions imported above, "
+            "keeping its logic:"
         )
         return "\n".join(lines) + "\n"
 

@@ -10,15 +10,19 @@ from __future__ import annotations
 
 import difflib
 import io
+import logging
 import tokenize
 from collections.abc import Callable
 from dataclasses import dataclass
 
 from lerobot_policy_recent.logs.events import Event, InfillCall, ValidationVerdict
+from lerobot_policy_recent.recent_plugin.grounding.budget import LMBudgetExhausted
 from lerobot_policy_recent.recent_plugin.grounding.gate import Verdict
 from lerobot_policy_recent.recent_plugin.infillers.base import Infiller
 from lerobot_policy_recent.recent_plugin.refactoring.fim_prompt import build_prompt, hint_lines
 from lerobot_policy_recent.recent_plugin.refactoring.units import RefactoringUnit
+
+log = logging.getLogger(__name__)
 
 FILL = "<FILL>"  # where the span goes, in the prompts the logs record
 
@@ -108,7 +112,11 @@ def infill_until_valid(
     feedback = None
     for attempt in range(max_retries + 1):
         unit = make_unit(feedback, attempt)
-        completion = infiller.infill(unit)
+        try:
+            completion = infiller.infill(unit)
+        except LMBudgetExhausted as spent:
+            log.info("%s: no further %s attempt: %s", unit.span_type, kind, spent)
+            return None
         text = clean_completion(completion.text, unit)
         verdict, candidate = judge(unit, text)
         prompt = build_prompt(unit, 0)

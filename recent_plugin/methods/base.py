@@ -85,6 +85,11 @@ class Method(draccus.ChoiceRegistry):
         """Serve only skills whose validation record matches their code (False: an ablation)."""
         return True
 
+    def model(self, lm: Infiller) -> Infiller:
+        """The LM this method runs on: the run's ``lm``, or a model of its own (a sanity row without
+        an LM, a baseline on another model). The task's call budget is taken from this one."""
+        return lm
+
     def infiller(self, lm: Infiller) -> Infiller:
         """The infiller this method asks: ``lm``, or something in front of it."""
         return lm

@@ -6,6 +6,7 @@ way (see :mod:`lerobot_policy_recent.recent_plugin.baselines`).
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 from typing import ClassVar
 
@@ -14,6 +15,7 @@ from lerobot_policy_recent.recent_plugin.baselines.generate import generate_skil
 from lerobot_policy_recent.recent_plugin.baselines.program_prompt import BaselineStyle, ProgramContext
 from lerobot_policy_recent.recent_plugin.executor import Adapter
 from lerobot_policy_recent.recent_plugin.grounding.grounder import GroundedSkill
+from lerobot_policy_recent.recent_plugin.infillers.base import Infiller
 from lerobot_policy_recent.recent_plugin.methods.base import Adaptation, Grounding, Method
 from lerobot_policy_recent.robosuite_envs.tasks import TaskSpec
 
@@ -54,6 +56,38 @@ class RepairAgent(Baseline):
     """RepairAgent-style: generate as ``cap``, then rewrite the failing statement with the error and the scene."""
 
     style: ClassVar[BaselineStyle] = BaselineStyle("repair", constraints=False, statement_repairs=None)
+
+
+@Method.register_subclass("cap-distilled")
+@dataclass
+class CodeAsPoliciesDistilled(CodeAsPolicies):
+    """The paper's CaP-CodeV-R1 row: CaP's protocol on another, smaller or distilled model (``model``).
+
+    The paper's CodeV-R1-Distill-Qwen-7B cannot be provisioned offline here; the slot defaults to
+    the other model that can, Qwen2.5-Coder-0.5B-Instruct. ``--method.model_name=PATH`` runs any GGUF.
+    """
+
+    model_name: str = "qwen2.5-coder-0.5b"  # a known model name (`recent model list`) or a .gguf path
+
+    def model(self, lm: Infiller) -> Infiller:
+        return _llamacpp(self.model_name, getattr(lm, "n_threads", None))
+
+
+@functools.cache
+def _llamacpp(model: str, n_threads: int | None) -> Infiller:
+    """One loaded model per process, whichever agents ask for it."""
+    from lerobot_policy_recent.recent_plugin.infillers.configs import LlamaCppConfig
+
+    return LlamaCppConfig(model=model, n_threads=n_threads).build()
+
+
+@Method.register_subclass("progprompt")
+@dataclass
+class ProgPrompt(Baseline):
+    """ProgPrompt as the paper adapts it: a Pythonic header importing the target's actions, the scene's
+    objects, the source program as a one-shot example to translate; run as is, regenerated on an error."""
+
+    style: ClassVar[BaselineStyle] = BaselineStyle("progprompt", statement_repairs=0, pythonic=True)
 
 
 @Method.register_subclass("agentless")

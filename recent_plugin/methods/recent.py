@@ -71,7 +71,7 @@ class OracleRule(Recent):
 
     family: ClassVar[str] = "sanity"
 
-    def infiller(self, lm: Infiller) -> Infiller:
+    def model(self, lm: Infiller) -> Infiller:
         from lerobot_policy_recent.recent_plugin.infillers.rule import RuleInfiller
 
         return RuleInfiller()
