@@ -99,6 +99,14 @@ class EpisodeResult:
         return 100.0 * (self.generated_tokens - self.adaptation_tokens) / max(1, self.skill_tokens)
 
     @property
+    def rule_coverage(self) -> float | None:
+        """% of the spans and run-time patches (first attempts) that the ontology or a check decided
+        completely, so that no LM was needed for them; None where there was none."""
+        calls = [c for s in self.grounding.skills for c in s.calls] + list(self.runtime_calls)
+        spans = [c for c in calls if c.attempt == 0]
+        return 100.0 * sum(c.decided for c in spans) / len(spans) if spans else None
+
+    @property
     def lm_seconds(self) -> float:
         return sum(s.lm_seconds for s in self.grounding.skills) + sum(c.seconds for c in self.runtime_calls)
 
@@ -144,6 +152,7 @@ class EpisodeResult:
             "grounding_cached": self.grounding.cached,
             "lm_seconds": round(self.lm_seconds, 4),
             "lm_calls": len(calls),
+            "rule_coverage": None if self.rule_coverage is None else round(self.rule_coverage, 1),
             "valid": all(s.valid for s in self.grounding.skills),
             "failure_category": category,
             "failure_message": message[:500],
@@ -212,7 +221,7 @@ def _run(
     names = env.spec_task.object_names()
     episode = None
     if recorder is not None:
-        started_event = agent.started_event(task_id, robot, seed, ",".join(env.variations))
+        started_event = agent.started_event(task_id, robot, seed, ",".join(env.episode_variations))
         episode = recorder.start_episode(started_event)
     bar = _bar(env._max_episode_steps, progress, f"{task_id} on {robot}")
     success, steps, settled, info, done = False, 0, 0, {}, 0

@@ -19,7 +19,7 @@ from lerobot_policy_recent.robosuite_envs.observation import ACTION_DIM, AGENT_P
 from lerobot_policy_recent.robosuite_envs.primitives.session import CONTROL_FREQ
 from lerobot_policy_recent.robosuite_envs.suites import get_task
 from lerobot_policy_recent.robosuite_envs.tasks import task_string
-from lerobot_policy_recent.robosuite_envs.variations import parse_variations
+from lerobot_policy_recent.robosuite_envs.variations import episode_variations, parse_variations
 from lerobot_policy_recent.robosuite_envs.verdicts import write_verdict
 
 
@@ -74,14 +74,19 @@ class RecentEnv(gym.Env):
         self._env = None
         self._steps = 0
 
-    def _make(self, seed: int | None):
+    @property
+    def episode_variations(self) -> tuple[str, ...]:
+        """The variations of the current episode (with ``mix``, those drawn for its task and seed)."""
+        return self._env.variations if self._env is not None else episode_variations(self.variations, "", None)
+
+    def _make(self, seed: int | None, variations: tuple[str, ...]):
         from robosuite.controllers import load_composite_controller_config
 
         from lerobot_policy_recent.robosuite_envs.tabletop import RecentTabletopEnv
 
         return RecentTabletopEnv(
             self.spec_task,
-            variations=self.variations,
+            variations=variations,
             robots=self.embodiment.robot,
             gripper_types=self.embodiment.gripper,
             controller_configs=load_composite_controller_config(controller="BASIC", robot=self.embodiment.robot),
@@ -104,8 +109,12 @@ class RecentEnv(gym.Env):
 
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         super().reset(seed=seed)
+        variations = episode_variations(self.variations, self.spec_task.task_id, seed)
+        if self._env is not None and self._env.variations != variations:  # mix: another set this episode
+            self._env.close()  # objects may change (non_flat, porous): the model is built anew
+            self._env = None
         if self._env is None:
-            self._env = self._make(seed)
+            self._env = self._make(seed, variations)
         if seed is not None:
             self._env.rng = np.random.default_rng(seed)
             self.task_description = self.task = task_string(self.spec_task, self.embodiment.name, seed)

@@ -1,4 +1,7 @@
-"""The task suites: ``kinematic`` (20 tasks) and ``end_effector`` (12 tasks), plus ``cube_in_bin``.
+"""The task suites: ``kinematic`` (26 tasks) and ``end_effector`` (16 tasks), plus ``cube_in_bin``.
+
+The last 6 and 4 tasks of the suites are the held-out test tasks (:mod:`.splits`): compositions
+in orders and bindings no earlier task had.
 
 A suite task is a scene (objects with nominal poses and seeded jitter) and a plan of up to five
 subtasks, each bound to the reference skill of the same name. Task ids are ``<suite>/<name>``;
@@ -121,6 +124,26 @@ KINEMATIC = (
     task(K, "tool_routine", "Drag the cube into the zone with the rake, wipe the stain, press the button.", TOOLS,
          step("drag_with_tool", obj="cube", tool="rake", region="zone"), step("wipe_area", area="stain"),
          step("press_button", button="button")),
+    # held-out test tasks (splits.py): checked for feasibility with the Panda skills on dev seeds only
+    task(K, "button_bin_plate", "Press the button, put the green block in the bin, then set the red cube on the plate.",
+         WORKBENCH, step("press_button", button="button"), step("put_in_bin", obj="block", receptacle="bin"),
+         step("place_on_plate", obj="cube", target="plate")),
+    task(K, "bin_push_button_plate",
+         "Put the green block in the bin, push the red cube into the zone, press the button, then set the cube on the plate.",
+         WORKBENCH, step("put_in_bin", obj="block", receptacle="bin"), step("push_to_region", obj="cube", region="zone"),
+         step("press_button", button="button"), step("place_on_plate", obj="cube", target="plate")),
+    task(K, "cube_bin_block_plate", "Put the red cube in the bin, set the green block on the plate, press the button.",
+         WORKBENCH, step("put_in_bin", obj="cube", receptacle="bin"), step("place_on_plate", obj="block", target="plate"),
+         step("press_button", button="button")),
+    task(K, "peg_lid_button", "Insert the peg, put the lid on the jar, then press the button.", ASSEMBLY,
+         step("insert_peg", peg="peg", hole="hole"), step("close_lid", lid="lid", container="jar"),
+         step("press_button", button="button")),
+    task(K, "button_then_assembly", "Press the button, then insert the peg and close the jar.", ASSEMBLY,
+         step("press_button", button="button"), step("insert_peg", peg="peg", hole="hole"),
+         step("close_lid", lid="lid", container="jar")),
+    task(K, "button_wipe_drag_lift", "Press the button, wipe the stain, rake the cube into the zone, and pick it up.",
+         TOOLS, step("press_button", button="button"), step("wipe_area", area="stain"),
+         step("drag_with_tool", obj="cube", tool="rake", region="zone"), step("pick_and_lift", obj="cube")),
 )  # fmt: skip
 
 END_EFFECTOR = (
@@ -149,6 +172,20 @@ END_EFFECTOR = (
          step("open_drawer", drawer="drawer"), step("put_in_drawer", obj="cube", drawer="drawer"),
          step("close_drawer", drawer="drawer"), step("open_hinged_box", box="box"),
          step("close_hinged_box", box="box")),
+    # held-out test tasks (splits.py): checked for feasibility with the Panda skills on dev seeds only
+    task(E, "box_drawer_routine", "Open the box, put the cube away in the drawer, then close the box.", cabinet(),
+         step("open_hinged_box", box="box"), step("open_drawer", drawer="drawer"),
+         step("put_in_drawer", obj="cube", drawer="drawer"), step("close_drawer", drawer="drawer"),
+         step("close_hinged_box", box="box")),
+    task(E, "box_then_drawer", "Open and close the box, then open and close the drawer.", cabinet(),
+         step("open_hinged_box", box="box"), step("close_hinged_box", box="box"),
+         step("open_drawer", drawer="drawer"), step("close_drawer", drawer="drawer")),
+    task(E, "drawer_box_cube", "Open the drawer and the box, put the cube in the drawer, close the drawer.", cabinet(),
+         step("open_drawer", drawer="drawer"), step("open_hinged_box", box="box"),
+         step("put_in_drawer", obj="cube", drawer="drawer"), step("close_drawer", drawer="drawer")),
+    task(E, "open_all_then_tidy", "Open the box, open the drawer, close the drawer, close the box.", cabinet(),
+         step("open_hinged_box", box="box"), step("open_drawer", drawer="drawer"),
+         step("close_drawer", drawer="drawer"), step("close_hinged_box", box="box")),
 )  # fmt: skip
 
 CUBE_IN_BIN = TaskSpec(

@@ -6,6 +6,7 @@ the env (:mod:`lerobot_policy_recent.robosuite_envs.tabletop`) applies the plan 
 
 from __future__ import annotations
 
+import zlib
 from dataclasses import dataclass
 
 import numpy as np
@@ -24,6 +25,19 @@ VARIATIONS: dict[str, str] = {
     "far_target": "the placement target moves outside the smaller robot's workspace",
 }
 ON = ("pose_perturbation", "sensing_noise", "obstacle")  # the paper's perturbations: `--variations on`
+MIX = "mix"
+# `--variations mix` (the benchmark's default): each episode draws every variation independently,
+# on with this probability, from its task and seed, so all eight are in play in stated shares.
+MIX_SHARES: dict[str, float] = {
+    "pose_perturbation": 0.5,
+    "sensing_noise": 0.5,
+    "obstacle": 0.4,
+    "slippery": 0.2,
+    "heavy": 0.2,
+    "non_flat": 0.2,
+    "porous": 0.2,
+    "far_target": 0.1,
+}
 
 NOISE_SIGMA = 0.004
 PERTURB_STEPS = (2, 6)  # after the skill read the object's position, before the approach starts
@@ -34,19 +48,34 @@ OBSTACLE = "obstacle"
 
 
 def parse_variations(text: str | None) -> tuple[str, ...]:
-    """``""``/``"off"``/``"none"`` → none; ``"on"`` → the paper's set; ``"all"``; or a comma list."""
+    """``""``/``"off"``/``"none"`` → none; ``"on"`` → the paper's set; ``"all"``; ``"mix"`` (drawn per
+    episode, :func:`episode_variations`); or a comma list."""
     text = (text or "").strip()
     if text in ("", "off", "none"):
         return ()
     if text == "on":
         return ON
+    if text == MIX:
+        return (MIX,)
     if text == "all":
         return tuple(VARIATIONS)
     names = tuple(dict.fromkeys(t.strip() for t in text.split(",") if t.strip()))
     unknown = [n for n in names if n not in VARIATIONS]
     if unknown:
-        raise ValueError(f"unknown variation(s) {', '.join(unknown)}; known: {', '.join(VARIATIONS)} (or on, all, off)")
+        raise ValueError(
+            f"unknown variation(s) {', '.join(unknown)}; known: {', '.join(VARIATIONS)} (or on, all, mix, off)"
+        )
     return names
+
+
+def episode_variations(variations: tuple[str, ...], task_id: str, seed: int | None) -> tuple[str, ...]:
+    """The variations of one episode: ``variations`` as given, or for ``mix`` a draw seeded by the task
+    and the seed (the same episode always gets the same set; each variation is on with its share)."""
+    if variations != (MIX,):
+        return variations
+    rng = np.random.default_rng([zlib.crc32(task_id.encode()), seed or 0])
+    draws = rng.random(len(MIX_SHARES))
+    return tuple(name for (name, share), u in zip(MIX_SHARES.items(), draws, strict=True) if u < share)
 
 
 def manipulated_object(task: TaskSpec) -> str | None:

@@ -32,7 +32,10 @@ def register(sub) -> None:
     parser.add_argument("--seeds", default=",".join(map(str, SEEDS)), help="comma list (default: the paper's five)")
     parser.add_argument("--tasks", default="", help="comma list of task names within the suite (default: all)")
     parser.add_argument(
-        "--variations", default="on", help="on (the paper's dynamic setting), off, all, or a comma list"
+        "--variations",
+        default="mix",
+        help="mix (default: all eight, each episode drawing each variation with its stated share, seeded), "
+        "on (the paper's three), off, all, or a comma list",
     )
     parser.add_argument("--out", default="outputs/bench", help="run directory (default: outputs/bench)")
     parser.add_argument(
@@ -65,6 +68,13 @@ def register(sub) -> None:
         "--retry-crashed",
         action="store_true",
         help="run again the episodes an error broke off (their records say 'crash'); otherwise a rerun skips them",
+    )
+    parser.add_argument(
+        "--split",
+        choices=("all", "dev", "test"),
+        default="all",
+        help="run only the dev episodes, or only the held-out test ones (test tasks on the paper's seeds; "
+        "`recent envs list` marks them); the report shows each split apart either way",
     )
     parser.add_argument("--no-log", action="store_true", help="no logs (MCAP, Rerun, the run's LeRobotDataset)")
     parser.add_argument("--log-sinks", default="mcap,rerun,dataset", help="sinks of the run's logs in DIR/logs")
@@ -150,6 +160,7 @@ def _run(args) -> int:
         log_sinks=() if args.no_log else _csv(args.log_sinks),
         agent=settings,
         retry_crashed=args.retry_crashed,
+        split=args.split,
     )
     jobs, todo = pending(config)
     print(f"{len(jobs)} episodes ({len(jobs) - len(todo)} already done) -> {config.out}", file=sys.stderr)
@@ -242,6 +253,7 @@ def command_line(config) -> str:
     words += [f"--seeds={','.join(map(str, config.seeds))}", f"--variations={config.variations}"]
     words += [f"--target={','.join(config.targets)}"] if config.targets else []
     words += [f"--tasks={','.join(config.tasks)}"] if config.tasks else []
+    words += [f"--split={config.split}"] if config.split != "all" else []
     words += settings_flags(run_settings(config))
     words += [f"--workers={config.workers}"] if config.workers else []
     words += [f"--cpus-per-worker={config.cpus_per_worker:g}"] if config.cpus_per_worker is not None else []

@@ -7,8 +7,9 @@ import statistics
 
 from lerobot_policy_recent.robosuite_envs.embodiments import EMBODIMENTS
 from lerobot_policy_recent.robosuite_envs.primitives import api_functions
+from lerobot_policy_recent.robosuite_envs.splits import split_of, split_table
 from lerobot_policy_recent.robosuite_envs.subtasks import SUBTASKS, get_subtask
-from lerobot_policy_recent.robosuite_envs.suites import SUITES, get_task
+from lerobot_policy_recent.robosuite_envs.suites import SEEDS, SUITES, get_task
 from lerobot_policy_recent.robosuite_envs.variations import ON, VARIATIONS
 from lerobot_policy_recent.skills.repository import task_calls
 
@@ -34,6 +35,7 @@ def _list(args) -> int:
         "suites": {name: len(tasks) for name, tasks in SUITES.items()},
         "variations": list(VARIATIONS),
         "calls_per_task": {name: call_stats(tasks) for name, tasks in SUITES.items()},
+        "split": split_table(),
     }
     if args.json:
         print(json.dumps(summary, indent=2))
@@ -52,7 +54,10 @@ def _list(args) -> int:
         )
         for t in tasks:
             calls = task_calls([s.skill for s in t.plan]).primitives
-            print(f"  {t.task_id:<32} {len(t.plan)} subtask(s) {calls:>3} calls  {t.instruction}")
+            held_out = " [test]" if split_of(t.task_id, SEEDS[0]) == "test" else ""
+            print(f"  {t.task_id:<32} {len(t.plan)} subtask(s) {calls:>3} calls{held_out}  {t.instruction}")
+    seeds = summary["split"]["seeds"]
+    print(f"\nSplit: [test] tasks on seeds {seeds['test']} are held out; dev seeds {seeds['dev']} (docs/benchmark.md)")
     print("\nVariations (--variations on = " + ", ".join(ON) + "):")
     for name, text in VARIATIONS.items():
         print(f"  {name:<18} {text}")

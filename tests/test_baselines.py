@@ -84,6 +84,7 @@ def test_cap_runs_a_wrong_program_until_it_fails_then_regenerates_it_with_python
     assert result.generated_tokens == 14 and result.skill_tokens == 100 and result.adaptation_tokens == 7
     assert result.go == pytest.approx(7.0) and result.go_pre == pytest.approx(7.0)
     assert result.ei == 1 and result.it == pytest.approx(0.01)
+    assert result.rule_coverage == 0.0  # a whole program is nothing the ontology decided
 
 
 @pytest.mark.parametrize("method", ["repair", "agentless"])
@@ -242,6 +243,8 @@ def test_oracle_rule_is_the_ontology_alone_and_never_asks_the_lm(ontology, robot
     result = run_episode(agent, "cube_in_bin", robot, seed=0, max_steps=400)
     assert infiller.units == [] and result.generated_tokens == 0
     assert bool(result.success) is succeeds
+    # rule coverage: on UR5e the ontology decides every span; Sawyer's object name it cannot
+    assert (result.rule_coverage == 100.0) is succeeds and result.to_record()["rule_coverage"] is not None
 
 
 def test_whole_programs_are_written_freely_not_cut_by_a_statement_grammar(ontology):

@@ -52,6 +52,10 @@ def test_every_episode_has_a_record_and_results_json_aggregates_them(bench_dir):
     assert results["paired"]["recent vs recent-no-insitu|kinematic"]["sr_diff"] == 100.0
     assert results["engine"] == "ray" and results["workers"] >= 1 and results["model_sha256"] is None  # rule: no model
     assert "recent|UR5e|kinematic/cube_on_plate" in results["by_task"]
+    assert all(r["split"] == "dev" for r in records) and set(results["by_split"]) == {
+        "recent|kinematic|dev",
+        "recent-no-insitu|kinematic|dev",
+    }
     from lerobot_policy_recent.logs.readers import dataset_lengths
 
     lengths = dataset_lengths(bench_dir / "logs" / "dataset")  # one dataset for the whole run
@@ -109,6 +113,7 @@ def test_report_renders_tables_checks_and_plots(bench_dir, tmp_path, capsys):
     assert "not checked against the paper's targets: the rule backend has no LM" in report
     assert "- kinematic: SR 100.0% (target ≥ 73.0%) (not checked)" in report
     assert "| episode: timeout |" in report  # failure categories per method
+    assert "No held-out test episode in these runs: every number above is a dev number." in report
     for png in ("sr_vs_go.png", "failures_by_method.png"):
         assert (tmp_path / png).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
@@ -128,6 +133,20 @@ def test_metrics_follow_the_papers_definitions():
     summary = summarize(records)
     assert summary["sr"] == {"mean": 75.0, "std": 25.0}
     assert summary["gc"]["mean"] == pytest.approx(80.0) and summary["ei"] == {"mean": 1.0, "std": 1.0}
+
+
+def test_a_run_can_take_only_the_held_out_split_and_records_say_which_split():
+    from lerobot_policy_recent.recent_plugin.evaluation.jobs import BenchConfig
+    from lerobot_policy_recent.robosuite_envs.splits import TEST_SEEDS, TEST_TASKS
+
+    test = BenchConfig(out="/tmp/x", suites=("end_effector",), seeds=(3, *TEST_SEEDS), split="test").jobs()
+    assert {j.task_id for j in test} == set(TEST_TASKS["end_effector"]) and {j.seed for j in test} == set(TEST_SEEDS)
+    dev = BenchConfig(out="/tmp/x", suites=("end_effector",), seeds=(3, *TEST_SEEDS), split="dev").jobs()
+    assert all(j.seed == 3 or j.task_id not in TEST_TASKS["end_effector"] for j in dev)
+    everything = BenchConfig(out="/tmp/x", suites=("end_effector",), seeds=(3, *TEST_SEEDS)).jobs()
+    assert sorted(dev + test, key=str) == sorted(everything, key=str)
+    with pytest.raises(ValueError, match="unknown split 'val'"):
+        BenchConfig(out="/tmp/x", split="val").jobs()
 
 
 def test_unknown_methods_and_tasks_are_named():

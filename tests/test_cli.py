@@ -74,10 +74,15 @@ def test_envs_list_json_counts_the_world(capsys):
     world = json.loads(capsys.readouterr().out)
     assert world["embodiments"] == ["Panda", "UR5e", "Sawyer", "Robotiq85", "Suction"]
     assert world["primitives"] >= 40 and world["subtasks"] >= 16
-    assert world["suites"] == {"kinematic": 20, "end_effector": 12}
+    assert world["suites"] == {"kinematic": 26, "end_effector": 16}
     assert "obstacle" in world["variations"]
     calls = world["calls_per_task"]  # the paper's way of counting (test_skill_code has the rules)
     assert set(calls) == {"kinematic", "end_effector"} and calls["kinematic"]["max"] >= calls["kinematic"]["mean"] > 0
+    split = world["split"]  # the held-out split, as the world issue specifies it
+    assert split["seeds"]["test"] == [0, 1, 42, 123, 2024] and split["seeds"]["dev"]
+    assert len(split["kinematic"]["test"]) >= 6 and len(split["end_effector"]["test"]) >= 4
+    assert not set(split["kinematic"]["test"]) & set(split["kinematic"]["dev"])
+    assert len(split["kinematic"]["dev"]) + len(split["kinematic"]["test"]) == world["suites"]["kinematic"]
 
 
 def test_envs_show_prints_instruction_plan_and_objects(capsys):

@@ -78,4 +78,7 @@ def test_lm_necessity_says_when_a_suite_does_not_test_the_lm():
     assert any("**kinematic**: +0.0 pp SR" in line and "does not test the LM" in line for line in same)
     needed = lm_necessity_lines(episodes("recent", [True] * 20) + episodes("oracle-rule", [False] * 20))
     assert any("+100.0 pp SR [+100.0, +100.0]" in line and "the LM adds success" in line for line in needed)
-    assert lm_necessity_lines(episodes("recent", [True] * 3)) == []  # no oracle-rule row: nothing to say
+    covered = [{**r, "rule_coverage": 75.0} for r in episodes("recent", [True] * 3)]
+    lines = lm_necessity_lines(covered)  # no oracle-rule row: coverage, and necessity not measured
+    assert "- rule coverage, recent on kinematic: 75.0 % of spans and run-time patches decided without an LM" in lines
+    assert any("LM necessity on kinematic: not measured" in line for line in lines)

@@ -5,10 +5,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from lerobot_policy_recent.recent_plugin.episode import run_episode
 from lerobot_policy_recent.robosuite_envs.gym_env import RecentEnv
 from lerobot_policy_recent.robosuite_envs.observation import MAX_OBJECTS, SLOT_DIM
+from lerobot_policy_recent.robosuite_envs.splits import DEV_SEEDS, TEST_SEEDS, TEST_TASKS, split_of
 from lerobot_policy_recent.robosuite_envs.subtasks import SUBTASKS
-from lerobot_policy_recent.robosuite_envs.suites import SUITES, get_suite, validation_task
+from lerobot_policy_recent.robosuite_envs.suites import SUITES, get_suite, get_task, validation_task
 from lerobot_policy_recent.robosuite_envs.variations import FAR_TARGET_XY, VARIATIONS, parse_variations
 from lerobot_policy_recent.skills.repository import list_skills
 
@@ -17,7 +19,7 @@ FAST = {"press_button", "open_drawer", "insert_peg", "sweep_into_pen"}  # a repr
 
 
 def test_the_suites_have_the_papers_shape():
-    assert {name: len(tasks) for name, tasks in SUITES.items()} == {"kinematic": 20, "end_effector": 12}
+    assert {name: len(tasks) for name, tasks in SUITES.items()} == {"kinematic": 26, "end_effector": 16}
     assert len(SUBTASKS) >= 16
     assert {s.family for s in SUBTASKS.values()} == {"kinematic", "end_effector"}
     for suite, tasks in SUITES.items():
@@ -31,6 +33,36 @@ def test_the_suites_have_the_papers_shape():
                 assert set(step.args.values()) <= set(task.object_names())
     assert max(len(t.plan) for t in get_suite("kinematic")) >= 4
     assert max(len(t.plan) for t in get_suite("end_effector")) == 5
+
+
+def test_the_held_out_split_is_new_compositions_on_the_papers_seeds():
+    assert len(TEST_TASKS["kinematic"]) >= 6 and len(TEST_TASKS["end_effector"]) >= 4
+    assert TEST_SEEDS == (0, 1, 42, 123, 2024) and not set(DEV_SEEDS) & set(TEST_SEEDS)
+
+    def composition(task):
+        return tuple((step.subtask, tuple(sorted(step.args.items()))) for step in task.plan)
+
+    for suite, held_out in TEST_TASKS.items():
+        dev = {composition(t) for t in get_suite(suite) if t.task_id not in held_out}
+        for task_id in held_out:
+            task = get_task(task_id)
+            assert task.suite == suite and 3 <= len(task.plan) <= 5
+            assert composition(task) not in dev  # an order or binding no dev task has
+            assert split_of(task_id, 42) == "test" and split_of(task_id, DEV_SEEDS[0]) == "dev"
+    assert split_of("kinematic/tidy_bench", 0) == "dev"  # tasks developed on the paper's seeds stay dev
+
+
+HELD_OUT = ["kinematic/peg_lid_button", "end_effector/box_then_drawer"]  # one per suite by default
+
+
+@pytest.mark.parametrize(
+    "task_id",
+    [pytest.param(t, marks=() if t in HELD_OUT else pytest.mark.slow) for ts in TEST_TASKS.values() for t in ts],
+)
+def test_the_panda_reference_can_do_every_held_out_task_on_a_dev_seed(task_id, panda_agent):
+    """Feasibility only, and only on a dev seed: no test episode is run to tune anything."""
+    result = run_episode(panda_agent, task_id, "Panda", seed=DEV_SEEDS[0])
+    assert result.success, result.failures
 
 
 def test_every_subtask_has_a_reference_skill_and_a_single_subtask_task():
@@ -91,6 +123,32 @@ def test_variation_names_parse_and_unknown_ones_list_the_valid_ones():
     assert parse_variations("on") == ("pose_perturbation", "sensing_noise", "obstacle")
     with pytest.raises(ValueError, match="known: pose_perturbation"):
         parse_variations("earthquake")
+
+
+def test_the_mix_puts_every_variation_in_play_in_its_stated_share_seeded():
+    from lerobot_policy_recent.robosuite_envs.variations import MIX_SHARES, episode_variations
+
+    assert set(MIX_SHARES) == set(VARIATIONS) and parse_variations("mix") == ("mix",)
+    draws = [episode_variations(("mix",), f"kinematic/t{i % 7}", seed) for i in range(70) for seed in range(20)]
+    for name, share in MIX_SHARES.items():
+        assert abs(sum(name in d for d in draws) / len(draws) - share) < 0.05, name
+    assert episode_variations(("mix",), "kinematic/tidy_bench", 42) == episode_variations(
+        ("mix",), "kinematic/tidy_bench", 42
+    )
+    assert episode_variations(("obstacle",), "kinematic/tidy_bench", 42) == ("obstacle",)  # a fixed set stays fixed
+
+
+def test_an_env_with_the_mix_applies_each_episodes_draw():
+    from lerobot_policy_recent.robosuite_envs.variations import episode_variations
+
+    env = RecentEnv(task="kinematic/cube_on_plate", robot="Panda", render_mode="none", variations="mix")
+    seeds = [s for s in range(40) if "non_flat" in episode_variations(("mix",), "kinematic/cube_on_plate", s)][:1]
+    seeds += [s for s in range(40) if not episode_variations(("mix",), "kinematic/cube_on_plate", s)][:1]
+    for seed in seeds:  # a ball in one episode, nothing changed in the next: the model is rebuilt between
+        env.reset(seed=seed)
+        assert env.episode_variations == episode_variations(("mix",), "kinematic/cube_on_plate", seed)
+        assert (env._env.task_spec.spec("cube").kind == "sphere") is ("non_flat" in env.episode_variations)
+    env.close()
 
 
 def test_pose_perturbation_moves_the_object_after_planning_before_the_grasp():

@@ -20,6 +20,7 @@ from lerobot_policy_recent.recent_plugin.evaluation.methods import settings_for
 from lerobot_policy_recent.recent_plugin.failures import FailureCategory
 from lerobot_policy_recent.recent_plugin.settings import RecentSettings
 from lerobot_policy_recent.robosuite_envs.embodiments import EMBODIMENTS
+from lerobot_policy_recent.robosuite_envs.splits import SPLITS, split_of
 from lerobot_policy_recent.robosuite_envs.suites import SEEDS, get_suite
 
 SUITE_TARGETS = {"kinematic": ("UR5e", "Sawyer"), "end_effector": ("Robotiq85", "Suction")}
@@ -51,13 +52,14 @@ class BenchConfig:
     methods: tuple[str, ...] = ("recent",)
     seeds: tuple[int, ...] = SEEDS
     tasks: tuple[str, ...] = ()  # task names or ids within the suites; empty: all
-    variations: str = "on"
+    variations: str = "mix"  # every variation in play, each in its stated share of episodes (variations.MIX_SHARES)
     workers: int = 0  # Ray workers (each holds one LM); 0: as many as the cluster's CPUs hold
     cpus_per_worker: float | None = None  # CPUs a worker reserves (None: 2, or the CPUs shared by `workers`)
     gpus_per_worker: float | None = None  # GPUs a worker reserves (None: 1 for a transformers LM on a GPU cluster)
     ray_address: str | None = None  # an existing Ray cluster (None: $RAY_ADDRESS, else a local instance)
     log_sinks: tuple[str, ...] = ("mcap", "rerun", "dataset")  # the driver's sinks; empty: no logs
     retry_crashed: bool = False  # run again the episodes whose record says an error broke them off
+    split: str = "all"  # all, or only the dev or the held-out test episodes (robosuite_envs/splits.py)
     agent: RecentSettings = field(default_factory=RecentSettings)
 
     def jobs(self) -> list[Job]:
@@ -70,7 +72,10 @@ class BenchConfig:
                 for target in self.targets or SUITE_TARGETS[suite]:
                     for spec in chosen:
                         for seed in self.seeds:
-                            jobs.append(Job(method, suite, spec.task_id, target, seed))
+                            if self.split in ("all", split_of(spec.task_id, seed)):
+                                jobs.append(Job(method, suite, spec.task_id, target, seed))
+        if self.split not in ("all", *SPLITS):
+            raise ValueError(f"unknown split {self.split!r}; choose from all, {', '.join(SPLITS)}")
         robots = [t for t in self.targets if t not in EMBODIMENTS]
         if robots:
             raise ValueError(f"unknown target(s) {', '.join(robots)}; known robots: {', '.join(EMBODIMENTS)}")
@@ -135,6 +140,7 @@ def crash_record(job: Job, reason: str, seconds: float = 0.0) -> dict:
     """The record of an episode that an error broke off: no result (``recent bench --retry-crashed`` reruns it)."""
     return {
         **asdict(job),
+        "split": split_of(job.task_id, job.seed),
         "success": False,
         "gc": 0.0,
         "crashed": reason,
@@ -145,7 +151,7 @@ def crash_record(job: Job, reason: str, seconds: float = 0.0) -> dict:
 
 def episode_record(job: Job, result) -> dict:
     """One bench record: the job, then the episode's own record (the same one ``recent run --json`` prints)."""
-    record = {**asdict(job), **result.to_record()}
+    record = {**asdict(job), "split": split_of(job.task_id, job.seed), **result.to_record()}
     record["success"] = bool(record["success"])
     record["gc"] = float(record["gc"] or 0.0)
     return record

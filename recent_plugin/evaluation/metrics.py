@@ -18,6 +18,7 @@ from collections import defaultdict
 from collections.abc import Callable, Iterable
 
 from lerobot_policy_recent.recent_plugin.evaluation.confidence import paired_comparisons, rate_intervals
+from lerobot_policy_recent.robosuite_envs.splits import split_of
 
 METRICS = ("sr", "gc", "go", "ei", "it", "igt", "go_pre", "patches")
 LABELS = {
@@ -82,8 +83,8 @@ def group(records: Iterable[dict], key: Callable[[dict], tuple]) -> dict[tuple, 
 
 
 def aggregate(records: list[dict]) -> dict[str, object]:
-    """The results.json body: per method × suite (the paper's settings), × target, and × task; and RECENT
-    against every other method on the episodes both ran."""
+    """The results.json body: per method × suite (the paper's settings), × target, × task, and × split
+    (dev / held-out test); and RECENT against every other method on the episodes both ran."""
     return {
         "by_setting": {
             f"{m}|{s}": summarize(rs)
@@ -97,8 +98,31 @@ def aggregate(records: list[dict]) -> dict[str, object]:
             f"{m}|{t}|{task}": summarize(rs)
             for (m, t, task), rs in sorted(group(records, lambda r: (r["method"], r["target"], r["task_id"])).items())
         },
+        "by_split": {
+            f"{m}|{s}|{split}": summarize(rs)
+            for (m, s, split), rs in sorted(
+                group(records, lambda r: (r["method"], r["suite"], record_split(r))).items()
+            )
+        },
+        "rule_coverage": rule_coverage(records),
         "paired": paired_comparisons(records),
     }
+
+
+def rule_coverage(records: list[dict]) -> dict[str, float]:
+    """Per method|suite, the mean % of spans and run-time patches the ontology or a check decided
+    completely (episodes with no span at all left out)."""
+    out = {}
+    for (m, s), rs in sorted(group(records, lambda r: (r["method"], r["suite"])).items()):
+        values = [float(r["rule_coverage"]) for r in rs if r.get("rule_coverage") is not None]
+        if values:
+            out[f"{m}|{s}"] = round(statistics.fmean(values), 1)
+    return out
+
+
+def record_split(record: dict) -> str:
+    """The record's split (``dev`` or ``test``), or where a record predates the field, its task's and seed's."""
+    return record.get("split") or split_of(record["task_id"], record["seed"])
 
 
 def fmt(summary: dict, metric: str) -> str:

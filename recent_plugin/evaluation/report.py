@@ -19,6 +19,8 @@ from lerobot_policy_recent.recent_plugin.evaluation.metrics import (
     aggregate,
     fmt,
     group,
+    record_split,
+    rule_coverage,
     split_crashed,
     summarize,
 )
@@ -340,6 +342,10 @@ def render_report(dirs: list[Path], out: Path) -> Path:
         "",
         main_table(records),
         "",
+        "## Held-out test split and dev, apart",
+        "",
+        split_table(records),
+        "",
         "## RECENT against each method, on the same episodes",
         "",
         paired_table(records),
@@ -397,16 +403,45 @@ def paired_table(records: list[dict]) -> str:
     return "\n".join(lines)
 
 
+def split_table(records: list[dict]) -> str:
+    """SR and GC per method and suite on the held-out test episodes and on dev, side by side: only the
+    test columns are a result; dev is where fixes were made (``docs/benchmark.md``)."""
+    by = {k: summarize(v) for k, v in group(records, lambda r: (r["method"], r["suite"], record_split(r))).items()}
+    lines = ["| method | suite | test episodes | test SR | test GC | dev episodes | dev SR | dev GC |"]
+    lines.append("|---|---|---:|---:|---:|---:|---:|---:|")
+    for method, suite in sorted({(m, s) for m, s, _ in by}, key=lambda k: (_ordered(METHODS).index(k[0]), k[1])):
+        cells = []
+        for split in ("test", "dev"):
+            summary = by.get((method, suite, split))
+            cells += [str(summary["episodes"]), fmt(summary, "sr"), fmt(summary, "gc")] if summary else ["0", "–", "–"]
+        lines.append(f"| {method} | {suite} | " + " | ".join(cells) + " |")
+    if not any(split == "test" for _, _, split in by):
+        lines.append("\nNo held-out test episode in these runs: every number above is a dev number.")
+    return "\n".join(lines)
+
+
 def lm_necessity_lines(records: list[dict]) -> list[str]:
-    """RECENT's SR minus the no-LM ``oracle-rule`` SR on the same episodes, per suite: what the LM adds.
-    Where it is zero, the suite does not test the LM, and the report says so."""
+    """What the LM adds, the two figures every run reports: **rule coverage** (the share of spans and
+    run-time patches the ontology or a check decided completely) and **LM necessity** (RECENT's SR
+    minus the no-LM ``oracle-rule`` SR on the same episodes, per suite; where it is zero, the suite
+    does not test the LM, and the report says so)."""
+    coverage = rule_coverage(records)
     pairs = {
         k.split("|")[1]: p for k, p in paired_comparisons(records).items() if k.startswith("recent vs oracle-rule|")
     }
-    if not pairs:
+    if not coverage and not pairs:
         return []
-    lines = ["## LM necessity (RECENT minus the ontology's rendering alone)", ""]
-    for suite, p in sorted(pairs.items()):
+    lines = ["## What the LM adds", ""]
+    for key, value in coverage.items():
+        method, suite = key.split("|")
+        lines.append(
+            f"- rule coverage, {method} on {suite}: {value:.1f} % of spans and run-time patches decided without an LM"
+        )
+    for suite in sorted({r["suite"] for r in records if r["method"] == "recent"}):
+        p = pairs.get(suite)
+        if p is None:
+            lines.append(f"- LM necessity on {suite}: not measured (run `oracle-rule` on the same episodes)")
+            continue
         low, high = p["sr_diff_ci95"]
         verdict = (
             "the suite does not test the LM: the ontology's rendering alone does as well"
@@ -415,8 +450,8 @@ def lm_necessity_lines(records: list[dict]) -> list[str]:
             + ("" if low > 0 else ", but the interval includes 0: another draw could erase it")
         )
         lines.append(
-            f"- **{suite}**: {p['sr_diff']:+.1f} pp SR [{low:+.1f}, {high:+.1f}] over {p['episodes']} shared "
-            f"episodes; {verdict}."
+            f"- LM necessity on **{suite}**: {p['sr_diff']:+.1f} pp SR [{low:+.1f}, {high:+.1f}] over "
+            f"{p['episodes']} shared episodes; {verdict}."
         )
     return [*lines, ""]
 

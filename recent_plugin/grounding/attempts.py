@@ -19,7 +19,7 @@ from lerobot_policy_recent.logs.events import Event, InfillCall, ValidationVerdi
 from lerobot_policy_recent.recent_plugin.grounding.budget import LMBudgetExhausted
 from lerobot_policy_recent.recent_plugin.grounding.gate import Verdict
 from lerobot_policy_recent.recent_plugin.infillers.base import Infiller
-from lerobot_policy_recent.recent_plugin.refactoring.fim_prompt import build_prompt, hint_lines
+from lerobot_policy_recent.recent_plugin.refactoring.fim_prompt import build_prompt, decided_by_rule, hint_lines
 from lerobot_policy_recent.recent_plugin.refactoring.units import RefactoringUnit
 
 log = logging.getLogger(__name__)
@@ -44,6 +44,8 @@ class LMCall:
     hints: tuple[str, ...] = ()  # the hint comments as the model saw them
     prompt: str = ""  # prefix + <FILL> + suffix, format-independent (the logs show it)
     rendered: bool = False  # the fast path wrote it; a revise or repair so written is no interruption
+    attempt: int = 0  # 0 for a span's first call, then its retries
+    decided: bool = False  # the ontology or a check wrote every argument (decided_by_rule): no LM was needed
 
 
 def call_events(skill: str, call: LMCall) -> list[Event]:
@@ -135,6 +137,8 @@ def infill_until_valid(
                 hints=tuple(hint_lines(unit.span_type, unit.hints)),
                 prompt=prompt.prefix + FILL + prompt.suffix,
                 rendered=completion.rendered,
+                attempt=attempt,
+                decided=decided_by_rule(unit),
             )
         )
         if verdict.ok:

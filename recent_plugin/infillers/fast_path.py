@@ -20,11 +20,9 @@ from __future__ import annotations
 
 from dataclasses import replace
 
-from lerobot_policy_recent.ontology.diagnosis import SPAN_TYPES
 from lerobot_policy_recent.recent_plugin.infillers.base import Completion, Infiller
 from lerobot_policy_recent.recent_plugin.infillers.rule import RuleInfiller
-from lerobot_policy_recent.recent_plugin.refactoring.fim_prompt import RUNTIME_SPAN_TYPES
-from lerobot_policy_recent.recent_plugin.refactoring.substitution import has_placeholders
+from lerobot_policy_recent.recent_plugin.refactoring.fim_prompt import decided_by_rule
 from lerobot_policy_recent.recent_plugin.refactoring.units import RefactoringUnit
 
 
@@ -33,21 +31,9 @@ class FastPathInfiller:
         self.lm, self.rule = lm, RuleInfiller()
         self.name = f"{lm.name}+fast-path"
         self.model = lm.model
-        self.rendered = 0  # spans the fast path wrote (the rest went to the LM)
-
-    def decided(self, unit: RefactoringUnit) -> bool:
-        """The ontology (or the run-time check) wrote the span's every argument, and this is its first attempt."""
-        call = unit.hints.substitute_call
-        return (
-            unit.span_type in (*SPAN_TYPES, *RUNTIME_SPAN_TYPES)  # determined conflicts; in-situ patches, repairs
-            and unit.hints.attempt == 0
-            and bool(call)
-            and not has_placeholders(call)
-        )
 
     def infill(self, unit: RefactoringUnit) -> Completion:
-        if self.decided(unit):
-            self.rendered += 1
+        if decided_by_rule(unit):
             return replace(self.rule.infill(unit), rendered=True)
         return self.lm.infill(unit)
 

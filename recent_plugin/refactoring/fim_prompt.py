@@ -11,9 +11,9 @@ import json
 import re
 from dataclasses import dataclass
 
-from lerobot_policy_recent.ontology.diagnosis import ParameterMapping
+from lerobot_policy_recent.ontology.diagnosis import SPAN_TYPES, ParameterMapping
 from lerobot_policy_recent.ontology.skill_code import name_variables, variable_kinds
-from lerobot_policy_recent.recent_plugin.refactoring.substitution import PLACEHOLDER
+from lerobot_policy_recent.recent_plugin.refactoring.substitution import PLACEHOLDER, has_placeholders
 from lerobot_policy_recent.recent_plugin.refactoring.units import Hints, RefactoringUnit
 
 # GBNF grammars for RECENT's localized spans: code statements, never comments (a small model
@@ -33,6 +33,19 @@ BASELINE_SPAN_TYPES = ("program_synthesis", "localized_repair")  # the baselines
 NOT_CONFLICT_SPAN_TYPES = (*RUNTIME_SPAN_TYPES, *BASELINE_SPAN_TYPES, "full_regeneration")
 WHOLE_BODY_SPAN_TYPES = ("program_synthesis", "full_regeneration")  # a function body, blank lines and all
 WRITTEN_FREELY = (*BASELINE_SPAN_TYPES, "full_regeneration")  # no grammar: the model writes Python as it would
+
+
+def decided_by_rule(unit: RefactoringUnit) -> bool:
+    """Whether the ontology (or the run-time check that cut the unit) wrote the span's every argument:
+    a determined conflict or a run-time patch whose call has no ``<placeholder>`` left, on its first
+    attempt. Nothing is left for an LM to decide (the fast path renders it; the report's rule coverage)."""
+    call = unit.hints.substitute_call
+    return (
+        unit.span_type in (*SPAN_TYPES, *RUNTIME_SPAN_TYPES)
+        and unit.hints.attempt == 0
+        and bool(call)
+        and not has_placeholders(call)
+    )
 
 
 def call_grammar(call: str, names: tuple[str, ...] = ()) -> str:
