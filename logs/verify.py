@@ -162,10 +162,13 @@ def recover_mcap(source: Path, target: Path) -> int:
     with open(target, "wb") as stream:
         writer = Writer(stream, use_chunking=False)
         writer.start(profile="", library="lerobot_policy_recent (recovered)")
-        schema_ids = {s.id: writer.register_schema(s.name, s.encoding, s.data) for s in kinds["Schema"]}
+        # a file cut short while its summary was written repeats schemas and channels there: each once
+        schemas = {s.id: s for s in kinds["Schema"]}.values()
+        channels = {c.id: c for c in kinds["Channel"]}.values()
+        schema_ids = {s.id: writer.register_schema(s.name, s.encoding, s.data) for s in schemas}
         channel_ids = {
             c.id: writer.register_channel(c.topic, c.message_encoding, schema_ids.get(c.schema_id, 0), c.metadata)
-            for c in kinds["Channel"]
+            for c in channels
         }
         for m in kinds["Message"]:
             if m.channel_id in channel_ids:

@@ -470,6 +470,26 @@ def test_a_killed_rerun_recording_keeps_all_but_its_last_moments(tmp_path):
     assert steps - 4 <= kept <= steps  # at most the last FLUSH_S of steps (4 steps here) is lost
 
 
+def test_recovery_writes_each_schema_and_channel_once(run, tmp_path):
+    """A finished file repeats its schemas and channels in the summary; a file cut short during that
+    summary hands both copies to recovery, which must still register each once."""
+    from mcap.reader import make_reader
+
+    from lerobot_policy_recent.logs.verify import recover_mcap
+
+    root, (good, _) = run
+    source = LogLayout(root).mcap(0)
+    cut = tmp_path / "cut.mcap"
+    cut.write_bytes(source.read_bytes()[:-40])  # the footer and the end of the summary gone
+    recovered = tmp_path / "recovered.mcap"
+    recover_mcap(cut, recovered)
+    with open(recovered, "rb") as stream:
+        summary = make_reader(stream).get_summary()
+    topics = [c.topic for c in summary.channels.values()]
+    assert len(topics) == len(set(topics)) and len(summary.schemas) == len({s.name for s in summary.schemas.values()})
+    assert read_mcap(recovered).steps == good.steps
+
+
 def test_log_commands_refuse_what_they_cannot_do_and_say_so(run, tmp_path, capsys, monkeypatch):
     """Each bad input exits non-zero with one line, and nothing is created or claimed."""
     from lerobot_policy_recent.scripts.cli import main
