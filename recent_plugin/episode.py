@@ -106,6 +106,25 @@ class EpisodeResult:
         spans = [c for c in calls if c.attempt == 0]
         return 100.0 * sum(c.decided for c in spans) / len(spans) if spans else None
 
+    def time_breakdown(self) -> dict[str, float | int]:
+        """IGT (cold) and IT split as users feel them: prompt evaluation, generation, and the rest
+        (diagnosis, prompt building, validation); IT per interruption; prompt tokens evaluated
+        against those sent (the share the model's cache saved)."""
+        grounding = [c for s in self.grounding.skills for c in s.calls]
+        interruptions = self.interruptions()
+        cold = sum(s.seconds for s in self.grounding.skills)
+        every = grounding + list(self.runtime_calls)
+        return {
+            "igt_prompt_s": round(sum(c.prompt_seconds for c in grounding), 4),
+            "igt_generation_s": round(sum(c.generation_seconds for c in grounding), 4),
+            "igt_other_s": round(max(0.0, cold - sum(c.seconds for c in grounding)), 4),
+            "it_prompt_s": round(sum(c.prompt_seconds for c in interruptions), 4),
+            "it_generation_s": round(sum(c.generation_seconds for c in interruptions), 4),
+            "it_per_call_s": round(self.it / len(interruptions), 4) if interruptions else 0.0,
+            "prompt_tokens": sum(c.prompt_tokens for c in every),
+            "prompt_tokens_evaluated": sum(c.evaluated_prompt_tokens for c in every),
+        }
+
     @property
     def lm_seconds(self) -> float:
         return sum(s.lm_seconds for s in self.grounding.skills) + sum(c.seconds for c in self.runtime_calls)
@@ -153,6 +172,7 @@ class EpisodeResult:
             "lm_seconds": round(self.lm_seconds, 4),
             "lm_calls": len(calls),
             "rule_coverage": None if self.rule_coverage is None else round(self.rule_coverage, 1),
+            **self.time_breakdown(),
             "valid": all(s.valid for s in self.grounding.skills),
             "failure_category": category,
             "failure_message": message[:500],

@@ -293,3 +293,26 @@ def test_cap_distilled_runs_caps_protocol_on_a_model_of_its_own(ontology, llama_
     calls = [c for s in result.grounding.skills for c in s.calls]
     assert calls and calls[0].kind == "ground" and calls[0].generated_tokens > 0
     assert agent.started_event("cube_in_bin", "UR5e", 0).model == agent.infiller.model  # the logs name it
+
+
+def test_igt_and_it_are_broken_down_into_prompt_generation_and_the_rest(ontology):
+    """Every record splits the LM's time as a backend measured it, and says how much of each prompt
+    the model's cache saved."""
+    from lerobot_policy_recent.recent_plugin.infillers.base import Completion
+
+    class Timed(ScriptedInfiller):
+        def infill(self, unit):
+            text = super().infill(unit).text
+            return Completion(
+                text, 7, 0.01, 100, evaluated_prompt_tokens=40, prompt_seconds=0.004, generation_seconds=0.005
+            )
+
+    wrong = UR5E_BODY.replace("open_ur5_ee(env, task)", PANDA_LINE)
+    infiller = Timed([wrong, UR5E_BODY])
+    agent = RecentAgent(
+        RecentSettings(infiller=RuleConfig(), method=method_named("cap")), ontology=ontology, infiller=infiller
+    )
+    record = run_episode(agent, "cube_in_bin", "UR5e", seed=0).to_record()
+    assert record["igt_prompt_s"] == pytest.approx(0.004) and record["igt_generation_s"] == pytest.approx(0.005)
+    assert record["it_prompt_s"] == pytest.approx(0.004) and record["it_per_call_s"] == pytest.approx(0.01)
+    assert record["igt_other_s"] >= 0 and record["prompt_tokens"] == 200 and record["prompt_tokens_evaluated"] == 80

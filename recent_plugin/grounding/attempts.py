@@ -46,6 +46,10 @@ class LMCall:
     rendered: bool = False  # the fast path wrote it; a revise or repair so written is no interruption
     attempt: int = 0  # 0 for a span's first call, then its retries
     decided: bool = False  # the ontology or a check wrote every argument (decided_by_rule): no LM was needed
+    prompt_tokens: int = 0
+    evaluated_prompt_tokens: int = 0  # not already in the model's cache
+    prompt_seconds: float = 0.0  # of ``seconds``: prompt evaluation (0 where the backend does not measure it)
+    generation_seconds: float = 0.0  # of ``seconds``: generation
 
 
 def call_events(skill: str, call: LMCall) -> list[Event]:
@@ -139,6 +143,10 @@ def infill_until_valid(
                 rendered=completion.rendered,
                 attempt=attempt,
                 decided=decided_by_rule(unit),
+                prompt_tokens=completion.prompt_tokens,
+                evaluated_prompt_tokens=completion.evaluated_prompt_tokens,
+                prompt_seconds=completion.prompt_seconds,
+                generation_seconds=completion.generation_seconds,
             )
         )
         if verdict.ok:

@@ -15,6 +15,9 @@ class Completion:
     seconds: float  # wall time of the call
     prompt_tokens: int = 0
     rendered: bool = False  # written by the fast path's renderer: no model call, so no pause
+    evaluated_prompt_tokens: int = 0  # the prompt tokens not already in the model's cache (where a backend knows)
+    prompt_seconds: float = 0.0  # of ``seconds``: evaluating the prompt (where a backend measures it)
+    generation_seconds: float = 0.0  # of ``seconds``: generating the completion
 
 
 class Infiller(Protocol):

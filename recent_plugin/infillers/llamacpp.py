@@ -60,6 +60,9 @@ class LlamaCppInfiller:
             generated_tokens=out.generated_tokens,
             seconds=time.perf_counter() - started,
             prompt_tokens=out.prompt_tokens,
+            evaluated_prompt_tokens=out.evaluated_prompt_tokens,
+            prompt_seconds=out.prompt_seconds,
+            generation_seconds=out.generation_seconds,
         )
 
     def close(self) -> None:

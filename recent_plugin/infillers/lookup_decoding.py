@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import ctypes
 import math
+import time
 from dataclasses import dataclass
 
 import numpy as np
@@ -30,6 +31,8 @@ class Decoded:
     generated_tokens: int  # sampled tokens, as llama.cpp's own completion counts them
     prompt_tokens: int
     evaluated_prompt_tokens: int  # the part of the prompt not already in the KV cache
+    prompt_seconds: float = 0.0  # evaluating that part
+    generation_seconds: float = 0.0  # sampling the completion
 
 
 def draft_from_context(context: list[int], *, max_ngram: int = 3, max_draft: int = 8) -> list[int]:
@@ -121,7 +124,9 @@ class LookupDecoder:
         while keep < min(len(cached), len(prompt) - 1) and cached[keep] == prompt[keep]:
             keep += 1
         self._truncate(keep)
+        started = time.perf_counter()
         self._decode(prompt[keep:], all_logits=False)
+        prompt_seconds = time.perf_counter() - started
         sampler = GreedyGrammarSampler(llm, grammar)
         vocab = llm._model.vocab
 
@@ -161,4 +166,5 @@ class LookupDecoder:
         for stop in stops:
             if stop in text:
                 text = text[: text.index(stop)]
-        return Decoded(text, len(out), len(prompt), len(prompt) - keep)
+        generation_seconds = time.perf_counter() - started - prompt_seconds
+        return Decoded(text, len(out), len(prompt), len(prompt) - keep, prompt_seconds, generation_seconds)
