@@ -316,3 +316,40 @@ def test_igt_and_it_are_broken_down_into_prompt_generation_and_the_rest(ontology
     assert record["igt_prompt_s"] == pytest.approx(0.004) and record["igt_generation_s"] == pytest.approx(0.005)
     assert record["it_prompt_s"] == pytest.approx(0.004) and record["it_per_call_s"] == pytest.approx(0.01)
     assert record["igt_other_s"] >= 0 and record["prompt_tokens"] == 200 and record["prompt_tokens_evaluated"] == 80
+
+
+def _program(*lines: str) -> str:
+    return 'def put_in_bin(env, task, obj="cube", receptacle="bin"):\n' + "".join(f"    {line}\n" for line in lines)
+
+
+@pytest.mark.parametrize(
+    ("lines", "behaviours"),
+    [
+        (UR5E_BODY.splitlines(), []),  # the correct UR5e program
+        (["open_gripper(env, task)"], ["nonsense"]),
+        (["ur5_grasp_at(env, task, grasp_pos=[0, 0, 0.9], speed=1)"], ["nonsense"]),
+        (["ur5_release_at(env, task, place_pos=[0, 0, 0.9])"], ["disorder"]),
+        (
+            ["ur5_grasp_at(env, task, grasp_pos=[0, 0, 0.9])", "ur5_grasp_at(env, task, grasp_pos=[0, 0.1, 0.9])"],
+            ["disorder"],
+        ),
+        (["ur5_move_to(env, task, target_pos=[1.5, 0, 0.9])"], ["infeasible"]),
+        (["ur5_align_gripper(env, task, reference_quat=[1, 1, 0, 0])"], ["badpose"]),
+        (["ur5_move_to(env, task, target_pos=[0, 0, 0.9], timeout_s=100)"], ["badpose"]),
+    ],
+)
+def test_the_behaviour_detector_sorts_programs_into_roboinspectors_taxonomy(ontology, lines, behaviours):
+    from lerobot_policy_recent.recent_plugin.baselines.inspector import inspect_program
+
+    code = _program(*(line.strip() for line in lines))
+    assert [f.behaviour for f in inspect_program(code, "put_in_bin", ontology.api("UR5e"))] == behaviours
+
+
+def test_roboinspector_regenerates_before_execution_with_the_categorised_finding(ontology):
+    disordered = "ur5_release_at(env, task, place_pos=task.get_object_position(receptacle))\n    " + UR5E_BODY
+    agent, infiller = _agent(ontology, "roboinspector", [disordered, UR5E_BODY])
+    result = run_episode(agent, "cube_in_bin", "UR5e", seed=0)
+    assert result.success and not result.runtime_calls
+    first, second = result.grounding.skills[0].calls
+    assert not first.accepted and first.kind == second.kind == "ground" and second.accepted
+    assert "Disorder (line 3): ur5_release_at() needs a held object" in infiller.units[1].hints.feedback

@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 from lerobot_policy_recent.logs.events import Emit, PatchApplied, ignore
 from lerobot_policy_recent.ontology.specs import ApiSpec
 from lerobot_policy_recent.ontology.target import Target
+from lerobot_policy_recent.recent_plugin.baselines.inspector import categorised
 from lerobot_policy_recent.recent_plugin.baselines.program_prompt import (
     EMPTY,
     BaselineStyle,
@@ -29,7 +30,7 @@ from lerobot_policy_recent.recent_plugin.grounding.attempts import (
     infill_until_valid,
     source_diff,
 )
-from lerobot_policy_recent.recent_plugin.grounding.gate import Verdict, security_gate
+from lerobot_policy_recent.recent_plugin.grounding.gate import Verdict
 from lerobot_policy_recent.recent_plugin.grounding.grounder import GroundedSkill
 from lerobot_policy_recent.recent_plugin.infillers.base import Infiller
 from lerobot_policy_recent.recent_plugin.refactoring.units import RefactoringUnit, apply_unit
@@ -70,6 +71,8 @@ class BaselineAdapter:
             return False
         skill = self.skills[name]
         error = f"line {failure.line}: {failure.category}: {failure.message}"
+        if self.style.inspect:  # RoboInspector's feedback names the behaviour
+            error = f"{categorised(str(failure.category)).capitalize()} ({error})"
         observation = describe_scene(executor.session.obs)
         whole = self.style.rewrites_whole(self._budget.used[name])
         code = executor.source()
@@ -96,9 +99,7 @@ class BaselineAdapter:
 
         def judge(unit: RefactoringUnit, text: str) -> tuple[Verdict, str]:
             candidate = apply_unit(base, unit, text)
-            return (
-                security_gate(candidate, executor.grounded.entry, self.target.api.names()) if text else EMPTY
-            ), candidate
+            return (self.style.judge(candidate, executor.grounded.entry, self.target.api) if text else EMPTY), candidate
 
         before = len(self.calls)
         accepted = infill_until_valid(

@@ -23,7 +23,7 @@ from lerobot_policy_recent.recent_plugin.baselines.program_prompt import (
     ProgramPrompt,
 )
 from lerobot_policy_recent.recent_plugin.grounding.attempts import infill_until_valid
-from lerobot_policy_recent.recent_plugin.grounding.gate import Verdict, security_gate
+from lerobot_policy_recent.recent_plugin.grounding.gate import Verdict
 from lerobot_policy_recent.recent_plugin.grounding.grounder import GroundedSkill, unrecoverable
 from lerobot_policy_recent.recent_plugin.infillers.base import Infiller
 from lerobot_policy_recent.recent_plugin.refactoring.units import RefactoringUnit, apply_unit
@@ -58,7 +58,7 @@ def generate_skill(
 
     def judge(unit: RefactoringUnit, text: str) -> tuple[Verdict, str]:
         candidate = apply_unit(last["base"], unit, text)  # type: ignore[arg-type]
-        verdict = security_gate(candidate, skill.entry, target.api.names()) if text else EMPTY
+        verdict = style.judge(candidate, skill.entry, target.api) if text else EMPTY
         last["code"], last["verdict"] = candidate, verdict
         return verdict, candidate
 

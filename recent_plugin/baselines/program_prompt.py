@@ -17,7 +17,7 @@ from dataclasses import dataclass, replace
 from lerobot_policy_recent.ontology.skill_code import body_span
 from lerobot_policy_recent.ontology.target import Target
 from lerobot_policy_recent.recent_plugin.failures import FailureCategory
-from lerobot_policy_recent.recent_plugin.grounding.gate import Verdict
+from lerobot_policy_recent.recent_plugin.grounding.gate import Verdict, security_gate
 from lerobot_policy_recent.recent_plugin.refactoring.units import Hints, RefactoringUnit, cut_unit
 from lerobot_policy_recent.robosuite_envs.primitives.session import TaskContext
 from lerobot_policy_recent.robosuite_envs.subtasks import TABLE_Z
@@ -39,6 +39,14 @@ class BaselineStyle:
     # regenerated: 0 regenerates at once (cap), None never does (repair).
     statement_repairs: int | None = 0
     pythonic: bool = False  # ProgPrompt's header: the actions imported with their parameters, the objects a list
+    inspect: bool = False  # RoboInspector: a behaviour detector before execution, categorised feedback
+
+    def judge(self, candidate: str, entry: str, api) -> Verdict:
+        """What a program must pass before it runs: the security gate, and the detector where the baseline has one."""
+        from lerobot_policy_recent.recent_plugin.baselines.inspector import inspection_verdict
+
+        verdict = security_gate(candidate, entry, api.names())
+        return inspection_verdict(candidate, entry, api) if verdict.ok and self.inspect else verdict
 
     def rewrites_whole(self, failures: int) -> bool:
         """Whether the ``failures``-th failure of a skill (1 for the first) regenerates the whole program."""

@@ -90,6 +90,16 @@ class ProgPrompt(Baseline):
     style: ClassVar[BaselineStyle] = BaselineStyle("progprompt", statement_repairs=0, pythonic=True)
 
 
+@Method.register_subclass("roboinspector")
+@dataclass
+class RoboInspector(Baseline):
+    """RoboInspector as the paper adopts it: a behaviour detector (Nonsense / Disorder / Infeasible /
+    Badpose) before execution, and regeneration with categorised feedback when it finds something or
+    the program fails."""
+
+    style: ClassVar[BaselineStyle] = BaselineStyle("roboinspector", statement_repairs=0, inspect=True)
+
+
 @Method.register_subclass("agentless")
 @dataclass
 class Agentless(Baseline):
