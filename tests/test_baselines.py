@@ -353,3 +353,19 @@ def test_roboinspector_regenerates_before_execution_with_the_categorised_finding
     first, second = result.grounding.skills[0].calls
     assert not first.accepted and first.kind == second.kind == "ground" and second.accepted
     assert "Disorder (line 3): ur5_release_at() needs a held object" in infiller.units[1].hints.feedback
+
+
+def test_scot_writes_a_structured_plan_then_the_program_under_it(ontology):
+    plan = "open_gripper -> open_ur5_ee\n# - pick(target_pos) -> ur5_grasp_at(grasp_pos)"
+    agent, infiller = _agent(ontology, "scot", [plan, UR5E_BODY])
+    result = run_episode(agent, "cube_in_bin", "UR5e", seed=0)
+    assert result.success
+    first, second = infiller.units
+    assert first.span_type == "structured_plan" and first.prefix.endswith("one line each.\n# - ")
+    assert build_prompt(first, 0).grammar is None  # free text, as comment lines
+    assert "# Structured plan:\n# - open_gripper -> open_ur5_ee\n# - pick(target_pos) -> ur5_grasp_at(grasp_pos)\n" in (
+        second.prefix
+    )
+    calls = result.grounding.skills[0].calls
+    assert [(c.kind, c.span_type) for c in calls] == [("ground", "structured_plan"), ("ground", PROGRAM)]
+    assert result.go_pre == pytest.approx(100 * 2 * infiller.tokens / result.skill_tokens)  # both are grounding

@@ -10,11 +10,12 @@ to the security gate only, as the first program was: it runs until it fails.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 from lerobot_policy_recent.logs.events import Emit, PatchApplied, ignore
 from lerobot_policy_recent.ontology.specs import ApiSpec
 from lerobot_policy_recent.ontology.target import Target
+from lerobot_policy_recent.recent_plugin.baselines.generate import plan_of
 from lerobot_policy_recent.recent_plugin.baselines.inspector import categorised
 from lerobot_policy_recent.recent_plugin.baselines.program_prompt import (
     EMPTY,
@@ -78,7 +79,8 @@ class BaselineAdapter:
         code = executor.source()
         segment = executor.segments[failure.segment]
 
-        prompt = ProgramPrompt(skill, self.target, self.style, self.context)
+        context = replace(self.context, plan=plan_of(executor.grounded)) if self.style.structured_plan else self.context
+        prompt = ProgramPrompt(skill, self.target, self.style, context)
 
         def feedback(rejected: str | None) -> str:
             return error if rejected is None else f"{error}; then rejected: {rejected}"

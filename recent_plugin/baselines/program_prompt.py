@@ -40,6 +40,7 @@ class BaselineStyle:
     statement_repairs: int | None = 0
     pythonic: bool = False  # ProgPrompt's header: the actions imported with their parameters, the objects a list
     inspect: bool = False  # RoboInspector: a behaviour detector before execution, categorised feedback
+    structured_plan: bool = False  # SCoT: a plan of substitutions and parameter mappings, then the code
 
     def judge(self, candidate: str, entry: str, api) -> Verdict:
         """What a program must pass before it runs: the security gate, and the detector where the baseline has one."""
@@ -59,6 +60,7 @@ class ProgramContext:
 
     instruction: str
     objects: tuple[str, ...] = ()  # "name (kind)"
+    plan: str = ""  # SCoT: the structured plan written before the code, one line per substitution
 
 
 @dataclass(frozen=True)
@@ -91,10 +93,25 @@ class ProgramPrompt:
                 f"table top at z = {TABLE_Z:.2f} m; every target must lie inside it"
             )
         lines.append(f"# Task: {self.context.instruction}")
+        if self.context.plan:
+            lines.append("# Structured plan:")
+            lines += [f"# - {line}" for line in self.context.plan.splitlines()]
         lines.append(
             f"# This step: {self.skill.intent} Write it for {self.target.name}, calling only the {self.target.name} primitives."
         )
         return "\n".join(lines) + "\n"
+
+    def plan_unit(self, *, feedback: str | None = None, attempt: int = 0) -> RefactoringUnit:
+        """SCoT's first stage: after the header, comment lines naming, for each call of the example, the
+        target primitive that replaces it and how its arguments map; the signature follows."""
+        code = self.skill.code
+        start, end = body_span(code, self.skill.entry)
+        ask = (
+            f"# Before any code, a structured plan: for each call in the example, the {self.target.name} "
+            "primitive that replaces it and how its arguments map, one line each.\n# - "
+        )
+        hints = Hints(target=self.target, original_call=code[start:end], feedback=feedback, attempt=attempt)
+        return RefactoringUnit(0, 0, "", self.header() + ask, "\n" + code[:start], "", "structured_plan", hints)
 
     def _example(self) -> str:
         """The reference skill, renamed for its robot (``put_in_bin_panda``), as the in-context example."""

@@ -109,11 +109,13 @@ def infill_until_valid(
     kind: str,
     max_retries: int,
     calls: list[LMCall],
+    clean: Callable[[str, RefactoringUnit], str] = clean_completion,
 ) -> Attempt | None:
     """Ask for a span, judge it, retry with the rejection as feedback; every call is recorded in ``calls``.
 
     ``make_unit(feedback, attempt)`` cuts the unit; ``judge(unit, text)`` returns the verdict and
     the candidate program. The one loop behind grounding, regeneration, revision and repair.
+    ``clean`` turns the completion into the span's text (code by default; SCoT's plan keeps its lines).
     """
     feedback = None
     for attempt in range(max_retries + 1):
@@ -123,7 +125,7 @@ def infill_until_valid(
         except LMBudgetExhausted as spent:
             log.info("%s: no further %s attempt: %s", unit.span_type, kind, spent)
             return None
-        text = clean_completion(completion.text, unit)
+        text = clean(completion.text, unit)
         verdict, candidate = judge(unit, text)
         prompt = build_prompt(unit, 0)
         calls.append(

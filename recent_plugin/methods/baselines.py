@@ -81,6 +81,15 @@ def _llamacpp(model: str, n_threads: int | None) -> Infiller:
     return LlamaCppConfig(model=model, n_threads=n_threads).build()
 
 
+@Method.register_subclass("scot")
+@dataclass
+class StructuredChainOfThought(Baseline):
+    """SCoT as the paper implements it: first a structured plan (which target primitive replaces each
+    call, how its arguments map), then the program under it, run as is; regenerated on an error."""
+
+    style: ClassVar[BaselineStyle] = BaselineStyle("scot", statement_repairs=0, structured_plan=True)
+
+
 @Method.register_subclass("progprompt")
 @dataclass
 class ProgPrompt(Baseline):

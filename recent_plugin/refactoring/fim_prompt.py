@@ -29,7 +29,7 @@ STATEMENT_LINES = r'root ::= line ("\n" line)* "\n"?' + "\n" + r"line ::= [ ]* [
 
 
 RUNTIME_SPAN_TYPES = ("in_situ_revision", "reactive_repair")  # spans patched while the skill runs
-BASELINE_SPAN_TYPES = ("program_synthesis", "localized_repair")  # the baselines' (recent_plugin/baselines)
+BASELINE_SPAN_TYPES = ("program_synthesis", "localized_repair", "structured_plan")  # the baselines' (baselines/)
 NOT_CONFLICT_SPAN_TYPES = (*RUNTIME_SPAN_TYPES, *BASELINE_SPAN_TYPES, "full_regeneration")
 WHOLE_BODY_SPAN_TYPES = ("program_synthesis", "full_regeneration")  # a function body, blank lines and all
 WRITTEN_FREELY = (*BASELINE_SPAN_TYPES, "full_regeneration")  # no grammar: the model writes Python as it would
@@ -97,6 +97,8 @@ def hint_lines(span_type: str, hints: Hints) -> list[str]:
     if span_type in RUNTIME_SPAN_TYPES:  # an insertion: what was observed and the edit in words
         rejected = [f"Rejected before: {hints.feedback}"] if hints.feedback else []
         return [*rejected, f"{hints.observation}: {hints.reason}"]
+    if span_type == "structured_plan":  # SCoT's plan continues the header's own comment lines
+        return []
     if span_type in BASELINE_SPAN_TYPES:  # the prompt header holds the API; hints carry only the error
         failed = [f"Failed before: {hints.feedback}"] if hints.feedback else []
         observed = [f"Observed: {hints.observation}"] if hints.observation else []
@@ -174,6 +176,8 @@ def build_prompt(unit: RefactoringUnit, span_tokens: int) -> FimPrompt:
         grammar = None
     if unit.span_type in WHOLE_BODY_SPAN_TYPES:
         stop = ("\ndef ", "\nclass ")  # the body ends where the model ends the middle, or at the next definition
+    if unit.span_type == "structured_plan":
+        stop = ("\n\n", "\ndef ")  # comment lines, up to the code
     return FimPrompt(
         prefix=unit.prefix + comments + unit.indent,
         suffix=unit.suffix,
