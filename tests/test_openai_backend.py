@@ -78,3 +78,52 @@ def test_fim_formats_per_family(model, marker):
 def test_unknown_family_lists_the_known_ones():
     with pytest.raises(ValueError, match="known families"):
         fim_format("gpt2")
+
+
+def test_cap_llm_asks_a_served_chat_model_and_runs_its_program(ontology):
+    """The paper's CaP-Codex row against a loopback chat server: the unit goes as one user message,
+    the reply's code block (the whole function, repeated) is cut back to the body, and it runs."""
+    from test_baselines import UR5E_BODY
+
+    from lerobot_policy_recent.recent_plugin.agent import RecentAgent
+    from lerobot_policy_recent.recent_plugin.episode import run_episode
+    from lerobot_policy_recent.recent_plugin.infillers.configs import RuleConfig
+    from lerobot_policy_recent.recent_plugin.methods.baselines import CodeAsPoliciesLLM
+    from lerobot_policy_recent.recent_plugin.settings import RecentSettings
+
+    body = "\n".join("    " + line.strip() for line in UR5E_BODY.splitlines())
+    reply = (
+        f'Here it is:\n```python\ndef put_in_bin(env, task, obj="cube", receptacle="bin"):\n    """Doc."""\n{body}\n```'
+    )
+    requests: list[dict] = []
+
+    def chat(path: str, request: dict) -> dict:
+        return {"choices": [{"message": {"content": reply}}], "usage": {"completion_tokens": 60, "prompt_tokens": 900}}
+
+    with json_server(chat, requests) as url:
+        method = CodeAsPoliciesLLM(base_url=url, model_name="served-coder")
+        agent = RecentAgent(RecentSettings(infiller=RuleConfig(), method=method), ontology=ontology)
+        result = run_episode(agent, "cube_in_bin", "UR5e", seed=0)
+    assert result.success and agent.infiller.model == "served-coder"
+    assert requests[0]["path"] == "/v1/chat/completions" and requests[0]["messages"][1]["role"] == "user"
+    assert (
+        "<FILL>" in requests[0]["messages"][1]["content"]
+        and "ur5_grasp_at(env, task" in requests[0]["messages"][1]["content"]
+    )
+    assert result.grounding.skills[0].calls[0].generated_tokens == 60
+    with pytest.raises(ValueError, match="--method.base_url"):
+        RecentAgent(RecentSettings(infiller=RuleConfig(), method=CodeAsPoliciesLLM()), ontology=ontology)
+
+
+@pytest.mark.parametrize(
+    "reply",
+    [
+        "```python\nopen_ur5_ee(env, task)\nclose_ur5_ee(env, task)\n```",
+        "    open_ur5_ee(env, task)\n    close_ur5_ee(env, task)",
+        'Sure.\n```\ndef s(env, task):\n    """Two\n    lines."""\n    open_ur5_ee(env, task)\n    close_ur5_ee(env, task)\n```\nDone.',
+    ],
+)
+def test_a_chat_reply_is_cut_to_the_span(reply):
+    from lerobot_policy_recent.recent_plugin.infillers.openai_chat import span_of_reply
+
+    assert span_of_reply(reply) == "open_ur5_ee(env, task)\nclose_ur5_ee(env, task)"

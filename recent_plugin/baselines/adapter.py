@@ -74,7 +74,7 @@ class BaselineAdapter:
         error = f"line {failure.line}: {failure.category}: {failure.message}"
         if self.style.inspect:  # RoboInspector's feedback names the behaviour
             error = f"{categorised(str(failure.category)).capitalize()} ({error})"
-        observation = describe_scene(executor.session.obs)
+        observation = describe_scene(executor.session.obs, raw=self.style.raw_state)
         whole = self.style.rewrites_whole(self._budget.used[name])
         code = executor.source()
         segment = executor.segments[failure.segment]
@@ -124,8 +124,18 @@ class BaselineAdapter:
         return True
 
 
-def describe_scene(obs: Observation) -> str:
-    """The observed scene in one line, as a baseline's repair prompt shows it."""
-    parts = [f"{name} at [{', '.join(f'{v:.3f}' for v in state.pos)}]" for name, state in obs.objects.items()]
+def describe_scene(obs: Observation, *, raw: bool = False) -> str:
+    """The observed scene in one line, as a baseline's repair prompt shows it (``raw``: with each
+    object's orientation quaternion, and the end effector's pose)."""
+
+    def numbers(values) -> str:
+        return ", ".join(f"{v:.3f}" for v in values)
+
+    parts = [
+        f"{name} at [{numbers(state.pos)}]" + (f" quat [{numbers(state.quat)}]" if raw else "")
+        for name, state in obs.objects.items()
+    ]
+    if raw:
+        parts.append(f"end effector at [{numbers(obs.eef_pos)}] quat [{numbers(obs.eef_quat)}]")
     held = [name for name, state in obs.objects.items() if state.grasped]
     return "; ".join(parts) + (f"; holding {', '.join(held)}" if held else "")

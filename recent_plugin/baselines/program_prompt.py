@@ -41,6 +41,7 @@ class BaselineStyle:
     pythonic: bool = False  # ProgPrompt's header: the actions imported with their parameters, the objects a list
     inspect: bool = False  # RoboInspector: a behaviour detector before execution, categorised feedback
     structured_plan: bool = False  # SCoT: a plan of substitutions and parameter mappings, then the code
+    raw_state: bool = False  # CaP-Codex: repair prompts show object positions and quaternions
 
     def judge(self, candidate: str, entry: str, api) -> Verdict:
         """What a program must pass before it runs: the security gate, and the detector where the baseline has one."""

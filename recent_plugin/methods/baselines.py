@@ -73,6 +73,27 @@ class CodeAsPoliciesDistilled(CodeAsPolicies):
         return _llamacpp(self.model_name, getattr(lm, "n_threads", None))
 
 
+@Method.register_subclass("cap-llm")
+@dataclass
+class CodeAsPoliciesLLM(CodeAsPolicies):
+    """The paper's CaP-Codex row: CaP's protocol on a large served chat model (``--method.base_url``,
+    ``--method.model_name``, the key in ``$OPENAI_API_KEY``), with the richer inputs the appendix gives
+    it: object positions and orientations, and the error unfiltered, in every repair prompt."""
+
+    style: ClassVar[BaselineStyle] = BaselineStyle("cap-llm", statement_repairs=0, raw_state=True)
+    base_url: str | None = None  # an OpenAI-compatible server with /v1/chat/completions
+    model_name: str = "gpt-5.2-codex"
+
+    def model(self, lm: Infiller) -> Infiller:
+        import os
+
+        from lerobot_policy_recent.recent_plugin.infillers.openai_chat import OpenAIChatInfiller
+
+        if not self.base_url:
+            raise ValueError("cap-llm needs a served chat model: pass --method.base_url (and --method.model_name)")
+        return OpenAIChatInfiller(self.base_url, self.model_name, api_key=os.environ.get("OPENAI_API_KEY"))
+
+
 @functools.cache
 def _llamacpp(model: str, n_threads: int | None) -> Infiller:
     """One loaded model per process, whichever agents ask for it."""
