@@ -116,7 +116,7 @@ class Recorder:
             self.sinks: list[Sink] = [CaptureSink()]
             return
         self.layout.root.mkdir(parents=True, exist_ok=True)
-        if "dataset" in sinks:
+        if self.layout.pending_dir.is_dir() or "dataset" in sinks:  # whichever sinks this run uses
             from lerobot_policy_recent.logs.dataset_sink import recover_pending
 
             recover_pending(self.layout)  # episodes that ended but whose commit a kill cut short

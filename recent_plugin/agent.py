@@ -98,7 +98,7 @@ class RecentAgent:
         if cached is not None and (budget is None or budget.affords(lm_calls(cached))):
             self._cache[key] = cached
             if budget is not None:
-                budget.used += lm_calls(cached)
+                budget.charge(lm_calls(cached))
             return cached, True
         grounded = method.ground(
             Grounding(

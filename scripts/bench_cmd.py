@@ -163,6 +163,7 @@ def _run(args) -> int:
         split=args.split,
     )
     jobs, todo = pending(config)
+    commit = git_commit()  # the code the workers load now, whatever the checkout holds when the run ends
     print(f"{len(jobs)} episodes ({len(jobs) - len(todo)} already done) -> {config.out}", file=sys.stderr)
     bar = tqdm(total=len(jobs), initial=len(jobs) - len(todo), unit="episode", desc="bench")
     counts = Counter()
@@ -188,7 +189,7 @@ def _run(args) -> int:
     header = {
         "command": command_line(config),
         "date": dt.datetime.now(dt.UTC).isoformat(timespec="seconds"),
-        "git_commit": git_commit(),
+        "git_commit": commit,
         "config": run_settings(config),
         "backend": settings.infiller.backend,
         "model": getattr(settings.infiller, "model", ""),

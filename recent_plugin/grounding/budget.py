@@ -30,6 +30,10 @@ class CallBudget:
     def affords(self, calls: int) -> bool:
         return not self.limit or self.used + calls <= self.limit
 
+    def charge(self, calls: int) -> None:
+        """Count calls made earlier (a cached grounding's) against the budget."""
+        self.used += calls
+
     def take(self) -> None:
         if not self.affords(1):
             raise LMBudgetExhausted(f"the task's LM call budget ({self.limit} calls) is spent")
