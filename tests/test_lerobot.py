@@ -128,3 +128,4 @@ def check_trainable_dataset(root: Path, frames: int, out: Path) -> None:
     ]
     proc = subprocess.run(cmd, capture_output=True, text=True, timeout=600, env={**os.environ, "TQDM_DISABLE": "1"})
     assert proc.returncode == 0 and "End of training" in proc.stdout + proc.stderr, proc.stderr[-3000:]
+    assert "Traceback" not in proc.stderr, proc.stderr[-3000:]  # the video decodes with LeRobot's defaults
