@@ -10,6 +10,7 @@ from __future__ import annotations
 import json
 import logging
 import time
+import zlib
 from dataclasses import dataclass, field
 from itertools import takewhile
 from pathlib import Path
@@ -79,7 +80,12 @@ class RecentAgent:
         self.library = Path(s.skill_library) if s.skill_library else LIBRARY
 
     def ground(
-        self, skill_name: str, robot: str | Target, task: TaskSpec | None = None, budget: CallBudget | None = None
+        self,
+        skill_name: str,
+        robot: str | Target,
+        task: TaskSpec | None = None,
+        budget: CallBudget | None = None,
+        seed: int | None = None,
     ) -> tuple[GroundedSkill, bool]:
         """Ground ``skill_name`` for ``robot`` (a name, or a target already resolved) the configured
         method's way, reusing a cached result.
@@ -88,12 +94,15 @@ class RecentAgent:
         LM (its weights' sha256 and the backend's settings), the method and the budgets (a
         baseline's prompt also shows ``task``). ``budget``: the task's LM calls; a cached
         grounding takes the calls that produced it, and one that needed more than are left is
-        grounded again within what is left.
+        grounded again within what is left. ``seed``: the episode's; when the LM samples
+        (``temperature`` > 0) each episode seed grounds afresh, so seeds are real repetitions.
         """
         target = robot if isinstance(robot, Target) else self.ontology.target(robot)
         skill = self.skill(skill_name)
         method = self.settings.method
         key = self.grounding_key(skill, target, task)
+        if self.settings.temperature > 0:
+            key = (*key, f"episode seed {seed}")
         cached = self._cache.get(key) or (self.store.get(key) if self.store else None)
         if cached is not None and (budget is None or budget.affords(lm_calls(cached))):
             self._cache[key] = cached
@@ -102,7 +111,12 @@ class RecentAgent:
             return cached, True
         grounded = method.ground(
             Grounding(
-                skill, target, self.ontology, self.episode_lm(budget), task, max_retries=self.settings.max_retries
+                skill,
+                target,
+                self.ontology,
+                self.episode_lm(budget, seed),
+                task,
+                max_retries=self.settings.max_retries,
             )
         )
         if grounded.valid:
@@ -137,9 +151,14 @@ class RecentAgent:
         """A fresh per-task LM call budget (None for the rule backend: it makes no LM calls)."""
         return None if self.lm.name == "rule" else CallBudget(self.settings.max_lm_calls)
 
-    def episode_lm(self, budget: CallBudget | None) -> Infiller:
-        """The method's infiller over the LM, every LM call taken from ``budget``."""
-        return self.infiller if budget is None else self.settings.method.infiller(BudgetedInfiller(self.lm, budget))
+    def episode_lm(self, budget: CallBudget | None, seed: int | None = None) -> Infiller:
+        """The method's infiller over the LM for one episode: every LM call taken from ``budget``, and
+        sampled (``temperature`` > 0) from a generator seeded by ``lm_seed`` and the episode ``seed``."""
+        if budget is None:
+            return self.infiller
+        s = self.settings
+        episode_seed = zlib.crc32(f"{s.lm_seed}:{seed}".encode())
+        return s.method.infiller(BudgetedInfiller(self.lm, budget, temperature=s.temperature, seed=episode_seed))
 
     def lm_key(self) -> str:
         """The LM and budgets a grounding depends on: the weights' sha256, the backend's settings, the
@@ -154,6 +173,7 @@ class RecentAgent:
                     "model_sha256": model_sha256(model) if model else None,
                     "infiller": settings["infiller"],
                     "lm_seed": self.settings.lm_seed,
+                    "temperature": self.settings.temperature,
                     "max_retries": self.settings.max_retries,
                 },
                 sort_keys=True,
@@ -162,7 +182,7 @@ class RecentAgent:
         return self._lm_key
 
     def start_episode(
-        self, task_id: str, robot: str, first_obs: Observation, emit: Emit = ignore
+        self, task_id: str, robot: str, first_obs: Observation, emit: Emit = ignore, seed: int | None = None
     ) -> tuple[TaskExecutor, EpisodeGrounding]:
         """Ground the task's skills (the events of grounding go to ``emit`` once IGT is measured)."""
         target = self.ontology.target(robot)  # resolved once: grounding, adaptation and execution share it
@@ -173,7 +193,7 @@ class RecentAgent:
         budget = self.budget()
         plan, cached = [], []
         for step in task.plan:
-            grounded, hit = self.ground(step.skill, target, task, budget)
+            grounded, hit = self.ground(step.skill, target, task, budget, seed)
             cached.append(hit)
             report.skills.append(grounded)
             plan.append(PlannedSkill(grounded, dict(step.args)))
@@ -188,7 +208,7 @@ class RecentAgent:
             target,
             first_obs,
             max_steps=self.settings.max_skill_steps,
-            adapter=self.adapter(task, target, emit, budget),
+            adapter=self.adapter(task, target, emit, budget, seed),
             emit=emit,
         )
         return executor, report
@@ -216,14 +236,21 @@ class RecentAgent:
         """The repository's skill ``name`` as this agent serves it (validated unless the ablation says not)."""
         return serve_skill(name, self.library, require_validated=self.settings.method.require_validated())
 
-    def adapter(self, task: TaskSpec, target: Target, emit: Emit = ignore, budget: CallBudget | None = None) -> Adapter:
+    def adapter(
+        self,
+        task: TaskSpec,
+        target: Target,
+        emit: Emit = ignore,
+        budget: CallBudget | None = None,
+        seed: int | None = None,
+    ) -> Adapter:
         """A fresh run-time adapter for one episode (its calls and events are that episode's), the
-        method's own, its LM calls taken from the task's ``budget``."""
+        method's own, its LM calls taken from the task's ``budget`` (and sampled for its ``seed``)."""
         return self.settings.method.adapter(
             Adaptation(
                 target=target,
                 ontology=self.ontology,
-                infiller=self.episode_lm(budget),
+                infiller=self.episode_lm(budget, seed),
                 task=task,
                 skill=self.skill,
                 max_retries=self.settings.max_retries,

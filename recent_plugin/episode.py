@@ -251,6 +251,7 @@ def _run(
             robot,
             Observation.decode(raw["agent_pos"], raw["environment_state"], names),
             emit=episode.emit if episode else ignore,
+            seed=seed,
         )
         while True:
             action = executor.act(Observation.decode(raw["agent_pos"], raw["environment_state"], names))

@@ -139,7 +139,9 @@ class RecentPolicy(PreTrainedPolicy):
         if self.recorder is not None:
             log = self.recorder.start_episode(self.agent.started_event(task_id, robot, seed))
         try:
-            executor, report = self.agent.start_episode(task_id, robot, obs, emit=log.emit if log else ignore)
+            executor, report = self.agent.start_episode(
+                task_id, robot, obs, emit=log.emit if log else ignore, seed=seed
+            )
         except Exception as exc:
             _end_crashed(log, task_id, robot, seed, started, exc)
             raise

@@ -29,11 +29,12 @@ class RecentSettings:
     max_repairs: int = 2  # reactive repairs of failed segments, per skill
     max_lm_calls: int = 24  # LM calls per task, grounding and run time together, the same for every method; 0: no limit
     lm_seed: int = 0  # the LM's sampling seed (the episode seed is the env's)
+    temperature: float = 0.0  # 0: greedy; above 0: seeded sampling, each episode seeded by lm_seed and its own seed
     max_skill_steps: int = 3000  # control steps a skill may take before it is stopped
     skill_library: str | None = None  # a directory of skills (+ validation/); None: the bundled Panda skills
 
     def __post_init__(self):
-        for name in ("max_retries", "max_repairs", "max_lm_calls", "max_skill_steps"):
+        for name in ("max_retries", "max_repairs", "max_lm_calls", "max_skill_steps", "temperature"):
             if getattr(self, name) < 0:
                 raise ValueError(f"{name} must be >= 0, got {getattr(self, name)}")
 

@@ -369,3 +369,28 @@ def test_scot_writes_a_structured_plan_then_the_program_under_it(ontology):
     calls = result.grounding.skills[0].calls
     assert [(c.kind, c.span_type) for c in calls] == [("ground", "structured_plan"), ("ground", PROGRAM)]
     assert result.go_pre == pytest.approx(100 * 2 * infiller.tokens / result.skill_tokens)  # both are grounding
+
+
+def test_seeded_sampling_makes_seeds_real_repetitions_and_replays_an_episode_exactly(ontology):
+    """temperature > 0: every LM call samples with a seed drawn from lm_seed, the episode seed and
+    the call's place; a grounding is cached per episode seed, so another seed grounds afresh."""
+
+    class Recording(ScriptedInfiller):
+        def infill(self, unit, **sampling):
+            self.sampling = [*getattr(self, "sampling", []), sampling]
+            return super().infill(unit)
+
+    infiller = Recording([UR5E_BODY] * 3)
+    settings = RecentSettings(infiller=RuleConfig(), method=method_named("cap"), temperature=0.7)
+    agent = RecentAgent(settings, ontology=ontology, infiller=infiller)
+    first = run_episode(agent, "cube_in_bin", "UR5e", seed=0)
+    again = run_episode(agent, "cube_in_bin", "UR5e", seed=0)
+    other = run_episode(agent, "cube_in_bin", "UR5e", seed=1)
+    assert first.success and not first.grounding.cached and again.grounding.cached and not other.grounding.cached
+    (sampled_0, sampled_1) = infiller.sampling  # one grounding call per distinct seed
+    assert sampled_0["temperature"] == sampled_1["temperature"] == 0.7 and sampled_0["seed"] != sampled_1["seed"]
+    greedy = Recording([UR5E_BODY])
+    RecentAgent(
+        RecentSettings(infiller=RuleConfig(), method=method_named("cap")), ontology=ontology, infiller=greedy
+    ).ground("put_in_bin", "UR5e", get_task("cube_in_bin"))
+    assert greedy.sampling == [{}]  # the default stays greedy: no sampling arguments at all

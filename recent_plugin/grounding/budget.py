@@ -9,6 +9,7 @@ fast path renders and the rule backend's are no LM calls and cost nothing.
 
 from __future__ import annotations
 
+import zlib
 from dataclasses import dataclass
 
 from lerobot_policy_recent.recent_plugin.infillers.base import Completion, Infiller
@@ -41,15 +42,23 @@ class CallBudget:
 
 
 class BudgetedInfiller:
-    """The LM behind a :class:`CallBudget`: each call takes one, and none is made once it is spent."""
+    """The LM behind a :class:`CallBudget`, for one episode: each call takes one, and none is made once
+    it is spent. With a ``temperature`` above 0 every call samples, seeded from the episode's ``seed``
+    and the call's place in the episode: seeds are real repetitions, and a call draws the same tokens
+    again from the same model state (llama.cpp's batched and single-token evaluations differ in the
+    last bits, so a replay on a cold cache may differ where the model is all but indifferent)."""
 
-    def __init__(self, lm: Infiller, budget: CallBudget):
+    def __init__(self, lm: Infiller, budget: CallBudget, *, temperature: float = 0.0, seed: int = 0):
         self.lm, self.budget = lm, budget
         self.name, self.model = lm.name, lm.model
+        self.temperature, self.seed = temperature, seed
 
     def infill(self, unit: RefactoringUnit) -> Completion:
         self.budget.take()
-        return self.lm.infill(unit)
+        if self.temperature <= 0:
+            return self.lm.infill(unit)
+        call_seed = zlib.crc32(f"{self.seed}:{self.budget.used}".encode())
+        return self.lm.infill(unit, temperature=self.temperature, seed=call_seed)  # type: ignore[call-arg]
 
     def count_tokens(self, text: str) -> int:
         return self.lm.count_tokens(text)

@@ -25,7 +25,10 @@ class Infiller(Protocol):
     model: str
 
     def infill(self, unit: RefactoringUnit) -> Completion:
-        """Return a replacement for ``unit.span`` (one or more statements, without leading indent)."""
+        """Return a replacement for ``unit.span`` (one or more statements, without leading indent).
+
+        LM backends also take ``temperature`` and ``seed`` keywords (seeded sampling; the default,
+        0, is greedy); the per-episode wrapper passes them only when sampling."""
         ...
 
     def count_tokens(self, text: str) -> int:

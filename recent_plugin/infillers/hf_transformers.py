@@ -79,7 +79,7 @@ class TransformersInfiller:
     def count_tokens(self, text: str) -> int:
         return len(self.tokenizer(text, add_special_tokens=False)["input_ids"])
 
-    def infill(self, unit: RefactoringUnit) -> Completion:
+    def infill(self, unit: RefactoringUnit, *, temperature: float = 0.0, seed: int = 0) -> Completion:
         import torch
 
         prompt = build_prompt(unit, self.count_tokens(unit.span))
@@ -87,11 +87,16 @@ class TransformersInfiller:
             self.format.render(prompt.prefix, prompt.suffix), return_tensors="pt", add_special_tokens=False
         ).to(self.device)
         started = time.perf_counter()
+        sampling = (
+            {"do_sample": True, "temperature": temperature, "top_k": 0} if temperature > 0 else {"do_sample": False}
+        )
+        if temperature > 0:
+            torch.manual_seed(seed)  # seeded sampling: the same call draws the same tokens
         with torch.inference_mode():
             out = self.lm.generate(
                 **encoded,
                 max_new_tokens=prompt.max_tokens,
-                do_sample=False,
+                **sampling,
                 eos_token_id=self._stop_ids or None,
                 pad_token_id=self._stop_ids[0] if self._stop_ids else None,
                 stop_strings=list(prompt.stop),

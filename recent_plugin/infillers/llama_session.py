@@ -67,10 +67,22 @@ class LlamaSession:
     def tokenize(self, text: str, special: bool = False) -> list[int]:
         return self.llm.tokenize(text.encode(), add_bos=False, special=special)
 
-    def generate(self, text: str, *, max_tokens: int, stops: tuple[str, ...], gbnf: str | None = None) -> Decoded:
-        """Greedy completion of ``text`` (FIM markers as special tokens) under the grammar ``gbnf``."""
+    def generate(
+        self,
+        text: str,
+        *,
+        max_tokens: int,
+        stops: tuple[str, ...],
+        gbnf: str | None = None,
+        temperature: float = 0.0,
+        seed: int = 0,
+    ) -> Decoded:
+        """The completion of ``text`` (FIM markers as special tokens) under the grammar ``gbnf``: greedy,
+        or sampled at ``temperature`` from a generator seeded with ``seed``."""
         tokens = self.tokenize(text, special=True)
-        return self.decoder.generate(tokens, max_tokens=max_tokens, stops=stops, grammar=self.grammar(gbnf))
+        return self.decoder.generate(
+            tokens, max_tokens=max_tokens, stops=stops, grammar=self.grammar(gbnf), temperature=temperature, seed=seed
+        )
 
     def speed(self, prompt: str, *, repeats: int = 3, gen_tokens: int = 64) -> dict[str, float]:
         """Prompt-evaluation and generation tokens/s on ``prompt`` (medians of ``repeats`` cold runs)."""

@@ -2,7 +2,7 @@
 
 llama-cpp-python 0.3.36's ``create_completion(suffix=...)`` uses the wrong token ids for FIM, so
 the FIM string is built here; its special markers are tokenized as special tokens. Decoding is
-greedy with prompt-lookup drafts (:mod:`~lerobot_policy_recent.recent_plugin.infillers.lookup_decoding`).
+greedy (or seeded sampling at a temperature) with prompt-lookup drafts (:mod:`~lerobot_policy_recent.recent_plugin.infillers.lookup_decoding`).
 
 The model runs in a worker process (:mod:`~lerobot_policy_recent.recent_plugin.infillers.llama_worker`) by default: a
 crash of the native library then ends one LM call with :class:`LMWorkerCrashed` and an
@@ -46,7 +46,7 @@ class LlamaCppInfiller:
     def count_tokens(self, text: str) -> int:
         return len(self.lm.tokenize(text, False))
 
-    def infill(self, unit: RefactoringUnit) -> Completion:
+    def infill(self, unit: RefactoringUnit, *, temperature: float = 0.0, seed: int = 0) -> Completion:
         prompt = build_prompt(unit, self.count_tokens(unit.span))
         started = time.perf_counter()
         out = self.lm.generate(
@@ -54,6 +54,8 @@ class LlamaCppInfiller:
             max_tokens=prompt.max_tokens,
             stops=(*prompt.stop, *QWEN.stops),
             gbnf=prompt.grammar,
+            temperature=temperature,
+            seed=seed,
         )
         return Completion(
             text=out.text,

@@ -46,9 +46,14 @@ def draft_from_context(context: list[int], *, max_ngram: int = 3, max_draft: int
 
 
 class GreedyGrammarSampler:
-    """Greedy choice under a GBNF grammar: the argmax if the grammar admits it, else the best admitted token."""
+    """Greedy choice under a GBNF grammar: the argmax if the grammar admits it, else the best admitted token.
 
-    def __init__(self, llm, grammar):
+    With a ``temperature`` above 0 it samples instead, from the grammar-admitted softmax at that
+    temperature, drawing from ``rng`` (one draw per position, in order: a seeded generator gives the
+    same tokens for the same logits, and draft verification samples what sequential decoding would).
+    """
+
+    def __init__(self, llm, grammar, *, temperature: float = 0.0, rng: np.random.Generator | None = None):
         import llama_cpp
         from llama_cpp import _internals
 
@@ -67,11 +72,15 @@ class GreedyGrammarSampler:
             data=ctypes.pointer(self._one), size=1, selected=-1, sorted=False
         )
         self._all = _internals.LlamaTokenDataArray(n_vocab=self._n_vocab) if grammar is not None else None
+        self.temperature = temperature
+        self.rng = rng if rng is not None else np.random.default_rng(0)
 
     def sample(self, idx: int) -> int:
         """The token at output ``idx`` of the last batch (-1: its last); the grammar takes it."""
         api = self._api
         logits = np.ctypeslib.as_array(api.llama_get_logits_ith(self._ctx, idx), shape=(self._n_vocab,))
+        if self.temperature > 0:
+            return self._sampled(logits)
         token = int(np.argmax(logits))
         if self._grammar is None:
             return token
@@ -83,6 +92,24 @@ class GreedyGrammarSampler:
             api.llama_sampler_apply(self._grammar, ctypes.byref(self._all.candidates))
             token = int(np.argmax(self._all.candidates_data.logit))
         api.llama_sampler_accept(self._grammar, token)
+        return token
+
+    def _sampled(self, logits: np.ndarray) -> int:
+        api = self._api
+        if self._grammar is not None:
+            self._all.copy_logits(logits)
+            api.llama_sampler_apply(self._grammar, ctypes.byref(self._all.candidates))
+            logits = np.asarray(self._all.candidates_data.logit, dtype=np.float64)
+            ids = np.asarray(self._all.candidates_data.id)
+        else:
+            logits, ids = np.asarray(logits, dtype=np.float64), None
+        scaled = logits / self.temperature
+        scaled -= scaled[np.isfinite(scaled)].max()
+        weights = np.where(np.isfinite(scaled), np.exp(scaled), 0.0)
+        choice = int(self.rng.choice(len(weights), p=weights / weights.sum()))
+        token = int(ids[choice]) if ids is not None else choice
+        if self._grammar is not None:
+            api.llama_sampler_accept(self._grammar, token)
         return token
 
     def close(self) -> None:
@@ -115,7 +142,16 @@ class LookupDecoder:
             llm.input_ids[llm.n_tokens : llm.n_tokens + len(chunk)] = chunk
             llm.n_tokens += len(chunk)
 
-    def generate(self, prompt: list[int], *, max_tokens: int, stops: tuple[str, ...], grammar=None) -> Decoded:
+    def generate(
+        self,
+        prompt: list[int],
+        *,
+        max_tokens: int,
+        stops: tuple[str, ...],
+        grammar=None,
+        temperature: float = 0.0,
+        seed: int = 0,
+    ) -> Decoded:
         import llama_cpp
 
         llm = self.llm
@@ -127,7 +163,7 @@ class LookupDecoder:
         started = time.perf_counter()
         self._decode(prompt[keep:], all_logits=False)
         prompt_seconds = time.perf_counter() - started
-        sampler = GreedyGrammarSampler(llm, grammar)
+        sampler = GreedyGrammarSampler(llm, grammar, temperature=temperature, rng=np.random.default_rng(seed))
         vocab = llm._model.vocab
 
         out: list[int] = []

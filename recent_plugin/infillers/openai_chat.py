@@ -29,7 +29,7 @@ class OpenAIChatInfiller:
     def count_tokens(self, text: str) -> int:
         return approximate_tokens(text)  # a served chat model's tokenizer is not ours to call
 
-    def infill(self, unit: RefactoringUnit) -> Completion:
+    def infill(self, unit: RefactoringUnit, *, temperature: float = 0.0, seed: int = 0) -> Completion:
         prompt = build_prompt(unit, approximate_tokens(unit.span))
         ask = (
             "Write the code that goes at <FILL> below"
@@ -46,7 +46,8 @@ class OpenAIChatInfiller:
                     {"role": "system", "content": SYSTEM},
                     {"role": "user", "content": ask + prompt.prefix + "<FILL>" + prompt.suffix},
                 ],
-                "temperature": 0.0,
+                "temperature": temperature,
+                "seed": seed,
             },
             api_key=self.api_key,
             timeout_s=self.timeout_s,

@@ -46,7 +46,7 @@ class OpenAICompatInfiller:
             log.warning("%s has no /tokenize; skill tokens are approximated (GO's denominator)", self.base_url)
         return approximate_tokens(text)
 
-    def infill(self, unit: RefactoringUnit) -> Completion:
+    def infill(self, unit: RefactoringUnit, *, temperature: float = 0.0, seed: int = 0) -> Completion:
         prompt = build_prompt(unit, approximate_tokens(unit.span))
         started = time.perf_counter()
         out = self._post(
@@ -55,7 +55,8 @@ class OpenAICompatInfiller:
                 "model": self.model,
                 "prompt": self.format.render(prompt.prefix, prompt.suffix),
                 "max_tokens": prompt.max_tokens,
-                "temperature": 0.0,
+                "temperature": temperature,
+                "seed": seed,
                 "stop": [*prompt.stop, *self.format.stops],
             },
         )
