@@ -169,19 +169,9 @@ class LlamaWorker:
     def tokenize(self, text: str, special: bool = False) -> list[int]:
         return self._call("tokenize", text, special)
 
-    def generate(
-        self,
-        text: str,
-        *,
-        max_tokens: int,
-        stops: tuple[str, ...],
-        gbnf: str | None = None,
-        temperature: float = 0.0,
-        seed: int = 0,
-    ):
-        return self._call(
-            "generate", text, max_tokens=max_tokens, stops=stops, gbnf=gbnf, temperature=temperature, seed=seed
-        )
+    def generate(self, text: str, **options):
+        """:meth:`LlamaSession.generate` in the worker (``max_tokens``, ``stops``, ``gbnf``, ``temperature``, ``seed``)."""
+        return self._call("generate", text, **options)
 
     def speed(self, prompt: str, *, repeats: int = 3, gen_tokens: int = 64) -> dict[str, float]:
         return self._call("speed", prompt, repeats=repeats, gen_tokens=gen_tokens)
