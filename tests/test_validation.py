@@ -35,6 +35,9 @@ HOSTILE = [
     (_body("globals()['x'] = 1"), F.NON_EXECUTABLE),
     (_body("while True:", "    pass"), F.NON_EXECUTABLE),
     (_body("for i in range(10**9):", "    pass"), F.NON_EXECUTABLE),
+    (_body("x = [[0 for a in range(9999)] for b in range(9999)]"), F.NON_EXECUTABLE),  # a comprehension loops too
+    (_body("x = list(range(9999))"), F.NON_EXECUTABLE),
+    (_body("x = [v for v in task.get_object_names()]"), F.NON_EXECUTABLE),
     (_body("x = 'a' * 100000"), F.NON_EXECUTABLE),
     (_body("x = [0] * 100000"), F.NON_EXECUTABLE),
     (_body("x = 2 ** 4096"), F.NON_EXECUTABLE),

@@ -260,27 +260,38 @@ class _Checker(ast.NodeVisitor):
         self.generic_visit(node)
 
     def visit_For(self, node: ast.For) -> None:
-        it = node.iter
+        self._check_iterable(node.iter, node)
+        self.generic_visit(node)
+
+    def visit_comprehension(self, node: ast.comprehension) -> None:
+        """A comprehension's ``for`` is a loop too: bounded the same way (nested ones multiply)."""
+        self._check_iterable(node.iter, node.iter)
+        self.generic_visit(node)
+
+    def _check_iterable(self, it: ast.expr, node: ast.AST) -> None:
         bounded = isinstance(it, ast.List | ast.Tuple | ast.Name) or (
             isinstance(it, ast.Call)
             and isinstance(it.func, ast.Name)
             and it.func.id in {"range", "enumerate", "zip", "sorted"}
         )
-        if isinstance(it, ast.Call) and isinstance(it.func, ast.Name) and it.func.id == "range":
-            if not all(
-                isinstance(a, ast.Constant) and isinstance(a.value, int) and abs(a.value) <= MAX_RANGE for a in it.args
-            ):
-                self.fail(
-                    FailureCategory.NON_EXECUTABLE, f"range() bounds must be integer literals up to {MAX_RANGE}", node
-                )
         if not bounded:
             self.fail(
                 FailureCategory.NON_EXECUTABLE, "for-loops must iterate over a literal, a variable or range()", node
             )
-        self.generic_visit(node)
+
+    def _check_range(self, node: ast.Call) -> None:
+        """``range()`` anywhere (a loop, ``list(range(...))``) takes integer literals up to MAX_RANGE."""
+        if not all(
+            isinstance(a, ast.Constant) and isinstance(a.value, int) and abs(a.value) <= MAX_RANGE for a in node.args
+        ):
+            self.fail(
+                FailureCategory.NON_EXECUTABLE, f"range() bounds must be integer literals up to {MAX_RANGE}", node
+            )
 
     def visit_Call(self, node: ast.Call) -> None:
         func = node.func
+        if isinstance(func, ast.Name) and func.id == "range":
+            self._check_range(node)
         if isinstance(func, ast.Attribute):
             task_call = isinstance(func.value, ast.Name) and func.value.id == "task" and not func.attr.startswith("_")
             if self.interface or not task_call:  # the gate lets any task.<public>(...) fail at run time
