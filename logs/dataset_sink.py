@@ -35,7 +35,7 @@ from pathlib import Path
 import numpy as np
 
 from lerobot_policy_recent.logs.events import EpisodeStarted, Stamped, Step
-from lerobot_policy_recent.logs.layout import LogLayout, write_parquet_atomically
+from lerobot_policy_recent.logs.layout import LogLayout, write_atomically, write_parquet_atomically
 from lerobot_policy_recent.robosuite_envs.observation import (
     ACTION_DIM,
     ACTION_NAMES,
@@ -250,13 +250,9 @@ def dataset_episode(dataset_dir: Path, log_episode: int) -> int:
     return held.index(log_episode)
 
 
-def _journal(layout: LogLayout, result: Stamped, episode: _Episode) -> Path:
-    path = layout.journal(result.episode_index)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_suffix(".pkl.tmp")
-    tmp.write_bytes(pickle.dumps((result, episode), protocol=pickle.HIGHEST_PROTOCOL))
-    os.replace(tmp, path)
-    return path
+def _journal(layout: LogLayout, result: Stamped, episode: _Episode) -> None:
+    data = pickle.dumps((result, episode), protocol=pickle.HIGHEST_PROTOCOL)
+    write_atomically(layout.journal(result.episode_index), lambda tmp: tmp.write_bytes(data))
 
 
 def _sibling(dataset_dir: Path, state: str) -> Path:

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import os
 import re
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -103,9 +104,13 @@ def episode_number(path: Path) -> int:
     return int(match.group(1))
 
 
-def write_parquet_atomically(rows: list[dict], path: Path) -> None:
-    """Write to a temporary name and rename: the file is either whole or absent, never half written."""
+def write_atomically(path: Path, write: Callable[[Path], object]) -> None:
+    """``write(tmp)`` to a temporary name beside ``path``, then rename: the file is whole or absent, never half written."""
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_suffix(".parquet.tmp")
-    pq.write_table(pa.Table.from_pylist(rows), tmp)
+    tmp = path.with_name(path.name + ".tmp")
+    write(tmp)
     os.replace(tmp, path)
+
+
+def write_parquet_atomically(rows: list[dict], path: Path) -> None:
+    write_atomically(path, lambda tmp: pq.write_table(pa.Table.from_pylist(rows), tmp))

@@ -29,7 +29,7 @@ from mcap_protobuf.schema import build_file_descriptor_set
 
 from lerobot_policy_recent.logs.events import EVENT_TYPES, Stamped, Step, json_schema
 from lerobot_policy_recent.logs.layout import LogLayout
-from lerobot_policy_recent.robosuite_envs.embodiments import EMBODIMENTS
+from lerobot_policy_recent.robosuite_envs.embodiments import arm_dof
 from lerobot_policy_recent.robosuite_envs.observation import MAX_ARM_DOF, SLOT_DIM
 
 LOG_LEVELS = {"debug": Log.DEBUG, "info": Log.INFO, "warning": Log.WARNING, "error": Log.ERROR}
@@ -62,9 +62,8 @@ class McapSink:
         stream = open(path, "wb")  # noqa: SIM115 - kept open for the episode, closed in end()
         writer = Writer(stream, use_chunking=False)
         writer.start(profile="", library="lerobot_policy_recent")
-        robot = EMBODIMENTS.get(start.event.robot)
         self._files[start.episode_index] = _EpisodeFile(
-            stream, writer, list(start.event.object_names), robot.arm_dof if robot else MAX_ARM_DOF
+            stream, writer, list(start.event.object_names), arm_dof(start.event.robot, MAX_ARM_DOF)
         )
         self.event(start)
 

@@ -23,7 +23,7 @@ import rerun.blueprint as rrb
 
 from lerobot_policy_recent.logs.events import EpisodeStarted, InfillCall, PatchApplied, Stamped, Step
 from lerobot_policy_recent.logs.layout import episode_name
-from lerobot_policy_recent.robosuite_envs.embodiments import EMBODIMENTS
+from lerobot_policy_recent.robosuite_envs.embodiments import arm_dof
 from lerobot_policy_recent.robosuite_envs.observation import ACTION_NAMES, JOINT_POS_NAMES, MAX_ARM_DOF, SLOT_DIM
 from lerobot_policy_recent.robosuite_envs.primitives.session import CONTROL_FREQ
 
@@ -80,11 +80,10 @@ class RerunSink:
         rec = rr.RecordingStream("recent", recording_id=f"{episode_name(start.episode_index)}-{start.log_time_ns}")
         rec.save(path, default_blueprint=blueprint())
         rec.send_recording_name(f"{event.task_id} on {event.robot} (seed {event.seed})")
-        robot = EMBODIMENTS.get(event.robot)
-        arm_dof = robot.arm_dof if robot else MAX_ARM_DOF
+        joints = arm_dof(event.robot, MAX_ARM_DOF)
         rec.log("action", rr.SeriesLines(names=list(ACTION_NAMES)), static=True)
-        rec.log("joints", rr.SeriesLines(names=list(JOINT_POS_NAMES[:arm_dof])), static=True)
-        self._episodes[start.episode_index] = _Episode(rec, list(event.object_names), arm_dof)
+        rec.log("joints", rr.SeriesLines(names=list(JOINT_POS_NAMES[:joints])), static=True)
+        self._episodes[start.episode_index] = _Episode(rec, list(event.object_names), joints)
         self.event(start)
 
     def event(self, stamped: Stamped) -> None:

@@ -83,6 +83,12 @@ EMBODIMENTS: dict[str, Embodiment] = {
 SOURCE_EMBODIMENT = "Panda"
 
 
+def arm_dof(name: str, default: int = 7) -> int:
+    """How many of the observation's joint slots robot ``name`` fills (``default`` for one not listed here)."""
+    embodiment = EMBODIMENTS.get(name)
+    return embodiment.arm_dof if embodiment is not None else default
+
+
 def get_embodiment(name: str) -> Embodiment:
     try:
         return EMBODIMENTS[name]

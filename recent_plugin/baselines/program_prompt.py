@@ -16,6 +16,7 @@ from dataclasses import dataclass, replace
 
 from lerobot_policy_recent.ontology.skill_code import body_span
 from lerobot_policy_recent.ontology.target import Target
+from lerobot_policy_recent.recent_plugin.baselines.inspector import inspection_verdict
 from lerobot_policy_recent.recent_plugin.failures import FailureCategory
 from lerobot_policy_recent.recent_plugin.grounding.gate import Verdict, security_gate
 from lerobot_policy_recent.recent_plugin.refactoring.units import Hints, RefactoringUnit, cut_unit
@@ -45,8 +46,6 @@ class BaselineStyle:
 
     def judge(self, candidate: str, entry: str, api) -> Verdict:
         """What a program must pass before it runs: the security gate, and the detector where the baseline has one."""
-        from lerobot_policy_recent.recent_plugin.baselines.inspector import inspection_verdict
-
         verdict = security_gate(candidate, entry, api.names())
         return inspection_verdict(candidate, entry, api) if verdict.ok and self.inspect else verdict
 

@@ -64,6 +64,8 @@ class BenchConfig:
 
     def jobs(self) -> list[Job]:
         """Every episode of the run, grouped by method then target so each worker reuses its groundings."""
+        if self.split not in ("all", *SPLITS):
+            raise ValueError(f"unknown split {self.split!r}; choose from all, {', '.join(SPLITS)}")
         jobs = []
         for method in self.methods:
             for suite in self.suites:
@@ -74,8 +76,6 @@ class BenchConfig:
                         for seed in self.seeds:
                             if self.split in ("all", split_of(spec.task_id, seed)):
                                 jobs.append(Job(method, suite, spec.task_id, target, seed))
-        if self.split not in ("all", *SPLITS):
-            raise ValueError(f"unknown split {self.split!r}; choose from all, {', '.join(SPLITS)}")
         robots = [t for t in self.targets if t not in EMBODIMENTS]
         if robots:
             raise ValueError(f"unknown target(s) {', '.join(robots)}; known robots: {', '.join(EMBODIMENTS)}")

@@ -344,7 +344,7 @@ def render_report(dirs: list[Path], out: Path) -> Path:
         "",
         "## Held-out test split and dev, apart",
         "",
-        split_table(records),
+        split_results_table(records),
         "",
         "## RECENT against each method, on the same episodes",
         "",
@@ -403,7 +403,7 @@ def paired_table(records: list[dict]) -> str:
     return "\n".join(lines)
 
 
-def split_table(records: list[dict]) -> str:
+def split_results_table(records: list[dict]) -> str:
     """SR and GC per method and suite on the held-out test episodes and on dev, side by side: only the
     test columns are a result; dev is where fixes were made (``docs/benchmark.md``)."""
     by = {k: summarize(v) for k, v in group(records, lambda r: (r["method"], r["suite"], record_split(r))).items()}

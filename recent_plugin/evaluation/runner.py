@@ -22,6 +22,7 @@ from contextlib import nullcontext
 from dataclasses import astuple, dataclass, replace
 from pathlib import Path
 
+from lerobot_policy_recent.logs.layout import write_atomically
 from lerobot_policy_recent.logs.recorder import Recorder
 from lerobot_policy_recent.recent_plugin.evaluation.jobs import SUITE_TARGETS, BenchConfig, Job, log_dir
 from lerobot_policy_recent.recent_plugin.evaluation.metrics import crashed
@@ -92,10 +93,8 @@ class BenchRun:
 
 def write_json(path: Path, data: object) -> None:
     """Write whole or not at all: a killed run never leaves half a record behind."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_suffix(path.suffix + ".tmp")
-    tmp.write_text(json.dumps(data, indent=1, default=str))
-    os.replace(tmp, path)
+    text = json.dumps(data, indent=1, default=str)
+    write_atomically(path, lambda tmp: tmp.write_text(text))
 
 
 def load_record(path: Path) -> dict:
