@@ -25,31 +25,43 @@ class McapContents:
         return self.topics.get("/action", 0)
 
 
-def read_mcap(path: Path) -> McapContents:
-    """Every message that can be read; a file cut short by a crash is read up to the cut."""
+@dataclass(frozen=True)
+class McapMessage:
+    topic: str
+    log_time_ns: int
+    data: bytes
+
+
+def mcap_messages(path: Path) -> tuple[list[McapMessage], bool]:
+    """Every message that can be read, in file order, and whether the file is complete (has its
+    footer); a file cut short by a crash is read record by record up to the cut."""
     from mcap.reader import make_reader
 
-    topics, events = Counter(), []
     try:
         with open(path, "rb") as stream:
-            for _schema, channel, message in make_reader(stream).iter_messages():
-                topics[channel.topic] += 1
-                if channel.topic.startswith("/recent/"):
-                    events.append(json.loads(message.data))
-        return McapContents(topics, events, True)
+            return [
+                McapMessage(channel.topic, message.log_time, message.data)
+                for _schema, channel, message in make_reader(stream).iter_messages(log_time_order=False)
+            ], True
     except Exception:  # noqa: BLE001 - no footer: read the records in file order instead
-        topics, events = Counter(), []
+        pass
     channels: dict[int, str] = {}
+    messages = []
     for record in salvage_mcap_records(path):
         kind = type(record).__name__
         if kind == "Channel":
             channels[record.id] = record.topic
         elif kind == "Message":
-            topic = channels.get(record.channel_id, "")
-            topics[topic] += 1
-            if topic.startswith("/recent/"):
-                events.append(json.loads(record.data))
-    return McapContents(topics, events, False)
+            messages.append(McapMessage(channels.get(record.channel_id, ""), record.log_time, record.data))
+    return messages, False
+
+
+def read_mcap(path: Path) -> McapContents:
+    """Messages per topic and the grounding events; a file cut short by a crash is read up to the cut."""
+    messages, complete = mcap_messages(path)
+    topics = Counter(m.topic for m in messages)
+    events = [json.loads(m.data) for m in messages if m.topic.startswith("/recent/")]
+    return McapContents(topics, events, complete)
 
 
 def decoded_protobuf(path: Path, topic: str) -> list:

@@ -1,14 +1,22 @@
-"""``recent replay``: rebuild an episode's Rerun recording from the LeRobotDataset and its grounding events.
+"""``recent replay``: rebuild an episode's Rerun recording from its other logs.
 
-The frames come from the dataset, the events from ``grounding_events/``; both are fed through the
-same :class:`~lerobot_policy_recent.logs.rerun_sink.RerunSink` a live run uses, so a replayed recording has the live
-one's blueprint and entity layout (and works for datasets downloaded from the Hub).
+From a log directory, the frames come from the LeRobotDataset and the events from
+``grounding_events/`` (this works for datasets downloaded from the Hub). From an MCAP file, both
+come from its messages: the poses on ``/tf``, the joints on ``/joint_states``, the actions on
+``/action``, the camera on ``/camera/front`` and the events on ``/recent/<event>``. The MCAP is
+flushed after every step, so this is also how ``recent logs verify --recover`` rebuilds the Rerun
+recording of a killed episode with every step but the one in flight. Either way the steps and
+events are fed through the same :class:`~lerobot_policy_recent.logs.rerun_sink.RerunSink` a live
+run uses, so a rebuilt recording has the live one's blueprint and entity layout.
 """
 
 from __future__ import annotations
 
+import dataclasses
+import io
 import json
 import os
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -18,9 +26,9 @@ import numpy as np
 from lerobot_policy_recent.logs.dataset_sink import CAMERA_KEY, REPO_ID, VIDEO_BACKEND, dataset_episode
 from lerobot_policy_recent.logs.events import EVENT_TYPES, Stamped, Step
 from lerobot_policy_recent.logs.layout import LogLayout, episode_name
-from lerobot_policy_recent.logs.readers import read_table
+from lerobot_policy_recent.logs.readers import mcap_messages, read_table
 from lerobot_policy_recent.logs.rerun_sink import RerunSink
-from lerobot_policy_recent.logs.verify import rerun_executable
+from lerobot_policy_recent.robosuite_envs.observation import AGENT_POS_DIM, ENV_STATE_DIM, MAX_ARM_DOF, SLOT_DIM
 
 
 def replay_episode(root: str | Path, episode: int, out: Path) -> Path:
@@ -64,12 +72,19 @@ def replay_episode(root: str | Path, episode: int, out: Path) -> Path:
         )
         for i in range(len(frames["frame_index"]))
     ]
+    return write_recording(out, stamped, steps, ended=True)
+
+
+def write_recording(out: Path, stamped: list[Stamped], steps: list[Step], *, ended: bool) -> Path:
+    """Feed events and steps, interleaved as they happened, through a live run's Rerun sink into ``out``.
+
+    ``ended``: the last event is the episode's end (an episode cut short has none)."""
     out.parent.mkdir(parents=True, exist_ok=True)
     sink = RerunSink(lambda _index: out)
     sink.begin(stamped[0])
-    pending = iter(stamped[1:-1])
+    pending = iter(stamped[1:-1] if ended else stamped[1:])
     event = next(pending, None)
-    for step in steps:  # events and steps interleaved as they happened
+    for step in steps:
         while event is not None and event.frame_index <= step.frame_index:
             sink.event(event)
             event = next(pending, None)
@@ -77,8 +92,96 @@ def replay_episode(root: str | Path, episode: int, out: Path) -> Path:
     while event is not None:
         sink.event(event)
         event = next(pending, None)
-    sink.end(stamped[-1])
+    if ended:
+        sink.end(stamped[-1])
+    else:
+        sink.close()
     return out
+
+
+def replay_mcap(path: Path, out: Path) -> Path:
+    """Write ``out`` (an ``.rrd``) from one episode's MCAP, finished or cut short by a crash."""
+    stamped, steps = mcap_episode(path)
+    return write_recording(out, stamped, steps, ended=stamped[-1].event.name == "episode_ended")
+
+
+def mcap_episode(path: Path) -> tuple[list[Stamped], list[Step]]:
+    """The events and the whole steps of an episode's MCAP.
+
+    A step is whole once its ``/action`` message is there (``/tf`` and ``/joint_states`` precede it);
+    a step cut short by a crash is dropped. The state fields no MCAP topic carries (an object's
+    grasped/touched/height/state) are zero: the Rerun recording does not show them.
+    """
+    from foxglove_schemas_protobuf.CompressedImage_pb2 import CompressedImage
+    from foxglove_schemas_protobuf.FrameTransforms_pb2 import FrameTransforms
+    from foxglove_schemas_protobuf.JointStates_pb2 import JointStates
+
+    messages, _complete = mcap_messages(path)
+    stamped: list[Stamped] = []
+    steps: list[Step] = []
+    poses: dict[str, tuple[list[float], list[float]]] = {}
+    joints: dict[str, tuple[float, float]] = {}
+    objects: list[str] = []
+    for m in messages:
+        if m.topic.startswith("/recent/"):
+            payload = json.loads(m.data)
+            event = EVENT_TYPES[payload["event"]](**_fields(payload))
+            stamped.append(Stamped(event, payload["episode_index"], payload["frame_index"], m.log_time_ns))
+            objects = list(getattr(event, "object_names", objects))
+        elif m.topic == "/tf":
+            poses = {
+                t.child_frame_id: (
+                    [t.translation.x, t.translation.y, t.translation.z],
+                    [t.rotation.x, t.rotation.y, t.rotation.z, t.rotation.w],
+                )
+                for t in FrameTransforms.FromString(m.data).transforms
+            }
+        elif m.topic == "/joint_states":
+            joints = {j.name: (j.position, j.velocity) for j in JointStates.FromString(m.data).joints}
+        elif m.topic == "/action" and stamped:
+            action = json.loads(m.data)
+            state, environment = _state_vectors(poses, joints, objects)
+            steps.append(
+                Step(
+                    stamped[0].episode_index,
+                    int(action["frame_index"]),
+                    float(action["sim_time"]),
+                    m.log_time_ns,
+                    state,
+                    environment,
+                    np.asarray(action["action"], dtype=np.float32),
+                )
+            )
+        elif m.topic == "/camera/front" and steps and steps[-1].log_time_ns == m.log_time_ns:
+            steps[-1] = dataclasses.replace(steps[-1], image=_decoded_png(CompressedImage.FromString(m.data).data))
+    if not stamped or stamped[0].event.name != "episode_started":
+        raise ValueError(f"{path} holds no episode_started event: it is not an episode's MCAP written by this project")
+    return stamped, steps
+
+
+def _state_vectors(
+    poses: dict[str, tuple[list[float], list[float]]], joints: dict[str, tuple[float, float]], objects: list[str]
+) -> tuple[np.ndarray, np.ndarray]:
+    """``agent_pos`` and ``environment_state`` as far as the MCAP's poses and joints give them."""
+    state = np.zeros(AGENT_POS_DIM, dtype=np.float32)
+    if "eef" in poses:
+        state[0:3], state[3:7] = poses["eef"]
+    state[7] = joints.get("gripper", (0.0, 0.0))[0]
+    for i in range(MAX_ARM_DOF):
+        state[8 + i], state[8 + MAX_ARM_DOF + i] = joints.get(f"joint{i}", (0.0, 0.0))
+    environment = np.zeros(ENV_STATE_DIM, dtype=np.float32)
+    for slot, name in enumerate(objects):
+        if name in poses:  # an object is on /tf while it is present
+            row = environment[slot * SLOT_DIM : (slot + 1) * SLOT_DIM]
+            row[0:3], row[3:7] = poses[name]
+            row[7] = 1.0
+    return state, environment
+
+
+def _decoded_png(data: bytes) -> np.ndarray:
+    from PIL import Image
+
+    return np.asarray(Image.open(io.BytesIO(data)).convert("RGB"))
 
 
 def default_output(root: str | Path, episode: int) -> Path:
@@ -115,8 +218,17 @@ def open_viewer(path: Path, *, env: dict[str, str] | None = None) -> subprocess.
     raise ViewerError(f"the Rerun viewer exited with code {code} without opening {path}: {' | '.join(said)}")
 
 
+def rerun_executable() -> str:
+    """The ``rerun`` CLI installed with rerun-sdk in this environment."""
+    beside = Path(sys.executable).parent / "rerun"
+    found = str(beside) if beside.exists() else shutil.which("rerun")
+    if found is None:
+        raise FileNotFoundError("the `rerun` command was not found; it comes with rerun-sdk (pip install rerun-sdk)")
+    return found
+
+
 def _fields(payload: dict) -> dict:
-    return {k: v for k, v in payload.items() if k not in ("episode_index", "frame_index")}
+    return {k: v for k, v in payload.items() if k not in ("episode_index", "frame_index", "event")}
 
 
 def _hwc(image: np.ndarray) -> np.ndarray:

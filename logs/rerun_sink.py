@@ -6,8 +6,10 @@ Layout: ``world/eef`` and ``world/objects`` (3D view), ``action``, ``gripper`` a
 ``skill/code`` (the skill as it stands, with the last patch as a diff, in markdown) and
 ``camera/front`` when a camera is logged. Per-step streams are buffered and sent as columns, so
 logging a step costs a few list appends; the buffer is sent and flushed to disk at every event,
-every ``BATCH`` steps and at least every ``FLUSH_S`` seconds, so a killed process loses at most
-the steps of its last ``FLUSH_S`` (and never an event).
+every ``BATCH`` steps and at least every ``FLUSH_S`` seconds, so the file of a killed process
+lacks at most the steps of its last ``FLUSH_S`` (and never an event). Recovery does not depend on
+this bound: ``recent logs verify --recover`` rebuilds the recording from the episode's MCAP, which
+is flushed every step (``logs/replay.py``).
 """
 
 from __future__ import annotations

@@ -3,21 +3,22 @@
 For each committed episode (one with a results row) the MCAP, the Rerun recording, the
 grounding-event table and the LeRobotDataset must hold the same number of events and steps.
 ``recover`` salvages the MCAP and Rerun files of episodes a crash interrupted: an MCAP cut short
-is rewritten, record by record up to the cut, into a valid file with its summary; a Rerun
-recording is re-encoded with ``rerun rrd merge --continue-on-error``.
+is rewritten, record by record up to the cut, into a valid file with its summary. The Rerun
+recording is rebuilt from that episode's MCAP, which is flushed after every step, so it loses at
+most the step in flight (the live ``.rrd`` may lack its last quarter second of buffered steps);
+without an MCAP it is re-encoded as far as it goes with ``rerun rrd merge --continue-on-error``.
 """
 
 from __future__ import annotations
 
 import os
-import shutil
 import subprocess
-import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from lerobot_policy_recent.logs.layout import LogLayout, episode_number
 from lerobot_policy_recent.logs.readers import dataset_lengths, read_mcap, read_rrd, read_table, salvage_mcap_records
+from lerobot_policy_recent.logs.replay import replay_mcap, rerun_executable
 
 
 @dataclass
@@ -124,31 +125,39 @@ def _check_episode(layout: LogLayout, episode: int, lengths: dict[int, int]) -> 
 # ---------------------------------------------------------------------------------------- recovery
 @dataclass(frozen=True)
 class Salvaged:
-    """One recovered file: where from, where to, and what it holds (read back from the copy)."""
+    """One recovered file: where from, where to, how, and what it holds (read back from the copy)."""
 
     source: str
     target: str
     steps: int
     events: int
+    how: str = "rewritten"  # rewritten (MCAP) | rebuilt from MCAP | re-encoded (Rerun, no MCAP)
 
     def __str__(self) -> str:
-        return f"{self.source} -> {self.target} ({self.steps} steps, {self.events} events)"
+        return f"{self.source} -> {self.target} ({self.how}: {self.steps} steps, {self.events} events)"
 
 
 def recover(root: str | Path) -> list[Salvaged]:
     """Salvage the MCAP and Rerun files of interrupted episodes into ``*.recovered.*`` beside them."""
+    layout = LogLayout(Path(root))
     out = []
-    for path in interrupted_files(LogLayout(Path(root))):
+    for path in interrupted_files(layout):
         target = recovered_path(path)
         if path.suffix == ".mcap":
             recover_mcap(path, target)
             contents = read_mcap(target)
             out.append(Salvaged(str(path), str(target), contents.steps, len(contents.events)))
         elif path.suffix == ".rrd":
-            recover_rrd(path, target)
+            how = recover_rrd(path, target, mcap=partner_mcap(layout, path))
             rrd = read_rrd(target)
-            out.append(Salvaged(str(path), str(target), rrd.steps, rrd.events))
+            out.append(Salvaged(str(path), str(target), rrd.steps, rrd.events, how))
     return out
+
+
+def partner_mcap(layout: LogLayout, rrd: Path) -> Path | None:
+    """The MCAP the same episode wrote beside a Rerun recording, if that sink was on."""
+    path = layout.mcap(episode_number(rrd)) if rrd.parent == layout.rerun_dir else rrd.with_suffix(".mcap")
+    return path if path.exists() else None
 
 
 def recover_mcap(source: Path, target: Path) -> int:
@@ -177,20 +186,19 @@ def recover_mcap(source: Path, target: Path) -> int:
     return len(kinds["Message"])
 
 
-def recover_rrd(source: Path, target: Path) -> None:
-    """Re-encode what Rerun can still decode of a recording cut short."""
+def recover_rrd(source: Path, target: Path, *, mcap: Path | None = None) -> str:
+    """Recover a recording cut short: rebuilt from the episode's ``mcap`` where there is one (every
+    step but the one in flight), else re-encoded as far as Rerun can still decode it. Returns how."""
+    if mcap is not None:
+        try:
+            replay_mcap(mcap, target)
+            return "rebuilt from MCAP"
+        except ValueError:  # not an episode's MCAP (its first event is gone): fall back to the recording
+            pass
     subprocess.run(
         [rerun_executable(), "rrd", "merge", "--continue-on-error", "-o", str(target), str(source)],
         check=True,
         capture_output=True,
         env={**os.environ, "RUST_LOG": "error"},
     )
-
-
-def rerun_executable() -> str:
-    """The ``rerun`` CLI installed with rerun-sdk in this environment."""
-    beside = Path(sys.executable).parent / "rerun"
-    found = str(beside) if beside.exists() else shutil.which("rerun")
-    if found is None:
-        raise FileNotFoundError("the `rerun` command was not found; it comes with rerun-sdk (pip install rerun-sdk)")
-    return found
+    return "re-encoded"

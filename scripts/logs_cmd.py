@@ -50,10 +50,16 @@ def register(sub) -> None:
     report.add_argument("--out", default=None, help="PNG path (default: DIR/failures.png of the first DIR)")
     report.set_defaults(handler=_failures)
 
-    replay = sub.add_parser("replay", help="open an episode in the Rerun viewer, or rebuild it from the dataset")
+    replay = sub.add_parser(
+        "replay", help="open an episode in the Rerun viewer, or rebuild its recording from the dataset or its MCAP"
+    )
     replay.add_argument("path", help="an .rrd or .mcap file, or a log directory (with --episode)")
     replay.add_argument("--episode", type=int, default=None, help="episode index in a log directory")
-    replay.add_argument("--out", default=None, help="write the rebuilt .rrd here (default: DIR/replay/episode_N.rrd)")
+    replay.add_argument(
+        "--out",
+        default=None,
+        help="write the rebuilt .rrd here (from a log directory, default DIR/replay/episode_N.rrd; from an .mcap, required)",
+    )
     replay.add_argument("--no-viewer", action="store_true", help="only write the recording")
     replay.set_defaults(handler=_replay)
 
@@ -124,7 +130,7 @@ def _failures(args) -> int:
 
 
 def _replay(args) -> int:
-    from lerobot_policy_recent.logs.replay import ViewerError, default_output, open_viewer, replay_episode
+    from lerobot_policy_recent.logs.replay import ViewerError, default_output, open_viewer, replay_episode, replay_mcap
 
     path = Path(args.path)
     if not path.exists():
@@ -134,13 +140,21 @@ def _replay(args) -> int:
             raise ValueError(f"{path} is a log directory: choose an episode with --episode N")
         path = replay_episode(path, args.episode, Path(args.out) if args.out else default_output(path, args.episode))
         print(f"wrote {path}")
-    elif args.out or args.episode is not None:
+    elif args.episode is not None:
+        raise ValueError(f"--episode chooses an episode of a log directory; {path} is one episode's file")
+    elif path.suffix == ".mcap" and args.out:
+        path = replay_mcap(path, Path(args.out))
+        print(f"wrote {path}")
+    elif args.out:
         raise ValueError(
-            f"{path} is a recording already: --out and --episode rebuild one from a log directory's dataset "
+            f"{path} is a Rerun recording already: --out rebuilds one from an episode's MCAP "
+            f"(recent replay FILE.mcap --out FILE.rrd) or from a log directory "
             f"(recent replay DIR --episode N --out FILE.rrd); open this one with `recent replay {path}`"
         )
     elif args.no_viewer:
-        raise ValueError(f"nothing to do: {path} is a recording already and --no-viewer opens no viewer")
+        raise ValueError(
+            f"nothing to do: --no-viewer opens no viewer and no --out was given to write a recording from {path}"
+        )
     if not args.no_viewer:
         try:
             open_viewer(path)

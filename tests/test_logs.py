@@ -98,7 +98,7 @@ def test_rerun_opens_the_mcap(run):
 
 
 def test_rerun_recording_matches_the_mcap(run):
-    from lerobot_policy_recent.logs.verify import rerun_executable
+    from lerobot_policy_recent.logs.replay import rerun_executable
 
     root, (good, _) = run
     path = LogLayout(root).rrd(0)
@@ -180,6 +180,19 @@ def test_verify_finds_the_logs_consistent_and_replay_rebuilds_the_recording(run,
     assert [e.steps["dataset"] for e in report.episodes] == [good.steps, broken.steps]
     replayed = read_rrd(replay_episode(root, 0, tmp_path / "replay.rrd"))
     assert replayed.steps == good.steps and replayed.events == read_rrd(LogLayout(root).rrd(0)).events
+
+
+def test_replay_rebuilds_the_live_recording_from_the_mcap_alone(run, tmp_path, capsys):
+    """Every entity gets the rows the live sink logged, from the MCAP's messages only; so does the CLI."""
+    from lerobot_policy_recent.scripts.cli import main
+
+    root, (good, _) = run
+    layout = LogLayout(root)
+    out = tmp_path / "from_mcap.rrd"
+    assert main(["replay", str(layout.mcap(0)), "--no-viewer", "--out", str(out)]) == 0
+    assert f"wrote {out}" in capsys.readouterr().out
+    rebuilt, live = read_rrd(out), read_rrd(layout.rrd(0))
+    assert rebuilt.rows == live.rows and rebuilt.steps == good.steps
 
 
 def test_failure_report_lists_the_injected_categories(run, tmp_path):
@@ -321,7 +334,9 @@ def test_sigkill_mid_episode_then_recover_salvages_everything_flushed(tmp_path):
     assert recovered.complete
     assert recovered.steps >= seen.steps and len(recovered.events) >= len(seen.events)
     assert recovered.events[: len(seen.events)] == seen.events
-    assert read_rrd(layout.rerun_dir / "episode_000000.recovered.rrd").events >= 1
+    rrd = next(s for s in salvaged if s.target.endswith(".rrd"))
+    assert rrd.how == "rebuilt from MCAP"  # a kill loses at most the step in flight, in the recording too
+    assert (rrd.steps, rrd.events) == (recovered.steps, len(recovered.events))
     assert verify(tmp_path).ok  # recovered files are accounted for
     Recorder(tmp_path, ["mcap"]).close()  # the next run sets the interrupted files aside
     assert sorted(p.suffix for p in layout.interrupted_dir.iterdir()) == [".mcap", ".mcap", ".rrd", ".rrd"]
@@ -500,7 +515,7 @@ def test_log_commands_refuse_what_they_cannot_do_and_say_so(run, tmp_path, capsy
     monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
     cases = [
         (["failures", "report", str(tmp_path / "typo")], "no such log directory"),
-        (["replay", str(rrd), "--no-viewer", "--out", str(tmp_path / "x.rrd")], "is a recording already"),
+        (["replay", str(rrd), "--no-viewer", "--out", str(tmp_path / "x.rrd")], "is a Rerun recording already"),
         (["replay", str(rrd), "--no-viewer"], "nothing to do"),
         (["replay", str(rrd)], "no display"),
         (["replay", str(tmp_path / "missing.rrd")], "does not exist"),
