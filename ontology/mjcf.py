@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import importlib.util
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from pathlib import Path
@@ -35,13 +34,12 @@ class GripperFacts:
 
 def resolve_mjcf(path: str) -> Path:
     """A path relative to robosuite's package (``models/assets/...``), or an absolute/relative file path."""
-    candidate = Path(path)
-    if candidate.is_file():
-        return candidate
-    spec = importlib.util.find_spec("robosuite")  # locate without importing robosuite (slow)
-    if spec is None or not spec.submodule_search_locations:
-        raise SpecError(path, "mjcf", "robosuite is not installed, and the path is not a file")
-    return Path(spec.submodule_search_locations[0]) / path
+    from lerobot_policy_recent.robosuite_envs.embodiments import resolve_model_file
+
+    try:
+        return resolve_model_file(path)
+    except FileNotFoundError as error:
+        raise SpecError(path, "mjcf", str(error)) from None
 
 
 def _parse(path: str) -> ET.Element:

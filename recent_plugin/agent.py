@@ -25,6 +25,7 @@ from lerobot_policy_recent.recent_plugin.grounding.store import GroundingStore, 
 from lerobot_policy_recent.recent_plugin.infillers import Infiller
 from lerobot_policy_recent.recent_plugin.methods import Adaptation, Grounding
 from lerobot_policy_recent.recent_plugin.settings import RecentSettings
+from lerobot_policy_recent.robosuite_envs.calibrate import calibration
 from lerobot_policy_recent.robosuite_envs.observation import Observation
 from lerobot_policy_recent.robosuite_envs.suites import get_task
 from lerobot_policy_recent.robosuite_envs.tasks import TaskSpec
@@ -210,6 +211,7 @@ class RecentAgent:
             max_steps=self.settings.max_skill_steps,
             adapter=self.adapter(task, target, emit, budget, seed),
             emit=emit,
+            calibration=calibration(robot),  # measured once per embodiment and machine, then read from the cache
         )
         return executor, report
 

@@ -31,6 +31,7 @@ from lerobot_policy_recent.ontology.target import Target
 from lerobot_policy_recent.recent_plugin.failures import PRIMITIVE_FAILURE_CATEGORY, FailureCategory
 from lerobot_policy_recent.recent_plugin.grounding.gate import SAFE_HELPERS
 from lerobot_policy_recent.recent_plugin.grounding.grounder import GroundedSkill
+from lerobot_policy_recent.robosuite_envs.calibration import Calibration, Nominal
 from lerobot_policy_recent.robosuite_envs.observation import Observation
 from lerobot_policy_recent.robosuite_envs.primitives import (
     PrimitiveFailure,
@@ -295,8 +296,10 @@ class TaskExecutor:
         max_steps: int = 3000,
         adapter: Adapter | None = None,
         emit: Emit = ignore,
+        calibration: Calibration | None = None,
     ):
-        self.session = RobotSession(target.name, first_obs)
+        """``calibration``: the embodiment's, for the controllers (None: nominal values, for made-up observations)."""
+        self.session = RobotSession(target.name, first_obs, calibration or Nominal())
         self.emit = emit
         self.adapter = adapter
         self.plan = plan

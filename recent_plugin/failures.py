@@ -16,6 +16,7 @@ class FailureCategory(StrEnum):
     UNREACHABLE_OBJECT = "unreachable_object"  # object not reachable / not found
     GRASP_LOST = "grasp_lost"
     TIMEOUT = "timeout"
+    CANNOT_TRACK = "cannot_track"  # calibration, not grounding: the arm stopped short of a goal it was sent to
     SUBTASK_FAILED = "subtask_failed"  # ran to the end, success predicate false
     CRASH = "crash"  # not the method's failure: the run broke off (the LM worker died, an error); no verdict
 
@@ -28,4 +29,5 @@ PRIMITIVE_FAILURE_CATEGORY = {
     "timeout": FailureCategory.TIMEOUT,
     "object_not_found": FailureCategory.HALLUCINATED_NAME,
     "grasp_lost": FailureCategory.GRASP_LOST,
+    "cannot_track": FailureCategory.CANNOT_TRACK,
 }

@@ -80,24 +80,10 @@ class RecentEnv(gym.Env):
         return self._env.variations if self._env is not None else episode_variations(self.variations, "", None)
 
     def _make(self, seed: int | None, variations: tuple[str, ...]):
-        from robosuite.controllers import load_composite_controller_config
+        from lerobot_policy_recent.robosuite_envs.tabletop import build_env
 
-        from lerobot_policy_recent.robosuite_envs.tabletop import RecentTabletopEnv
-
-        return RecentTabletopEnv(
-            self.spec_task,
-            variations=variations,
-            robots=self.embodiment.robot,
-            gripper_types=self.embodiment.gripper,
-            controller_configs=load_composite_controller_config(controller="BASIC", robot=self.embodiment.robot),
-            has_renderer=False,
-            has_offscreen_renderer=self.render_mode == "rgb_array",
-            use_camera_obs=False,
-            ignore_done=True,
-            hard_reset=False,
-            control_freq=CONTROL_FREQ,
-            horizon=10**9,
-            seed=seed,
+        return build_env(
+            self.spec_task, self.embodiment, seed=seed, variations=variations, offscreen=self.render_mode == "rgb_array"
         )
 
     def _observation(self) -> dict[str, np.ndarray]:

@@ -23,6 +23,7 @@ from lerobot_policy_recent.robosuite_envs.grippers import (
 )
 from lerobot_policy_recent.robosuite_envs.objects import get_kind
 from lerobot_policy_recent.robosuite_envs.observation import ObjectState, Observation
+from lerobot_policy_recent.robosuite_envs.primitives.session import CONTROL_FREQ
 from lerobot_policy_recent.robosuite_envs.subtasks import TABLE_Z, get_subtask
 from lerobot_policy_recent.robosuite_envs.tasks import ObjectSpec, TaskSpec
 from lerobot_policy_recent.robosuite_envs.variations import (
@@ -398,3 +399,27 @@ def exclude_mount_contacts(robot_model) -> None:
 
     for top in robot_model.worldbody.findall("body"):
         visit(top, not moves(top))
+
+
+def build_env(
+    task: TaskSpec, embodiment, *, seed: int | None, variations: tuple[str, ...] = (), offscreen: bool = False
+) -> RecentTabletopEnv:
+    """The tabletop env for ``task`` with ``embodiment`` (an :class:`~lerobot_policy_recent.robosuite_envs.embodiments.Embodiment`),
+    under operational-space control at ``CONTROL_FREQ``, never ending on its own."""
+    from robosuite.controllers import load_composite_controller_config
+
+    return RecentTabletopEnv(
+        task,
+        variations=variations,
+        robots=embodiment.robot,
+        gripper_types=embodiment.gripper,
+        controller_configs=load_composite_controller_config(controller="BASIC", robot=embodiment.robot),
+        has_renderer=False,
+        has_offscreen_renderer=offscreen,
+        use_camera_obs=False,
+        ignore_done=True,
+        hard_reset=False,
+        control_freq=CONTROL_FREQ,
+        horizon=10**9,
+        seed=seed,
+    )

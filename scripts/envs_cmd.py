@@ -4,13 +4,17 @@ from __future__ import annotations
 
 import json
 import statistics
+import sys
 
-from lerobot_policy_recent.robosuite_envs.embodiments import EMBODIMENTS
-from lerobot_policy_recent.robosuite_envs.primitives import api_functions
+from tqdm import tqdm
+
+from lerobot_policy_recent.robosuite_envs.embodiments import EMBODIMENTS, get_embodiment
+from lerobot_policy_recent.robosuite_envs.primitives import api_functions, api_spec_path
 from lerobot_policy_recent.robosuite_envs.splits import split_of, split_table
 from lerobot_policy_recent.robosuite_envs.subtasks import SUBTASKS, get_subtask
 from lerobot_policy_recent.robosuite_envs.suites import SEEDS, SUITES, get_task
 from lerobot_policy_recent.robosuite_envs.variations import ON, VARIATIONS
+from lerobot_policy_recent.scripts.common import add_settings_arguments
 from lerobot_policy_recent.skills.repository import task_calls
 
 
@@ -24,6 +28,23 @@ def register(sub) -> None:
     show.add_argument("task")
     show.add_argument("--json", action="store_true")
     show.set_defaults(handler=_show)
+    embodiment = actions.add_parser(
+        "show-embodiment", help="one robot's calibration: arm, gripper and tracking as the controllers use them"
+    )
+    embodiment.add_argument("name", help="an embodiment (recent envs list)")
+    embodiment.add_argument("--refresh", action="store_true", help="measure again, even if a calibration is cached")
+    embodiment.add_argument("--json", action="store_true")
+    embodiment.set_defaults(handler=_show_embodiment)
+    check = actions.add_parser(
+        "check", help="run the canonical set on robots and on the Panda reference; exit 1 if one falls short"
+    )
+    check.add_argument("names", help="comma list of embodiments")
+    check.add_argument("--seeds", default=",".join(map(str, SEEDS)), help="comma list (default: the paper's five)")
+    check.add_argument("--tasks", default=None, help="comma list of canonical task ids (default: all five)")
+    check.add_argument("--out", default=None, help="run directory (default: outputs/check/<names>); resumable")
+    check.add_argument("--workers", type=int, default=0, help="Ray workers (default: as many as the CPUs hold)")
+    add_settings_arguments(check, with_method=False)
+    check.set_defaults(handler=_check)
 
 
 def _list(args) -> int:
@@ -41,8 +62,9 @@ def _list(args) -> int:
         print(json.dumps(summary, indent=2))
         return 0
     print("Embodiments:")
+    width = max(map(len, EMBODIMENTS))
     for e in EMBODIMENTS.values():
-        print(f"  {e.name:<10} {len(api_functions(e.api)):>2} primitives  {e.description}")
+        print(f"  {e.name:<{width}} {len(api_functions(e.api)):>2} primitives  {e.description}")
     print(f"\nSubtasks ({len(SUBTASKS)}):")
     for s in SUBTASKS.values():
         print(f"  {s.name:<18} {s.family:<12} {s.category:<27} {s.description}")
@@ -106,3 +128,57 @@ def _show(args) -> int:
             f"  {o['name']:<10} {o['kind']:<11} at ({o['xy'][0]:+.2f}, {o['xy'][1]:+.2f}) ±{o['jitter']:.3f} m  {size} m"
         )
     return 0
+
+
+def _show_embodiment(args) -> int:
+    from lerobot_policy_recent.robosuite_envs.calibrate import cache_path, calibration
+
+    embodiment = get_embodiment(args.name)
+    measured = calibration(args.name, refresh=args.refresh)
+    if args.json:
+        print(measured.to_json())
+        return 0
+    print("\n".join(measured.lines()))
+    print(f"primitive API     {api_spec_path(embodiment.api)}")
+    print(f"cached at         {cache_path(embodiment)}")
+    return 0
+
+
+def _check(args) -> int:
+    from pathlib import Path
+
+    from lerobot_policy_recent.recent_plugin.evaluation.embodiment_check import (
+        CANONICAL_TASKS,
+        check_config,
+        markdown,
+        summarize,
+    )
+    from lerobot_policy_recent.recent_plugin.evaluation.runner import load_records, run_bench
+    from lerobot_policy_recent.robosuite_envs.calibrate import calibration
+    from lerobot_policy_recent.scripts.common import settings_from_args
+
+    robots = tuple(n.strip() for n in args.names.split(",") if n.strip())
+    tasks = tuple(t.strip() for t in args.tasks.split(",")) if args.tasks else CANONICAL_TASKS
+    unknown = sorted(set(tasks) - set(CANONICAL_TASKS))
+    if unknown:
+        raise ValueError(f"not in the canonical set: {', '.join(unknown)}; choose from {', '.join(CANONICAL_TASKS)}")
+    out = Path(args.out or f"outputs/check/{'_'.join(robots)}")
+    config = check_config(
+        robots,
+        out,
+        settings_from_args(args),
+        seeds=tuple(int(s) for s in args.seeds.split(",")),
+        tasks=tasks,
+        workers=args.workers,
+    )
+    for robot in robots:  # calibrate first: a robot the controllers cannot use fails here, before any episode
+        measured = calibration(robot)
+        print(f"{robot}: calibrated ({measured.tracking_error_m * 1000:.1f} mm tracking error, "
+              f"close {measured.close_time_s:.2f} s)", file=sys.stderr)  # fmt: skip
+    jobs = config.jobs()
+    with tqdm(total=len(jobs), unit="episode", desc="check") as bar:
+        run_bench(config, on_record=lambda _r: bar.update(1))
+    checks = [summarize(load_records(out), robot, tasks) for robot in robots]
+    print(markdown(checks))
+    print(f"\nrecords: {out}/episodes (rerun the same command to finish an interrupted check)")
+    return 0 if all(c.passed for c in checks) else 1

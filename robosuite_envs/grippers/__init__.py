@@ -2,5 +2,6 @@
 
 from lerobot_policy_recent.robosuite_envs.grippers.robotiq85 import LinkedRobotiq85Gripper
 from lerobot_policy_recent.robosuite_envs.grippers.suction import SuctionGripper
+from lerobot_policy_recent.robosuite_envs.grippers.xarm7 import XArm7PadGripper
 
-__all__ = ["LinkedRobotiq85Gripper", "SuctionGripper"]
+__all__ = ["LinkedRobotiq85Gripper", "SuctionGripper", "XArm7PadGripper"]

@@ -25,21 +25,32 @@ __all__ = [
 ]
 
 
+def spec_dirs() -> list[Path]:
+    """Where primitive-API files are: the bundled ones, then the robot directories of ``RECENT_ROBOTS``."""
+    from lerobot_policy_recent.robosuite_envs.embodiments import robot_dirs
+
+    return [SPEC_DIR, *robot_dirs()]
+
+
 def available_apis() -> list[str]:
-    return sorted(p.stem for p in SPEC_DIR.glob("*.yaml"))
+    return sorted({p.stem for folder in spec_dirs() for p in folder.glob("*.yaml")})
 
 
 def api_spec_path(api: str) -> Path:
-    path = SPEC_DIR / f"{api}.yaml"
-    if not path.is_file():
-        raise KeyError(f"no primitive API {api!r}; known APIs: {', '.join(available_apis())}")
-    return path
+    for folder in spec_dirs():
+        path = folder / f"{api}.yaml"
+        if path.is_file():
+            return path
+    raise KeyError(f"no primitive API {api!r}; known APIs: {', '.join(available_apis())}")
 
 
 def api_functions(api: str) -> dict[str, object]:
-    """The primitives of the bundled API ``<api>`` (``robosuite_envs/primitives/<api>.py``)."""
-    api_spec_path(api)
-    return module_functions(f"lerobot_policy_recent.robosuite_envs.primitives.{api}")
+    """The primitives of the bundled API ``<api>``: those of the module its YAML names (``module:``;
+    several embodiments may share one module, each with a YAML of its own)."""
+    import yaml
+
+    spec = yaml.safe_load(api_spec_path(api).read_text()) or {}
+    return module_functions(spec.get("module") or f"lerobot_policy_recent.robosuite_envs.primitives.{api}")
 
 
 def module_functions(module_name: str) -> dict[str, object]:

@@ -28,6 +28,9 @@ STALL_STEPS = 10  # control steps a lowered load must not move (by SETTLED in al
 SET_DOWN_GAP = 0.02  # metres above its target a grip site may stop once the held object rests on the surface
 APPROACH_HEIGHT = 0.10
 TABLE_CLEARANCE = 0.805  # z below which the fingers would hit the table top (metres, world)
+GRIPPER_WAIT_S = 3.0  # longest a gripper command is held by default (a slower calibrated stroke: longer)
+OPEN_ENOUGH = 0.8  # fraction of its calibrated stroke a gripper must open to let go
+STROKE_MARGIN = 1.5  # a full stroke may take this multiple of its calibrated time (under load, against friction)
 
 
 def servo_action(session: RobotSession, target_pos: np.ndarray) -> Action:
@@ -56,7 +59,7 @@ def move_to(
     target: Sequence[float],
     *,
     timeout_s: float = 6.0,
-    tol: float = POS_TOL,
+    tol: float | None = None,
     stop_on_contact: bool = False,
     settle: bool = False,
     straight: bool = False,
@@ -69,6 +72,7 @@ def move_to(
     ``settle``: for an arm whose tracking stops short of the target, ``tol`` is where it may stop,
     not where it stops trying: the move ends within ``POS_TOL``, or within ``tol`` once the grip
     site no longer moves (a press that returned on entering ``tol`` stopped 2 cm above the button).
+    ``tol`` defaults to the arm's calibrated ``settle_tol_m`` when settling, else ``POS_TOL``.
     ``straight``: follow the line from where the move starts (a push slides an object along it);
     otherwise each axis closes its own error, and a diagonal move bends.
     ``set_down``: lowering a held object, which may reach the surface before the grip site reaches
@@ -76,6 +80,8 @@ def move_to(
     the grip site has stopped just above it with the load in hand (:func:`load_rests`).
     """
     goal = as_position(target, "target position")
+    if tol is None:
+        tol = session.calibration.settle_tol_m if settle else POS_TOL
     if goal[2] < TABLE_CLEARANCE:
         raise PrimitiveFailure("out_of_workspace", f"target z={goal[2]:.3f} m is below the table surface")
     max_steps = max(1, int(timeout_s * CONTROL_FREQ))
@@ -100,6 +106,19 @@ def move_to(
     err = float(np.linalg.norm(goal - session.obs.eef_pos))
     if settle and err < tol:
         return
+    stalled = last is not None and float(np.linalg.norm(session.obs.eef_pos - last)) < SETTLED
+    blockers = sorted(name for name, s in session.obs.objects.items() if s.touching and not s.grasped)
+    if stalled and blockers:
+        raise PrimitiveFailure(
+            "waypoint_blocked",
+            f"the arm stopped {err * 100:.1f} cm short of {np.round(goal, 3).tolist()}, held up by {', '.join(blockers)}",
+        )
+    if stalled:
+        raise PrimitiveFailure(
+            "cannot_track",
+            f"the arm stopped {err * 100:.1f} cm short of {np.round(goal, 3).tolist()} and does not move on "
+            f"(its calibrated steady-state error is {session.calibration.tracking_error_m * 1000:.1f} mm)",
+        )
     raise PrimitiveFailure(
         "timeout", f"did not reach {np.round(goal, 3).tolist()} within {timeout_s:.1f} s (error {err * 100:.1f} cm)"
     )
@@ -142,13 +161,16 @@ def resting_above(session: RobotSession, goal: np.ndarray, tol: float = POS_TOL)
 
 
 def actuate_gripper(
-    session: RobotSession, command: float, *, duration_s: float = 0.4, max_duration_s: float = 3.0
+    session: RobotSession, command: float, *, duration_s: float = 0.4, max_duration_s: float | None = None
 ) -> Steps:
     """Drive the gripper to ``command`` (-1 open … +1 closed), holding the arm, until the fingers settle.
 
     Runs at least ``duration_s`` and then until the opening stops changing (fingers closed on an
-    object or at their limit), at most ``max_duration_s``: slow linkages such as the 2F-85 need it.
+    object or at their limit), at most ``max_duration_s``: by default ``GRIPPER_WAIT_S``, or longer
+    for a gripper whose calibrated stroke takes longer (a slow linkage, a three-finger hand).
     """
+    if max_duration_s is None:
+        max_duration_s = max(GRIPPER_WAIT_S, STROKE_MARGIN * stroke_seconds(session, command))
     session.gripper_command = float(np.clip(command, -1.0, 1.0))
     hold = np.array(session.obs.eef_pos)
     min_steps = max(1, int(duration_s * CONTROL_FREQ))
@@ -158,36 +180,63 @@ def actuate_gripper(
         opening = session.obs.gripper_opening
         still = still + 1 if abs(opening - previous) < 1e-3 else 0
         previous = opening
-        if step + 1 >= min_steps and still >= 3:
-            return
+        if step + 1 >= min_steps and still >= 3 and (command > -1.0 or opened(session)):
+            return  # stopped (on an object, at the limit); a full open also reads open (fingers on an object stall first)
+
+
+def opened(session: RobotSession, fraction: float = OPEN_ENOUGH) -> bool:
+    """The gripper's opening reads at least ``fraction`` of its calibrated stroke open (always true
+    without a calibrated stroke)."""
+    calibration = session.calibration
+    if calibration.opening_open is None or calibration.opening_closed is None:
+        return True
+    stroke = calibration.opening_open - calibration.opening_closed
+    if abs(stroke) < 1e-6:
+        return True
+    return (session.obs.gripper_opening - calibration.opening_closed) / stroke >= fraction
 
 
 def set_opening(session: RobotSession, fraction: float, velocity: float) -> Steps:
     """Drive the gripper to ``fraction`` of its opening (1 = open, 0 = closed) at ``velocity``."""
-    yield from actuate_gripper(
-        session, 1.0 - 2.0 * float(np.clip(fraction, 0.0, 1.0)), max_duration_s=stroke_time(velocity)
-    )
+    command = 1.0 - 2.0 * float(np.clip(fraction, 0.0, 1.0))
+    yield from actuate_gripper(session, command, max_duration_s=stroke_time(velocity, session, command))
 
 
-def stroke_time(velocity: float) -> float:
-    """Longest time to sweep the gripper stroke at ``velocity`` (stroke fractions per 0.1 s), clamped."""
-    return float(min(4.0, max(0.5, 0.6 / max(velocity, 1e-3))))
+def stroke_time(velocity: float, session: RobotSession | None = None, command: float = 1.0) -> float:
+    """Longest time to sweep the gripper stroke at ``velocity`` (stroke fractions per 0.1 s), clamped;
+    never shorter than the calibrated stroke of a slow gripper allows."""
+    longest = 4.0 if session is None else max(4.0, STROKE_MARGIN * stroke_seconds(session, command))
+    return float(min(longest, max(0.5, 0.6 / max(velocity, 1e-3))))
+
+
+def stroke_seconds(session: RobotSession, command: float) -> float:
+    """The calibrated time of a full close (``command`` > 0) or open of this session's gripper."""
+    calibration = session.calibration
+    return calibration.close_time_s if command > 0 else calibration.open_time_s
 
 
 def grasp_at(
     session: RobotSession, position: Sequence[float], *, timeout_s: float = 10.0, object_name: str | None = None
 ) -> Steps:
     """Open, approach from above, descend, close, and lift; fail with ``grasp_lost`` if nothing is held."""
-    target = as_position(position, "grasp position")
+    target = grip_site_for(session, as_position(position, "grasp position"))
     above = target + np.array([0.0, 0.0, APPROACH_HEIGHT])
     yield from actuate_gripper(session, -1.0)
-    yield from move_to(session, above, timeout_s=timeout_s)
+    yield from move_to(session, above, timeout_s=timeout_s, settle=True)
     yield from move_to(session, target, timeout_s=timeout_s / 2, tol=0.006)
     yield from actuate_gripper(session, 1.0)
-    yield from move_to(session, above, timeout_s=timeout_s / 2)
+    yield from move_to(session, above, timeout_s=timeout_s / 2, settle=True)
     held = [name for name, state in session.obs.objects.items() if state.grasped]
     if not held or (object_name is not None and object_name not in held):
         raise PrimitiveFailure("grasp_lost", f"nothing is held after grasping at {np.round(target, 3).tolist()}")
+
+
+def grip_site_for(session: RobotSession, grasp_at: np.ndarray) -> np.ndarray:
+    """Where the grip site goes so that the calibrated grasp point (where closed pads hold) is over
+    ``grasp_at``: shifted horizontally by that point's offset, as the grip site is turned now."""
+    across = np.asarray(session.calibration.grasp_point, dtype=np.float64) * [1.0, 1.0, 0.0]  # not along the tool axis
+    offset = quat2mat(session.obs.eef_quat) @ across
+    return grasp_at - np.array([offset[0], offset[1], 0.0])
 
 
 def suction_grasp_at(session: RobotSession, position: Sequence[float], *, timeout_s: float = 10.0) -> Steps:
@@ -195,10 +244,10 @@ def suction_grasp_at(session: RobotSession, position: Sequence[float], *, timeou
     target = as_position(position, "suction position")
     above = target + np.array([0.0, 0.0, APPROACH_HEIGHT])
     yield from actuate_gripper(session, -1.0, duration_s=0.1, max_duration_s=0.2)
-    yield from move_to(session, above, timeout_s=timeout_s)
+    yield from move_to(session, above, timeout_s=timeout_s, settle=True)
     yield from descend_until_contact(session, target, timeout_s=timeout_s / 2)
     yield from actuate_gripper(session, 1.0, duration_s=0.3, max_duration_s=0.5)
-    yield from move_to(session, above, timeout_s=timeout_s / 2)
+    yield from move_to(session, above, timeout_s=timeout_s / 2, settle=True)
     if not any(state.grasped for state in session.obs.objects.values()):
         raise PrimitiveFailure(
             "grasp_lost",
@@ -226,8 +275,8 @@ def push_to(session: RobotSession, start: Sequence[float], goal: Sequence[float]
     """Put the closed gripper at ``start`` (from above) and slide it along the table to ``goal``."""
     begin, end = as_position(start, "push start"), as_position(goal, "push goal")
     yield from actuate_gripper(session, 1.0, duration_s=0.2, max_duration_s=1.0)
-    yield from move_to(session, begin + np.array([0.0, 0.0, APPROACH_HEIGHT]), timeout_s=timeout_s)
-    yield from move_to(session, begin, timeout_s=timeout_s / 2)
+    yield from move_to(session, begin + np.array([0.0, 0.0, APPROACH_HEIGHT]), timeout_s=timeout_s, settle=True)
+    yield from move_to(session, begin, timeout_s=timeout_s / 2, settle=True)  # a push needs contact, not mm
     yield from move_to(session, end, timeout_s=timeout_s, tol=0.015, straight=True)
     yield from move_to(session, end + np.array([0.0, 0.0, APPROACH_HEIGHT]), timeout_s=timeout_s / 2, tol=0.02)
 
@@ -318,7 +367,7 @@ def release_at(
     above = target + np.array([0.0, 0.0, APPROACH_HEIGHT / 2])
     lift = np.array([session.obs.eef_pos[0], session.obs.eef_pos[1], max(session.obs.eef_pos[2], above[2])])
     yield from move_to(session, lift, timeout_s=timeout_s / 2, tol=0.02)
-    yield from move_to(session, above, timeout_s=timeout_s)
+    yield from move_to(session, above, timeout_s=timeout_s, settle=True)
     if hanging_load:
         yield from hold_until_still(session, above)
         offset = held_offset(session)

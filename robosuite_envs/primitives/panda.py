@@ -26,7 +26,7 @@ def place(env: RobotSession, task: TaskContext, target_pos: Sequence[float], app
 
 def move(env: RobotSession, task: TaskContext, target_pos: Sequence[float], timeout: float = 6.0) -> control.Steps:
     """Move the hand to ``target_pos`` keeping its orientation."""
-    yield from control.move_to(env, target_pos, timeout_s=timeout)
+    yield from control.move_to(env, target_pos, timeout_s=timeout, settle=True)
 
 
 def push(

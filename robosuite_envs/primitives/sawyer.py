@@ -7,10 +7,6 @@ from collections.abc import Sequence
 from lerobot_policy_recent.robosuite_envs.primitives import control
 from lerobot_policy_recent.robosuite_envs.primitives.session import RobotSession, TaskContext
 
-# Sawyer's OSC tracking settles ~1-2 cm off target (measured); its motions accept a looser tolerance
-# once the arm has stopped.
-SAWYER_TOL = 0.02
-
 
 def sawyer_pick(env: RobotSession, task: TaskContext, target_object: str, target_pos: Sequence[float]) -> control.Steps:
     """Pick ``target_object``, expected at ``target_pos``; fails if that object is not what gets held."""
@@ -25,7 +21,7 @@ def sawyer_place(env: RobotSession, task: TaskContext, place_pos: Sequence[float
 
 def sawyer_move_to(env: RobotSession, task: TaskContext, target_pos: Sequence[float]) -> control.Steps:
     """Move the gripper to ``target_pos``."""
-    yield from control.move_to(env, target_pos, tol=SAWYER_TOL, settle=True)
+    yield from control.move_to(env, target_pos, settle=True)
 
 
 def sawyer_push(

@@ -10,6 +10,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from lerobot_policy_recent.robosuite_envs.calibration import Calibration, Nominal
 from lerobot_policy_recent.robosuite_envs.observation import Observation
 
 CONTROL_FREQ = 20  # Hz; one yielded action = one env step
@@ -26,6 +27,7 @@ class PrimitiveFailure(RuntimeError):
         "timeout",
         "object_not_found",
         "grasp_lost",
+        "cannot_track",  # the arm stopped short of a goal it was sent to: its control, not the skill's code
     )
 
     def __init__(self, kind: str, message: str):
@@ -41,6 +43,7 @@ class RobotSession:
 
     embodiment: str
     obs: Observation
+    calibration: Calibration | Nominal = field(default_factory=Nominal)  # what the controllers know of the arm
     gripper_command: float = -1.0  # robosuite convention: -1 open, +1 closed
     hold_quat: np.ndarray = field(default=None)  # type: ignore[assignment]
     hold_yaw: bool = False  # set once a primitive aligns the gripper; until then only the tool axis is held

@@ -26,7 +26,7 @@ def ur5_move_to(
     env: RobotSession, task: TaskContext, target_pos: Sequence[float], timeout_s: float = 3.0
 ) -> control.Steps:
     """Move the tool centre point to ``target_pos``."""
-    yield from control.move_to(env, target_pos, timeout_s=timeout_s)
+    yield from control.move_to(env, target_pos, timeout_s=timeout_s, settle=True)
 
 
 def ur5_push_to(

@@ -1,0 +1,247 @@
+"""Measure an embodiment once in simulation, and cache the result (:class:`Calibration`).
+
+:func:`calibration` returns the cached calibration of an embodiment, measuring it on first use (a
+few seconds: the arm at an empty table, its gripper closed and opened, its grip site servoed to a
+few poses) and storing it under the cache dir, keyed by the robot's and gripper's model files, the
+simulator's versions and the procedure's code. ``recent envs show-embodiment NAME`` prints it.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import time
+from pathlib import Path
+
+import numpy as np
+
+from lerobot_policy_recent.robosuite_envs.calibration import CALIBRATION_VERSION, Calibration
+from lerobot_policy_recent.robosuite_envs.embodiments import Embodiment, get_embodiment, resolve_model_file
+from lerobot_policy_recent.robosuite_envs.primitives import control
+from lerobot_policy_recent.robosuite_envs.primitives.session import CONTROL_FREQ, RobotSession
+
+POSE_SECONDS = 8.0  # longest the arm servos to one calibration pose; it stops earlier once it is still
+GRIPPER_SECONDS = 10.0  # longest a gripper may take to close or open before calibration gives up on it
+STILL = 1e-3  # opening change per control step below which the fingers have stopped
+SETTLE_MARGIN = 1.2  # a stopped arm within this multiple of its steady-state error has arrived
+UNREACHED_M = 0.05  # a calibration pose the stopped arm is this far off is out of its reach
+# Calibration poses, (x, y, height above the table top) in metres: the table area the tasks use.
+POSES = ((0.0, 0.0, 0.12), (-0.15, -0.25, 0.12), (0.15, -0.25, 0.12), (0.15, 0.22, 0.12), (-0.15, 0.22, 0.12))
+LOW_POSE = (0.0, -0.1, 0.03)  # near the table: where grasps happen
+
+
+def calibration(name: str, *, refresh: bool = False) -> Calibration:
+    """The calibration of embodiment ``name``: from the cache, or measured now and cached."""
+    embodiment = get_embodiment(name)
+    path = cache_path(embodiment)
+    if path.exists() and not refresh:
+        try:
+            return Calibration.from_json(path.read_text())
+        except (ValueError, TypeError, KeyError):
+            pass  # written by another version: measure again
+    measured = measure(name)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_text(measured.to_json())
+    tmp.replace(path)
+    return measured
+
+
+def cache_path(embodiment: Embodiment) -> Path:
+    from lerobot_policy_recent.recent_plugin.cache import cache_dir
+
+    return cache_dir() / "calibration" / f"{embodiment.name}-{calibration_key(embodiment)}.json"
+
+
+def calibration_key(embodiment: Embodiment) -> str:
+    """Changes with the robot's or gripper's model files, the simulator, or the procedure (this module
+    and the controllers it measures with)."""
+    import mujoco
+    import robosuite
+
+    digest = hashlib.sha256()
+    for part in (embodiment.robot, embodiment.gripper, robosuite.__version__, mujoco.__version__):
+        digest.update(f"{part}\n".encode())
+    digest.update(f"v{CALIBRATION_VERSION}\n".encode())
+    for model in (embodiment.robot_mjcf, embodiment.gripper_mjcf):
+        digest.update(resolve_model_file(model).read_bytes())
+    for procedure in (Path(__file__), Path(control.__file__)):  # how it is measured: this module, the servo
+        digest.update(procedure.read_bytes())
+    return digest.hexdigest()[:16]
+
+
+# ------------------------------------------------------------------------------------ measuring
+def measure(name: str) -> Calibration:
+    """Build the embodiment at an empty table and measure it (a few seconds of simulation)."""
+    import mujoco
+    import robosuite
+
+    from lerobot_policy_recent.robosuite_envs.tabletop import build_env
+    from lerobot_policy_recent.robosuite_envs.tasks import TaskSpec
+
+    started = time.perf_counter()
+    embodiment = get_embodiment(name)
+    env = build_env(TaskSpec(f"calibration/{name}", "calibrate", (), ()), embodiment, seed=0)
+    try:
+        env.reset()
+        probe = _Probe(env)
+        arm = probe.arm_facts()
+        gripper = probe.gripper_facts()
+        tracking = probe.tracking()
+    finally:
+        env.close()
+    return Calibration(
+        embodiment=name,
+        robot=embodiment.robot,
+        gripper=embodiment.gripper,
+        **arm,
+        **gripper,
+        **tracking,
+        measured_with=f"robosuite {robosuite.__version__}, mujoco {mujoco.__version__}",
+        seconds=round(time.perf_counter() - started, 2),
+    )
+
+
+class _Probe:
+    """Drives one calibration env; each method measures one group of facts."""
+
+    def __init__(self, env):
+        self.env = env
+        self.robot = env.robots[0]
+        self.arm = self.robot.arms[0]
+        self.gripper = self.robot.gripper[self.arm]
+        self.model, self.data = env.sim.model, env.sim.data
+        self.site = self.robot.eef_site_id[self.arm]
+
+    # ---------------------------------------------------------------- the arm
+    def arm_facts(self) -> dict:
+        joints = [self.model.joint_name2id(j) for j in self.robot.robot_joints]
+        limits = tuple((round(float(lo), 4), round(float(hi), 4)) for lo, hi in self.model.jnt_range[joints])
+        bodies = [int(self.model.jnt_bodyid[j]) for j in joints]
+        # stretched length: the link offsets from the first joint's body down to the last joint's
+        reach = float(sum(np.linalg.norm(self.model.body_pos[b]) for b in self._chain_to(bodies[0], bodies[-1])))
+        base = self.model.body_name2id(self.robot.robot_model.root_body)
+        return {
+            "arm_dof": len(joints),
+            "joint_limits": limits,
+            "reach_m": round(reach, 3),
+            "base_xyz": tuple(round(float(v), 4) for v in self.data.xpos[base]),
+        }
+
+    def _chain_to(self, ancestor: int, body: int) -> list[int]:
+        """Bodies from below ``ancestor`` down to ``body`` (inclusive), in order."""
+        chain = []
+        while body not in (ancestor, 0):
+            chain.append(body)
+            body = int(self.model.body_parentid[body])
+        return chain[::-1]
+
+    # ---------------------------------------------------------------- the gripper
+    def gripper_facts(self) -> dict:
+        hand = self.model.body_name2id(self.gripper.root_body)
+        site_in_hand = _rel_quat(self.data.xmat[hand], self.data.site_xmat[self.site])
+        suction = "cup" in self.gripper.important_geoms
+        open_time = self._actuate(-1.0)  # start open
+        below = self._extent_below_site()
+        opened = self.env.gripper_opening()
+        if suction:
+            cup = self.model.geom_name2id(self.gripper.important_geoms["cup"][0])
+            close_time = self._actuate(1.0)
+            closed = self.env.gripper_opening()
+            return {
+                "mechanism": "suction",
+                "grip_site_in_hand": site_in_hand,
+                "closing_axis": None,
+                "grasp_point": self._in_site(self.data.geom_xpos[cup]),
+                "below_site_m": below,
+                "close_time_s": close_time,
+                "open_time_s": max(open_time, self._actuate(-1.0)),
+                "opening_open": round(opened, 4),
+                "opening_closed": round(closed, 4),
+            }
+        left, right = (
+            [self.model.geom_name2id(g) for g in self.gripper.important_geoms[side]]
+            for side in ("left_fingerpad", "right_fingerpad")
+        )
+        axis = np.mean(self.data.geom_xpos[left], axis=0) - np.mean(self.data.geom_xpos[right], axis=0)
+        axis = self._site_rot().T @ axis
+        close_time = self._actuate(1.0)
+        closed = self.env.gripper_opening()
+        grasp_point = self._in_site(np.mean(self.data.geom_xpos[left + right], axis=0))
+        open_time = max(open_time, self._actuate(-1.0))
+        return {
+            "mechanism": "fingers",
+            "grip_site_in_hand": site_in_hand,
+            "closing_axis": tuple(round(float(v), 3) for v in axis / max(np.linalg.norm(axis), 1e-9)),
+            "grasp_point": grasp_point,
+            "below_site_m": below,
+            "close_time_s": close_time,
+            "open_time_s": open_time,
+            "opening_open": round(opened, 4),
+            "opening_closed": round(closed, 4),
+        }
+
+    def _actuate(self, command: float) -> float:
+        """Command the gripper and hold the arm; seconds until the fingers stop moving."""
+        previous, still = self.env.gripper_opening(), 0
+        for step in range(int(GRIPPER_SECONDS * CONTROL_FREQ)):
+            self.env.step(np.array([0.0, 0.0, 0.0, 0.0, 0.0, 0.0, command]))
+            opening = self.env.gripper_opening()
+            still = still + 1 if abs(opening - previous) < STILL else 0
+            previous = opening
+            if still >= 3:
+                return round((step + 1 - still) / CONTROL_FREQ, 2)
+        return GRIPPER_SECONDS
+
+    def _extent_below_site(self) -> float:
+        """How far the gripper's collision geometry reaches below the grip site (world z, as it points now)."""
+        lowest = np.inf
+        for name in self.gripper.contact_geoms:
+            geom = self.model.geom_name2id(name)
+            centre, half = self.model.geom_aabb[geom][:3], self.model.geom_aabb[geom][3:]
+            corners = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)]) * half + centre
+            world = self.data.geom_xpos[geom] + corners @ self.data.geom_xmat[geom].reshape(3, 3).T
+            lowest = min(lowest, float(world[:, 2].min()))
+        return round(max(0.0, float(self.data.site_xpos[self.site][2]) - lowest), 4)
+
+    def _site_rot(self) -> np.ndarray:
+        return self.data.site_xmat[self.site].reshape(3, 3)
+
+    def _in_site(self, point: np.ndarray) -> tuple[float, float, float]:
+        local = self._site_rot().T @ (np.asarray(point) - self.data.site_xpos[self.site])
+        return tuple(round(float(v), 4) for v in local)
+
+    # ---------------------------------------------------------------- tracking
+    def tracking(self) -> dict:
+        session = RobotSession("calibration", self.env.sensed())
+        table = self.env.table_top_z
+        errors, unreached = [], []
+        for x, y, height in (*POSES, LOW_POSE):
+            goal = np.array([x, y, table + height])
+            trail = []
+            for _ in range(int(POSE_SECONDS * CONTROL_FREQ)):
+                self.env.step(control.servo_action(session, goal))
+                session.update(self.env.sensed())
+                trail.append(session.obs.eef_pos.copy())
+                if (
+                    len(trail) > control.STALL_STEPS
+                    and np.linalg.norm(trail[-1] - trail[-1 - control.STALL_STEPS]) < control.SETTLED
+                ):
+                    break  # still: what is left is the steady-state error
+            error = float(np.linalg.norm(goal - session.obs.eef_pos))
+            if error > UNREACHED_M:
+                unreached.append(tuple(round(float(v), 3) for v in goal))
+            else:
+                errors.append(error)
+        worst = max(errors, default=0.0)
+        return {
+            "tracking_error_m": round(worst, 4),
+            "settle_tol_m": round(max(control.POS_TOL, SETTLE_MARGIN * worst), 4),
+            "unreached": tuple(unreached),
+        }
+
+
+def _rel_quat(parent_mat: np.ndarray, child_mat: np.ndarray) -> tuple[float, float, float, float]:
+    from robosuite.utils.transform_utils import mat2quat
+
+    relative = np.asarray(parent_mat).reshape(3, 3).T @ np.asarray(child_mat).reshape(3, 3)
+    return tuple(round(float(v), 4) for v in mat2quat(relative))

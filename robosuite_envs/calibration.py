@@ -1,0 +1,104 @@
+"""What the shared controllers know about one embodiment: its calibration (data only).
+
+Every quantity is read from the robot's and gripper's models as MuJoCo compiles them, or measured by
+driving the embodiment in simulation once (:mod:`~lerobot_policy_recent.robosuite_envs.calibrate`):
+
+- the arm: its joints and limits, its reach (summed link offsets) and where the table mount puts
+  its base, from the compiled model (the same MJCF the ontology reads; a test checks they agree);
+- the gripper: the grip site's orientation in the hand, the axis the finger pads close along and
+  the point between them where a closed grasp holds (both in the grip-site frame), how far the
+  open gripper reaches below the grip site, and how long it takes to close and to open;
+- tracking: the worst steady-state error of the arm's servo over a few poses above the table, and
+  from it the tolerance within which a stopped arm counts as arrived.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import asdict, dataclass
+
+CALIBRATION_VERSION = 3
+
+
+@dataclass(frozen=True)
+class Calibration:
+    """One embodiment, as the controllers need it. Lengths in metres, times in seconds, frames named."""
+
+    embodiment: str
+    robot: str
+    gripper: str
+    # the arm, from the compiled model
+    arm_dof: int
+    joint_limits: tuple[tuple[float, float], ...]  # radians (or metres for a slide joint), per arm joint
+    reach_m: float  # link offsets summed from the first arm joint to the last (an upper bound)
+    base_xyz: tuple[float, float, float]  # world position of the arm's base on our table
+    # the gripper
+    mechanism: str  # "fingers" or "suction"
+    grip_site_in_hand: tuple[float, float, float, float]  # quaternion xyzw of the grip site in the hand body
+    closing_axis: tuple[float, float, float] | None  # unit, grip-site frame: from one pad group to the other
+    grasp_point: tuple[float, float, float]  # where closed pads (or the cup) hold, grip-site frame
+    below_site_m: float  # how far the open gripper reaches below the grip site, pointing down
+    close_time_s: float
+    open_time_s: float
+    opening_open: float  # the gripper's opening reading fully open (finger joint travel; a cup: 0, off)
+    opening_closed: float  # … and fully closed with nothing between the fingers (a cup: 1, on)
+    # tracking (operational-space control at CONTROL_FREQ)
+    tracking_error_m: float  # worst steady-state error over the calibration poses it reached
+    settle_tol_m: float  # a stopped grip site within this of its goal has arrived
+    unreached: tuple[tuple[float, float, float], ...] = ()  # calibration poses (world) it could not reach
+    measured_with: str = ""  # simulator versions
+    seconds: float = 0.0  # how long the calibration took
+    version: int = CALIBRATION_VERSION
+
+    def to_json(self) -> str:
+        return json.dumps(asdict(self), indent=2)
+
+    @classmethod
+    def from_json(cls, text: str) -> Calibration:
+        data = json.loads(text)
+        for key in ("joint_limits", "unreached"):
+            data[key] = tuple(tuple(v) for v in data[key])
+        for key in ("base_xyz", "grip_site_in_hand", "grasp_point"):
+            data[key] = tuple(data[key])
+        if data["closing_axis"] is not None:
+            data["closing_axis"] = tuple(data["closing_axis"])
+        return cls(**data)
+
+    def lines(self) -> list[str]:
+        """Human-readable, one fact per line (``recent envs show-embodiment``)."""
+        axis = "n/a (suction)" if self.closing_axis is None else _vec(self.closing_axis)
+        limits = ", ".join("free" if lo == hi == 0 else f"[{lo:+.2f}, {hi:+.2f}]" for lo, hi in self.joint_limits)
+        unreached = ", ".join(_vec(p) for p in self.unreached) or "none"
+        return [
+            f"embodiment        {self.embodiment}  (robosuite {self.robot} + {self.gripper})",
+            f"arm               {self.arm_dof} joints, reach {self.reach_m:.3f} m, base at {_vec(self.base_xyz)}",
+            f"joint limits      {limits}",
+            f"gripper           {self.mechanism}; grip site in hand (xyzw) {_vec(self.grip_site_in_hand)}",
+            f"closing axis      {axis} (grip-site frame)",
+            f"grasp point       {_vec(self.grasp_point)} m from the grip site (grip-site frame)",
+            f"below grip site   {self.below_site_m * 100:.1f} cm (open, pointing down)",
+            f"close / open      {self.close_time_s:.2f} s / {self.open_time_s:.2f} s "
+            f"(opening reads {self.opening_closed:.3f} closed, {self.opening_open:.3f} open)",
+            f"tracking error    {self.tracking_error_m * 1000:.1f} mm steady-state (worst pose); "
+            f"a stopped arm within {self.settle_tol_m * 1000:.1f} mm has arrived",
+            f"unreached poses   {unreached}",
+            f"measured with     {self.measured_with} in {self.seconds:.1f} s (calibration v{self.version})",
+        ]
+
+
+@dataclass(frozen=True)
+class Nominal:
+    """What a session without a measured calibration assumes (unit tests with made-up observations)."""
+
+    settle_tol_m: float = 0.008
+    close_time_s: float = 0.5
+    open_time_s: float = 0.5
+    opening_open: float | None = None  # unknown: an opening gripper is done once its fingers stop
+    opening_closed: float | None = None
+    grasp_point: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    tracking_error_m: float = 0.0
+    unreached: tuple = ()
+
+
+def _vec(values) -> str:
+    return "[" + ", ".join(f"{v:+.3f}" for v in values) + "]"
