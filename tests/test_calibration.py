@@ -129,6 +129,13 @@ primitives:
     capabilities: [place_object, release_object]
     preconditions: [object_grasped, target_reachable, target_clear, support_unmoved]
     effects: [object_at_target, end_effector_free, object_released]
+  - name: iiwa_move
+    description: Move the tool centre point to a point.
+    parameters:
+      - {name: point, type: position, unit: m, frame: world, role: motion_target, required: true}
+    capabilities: [move_end_effector, cartesian_motion]
+    preconditions: [target_reachable, path_clear]
+    effects: [end_effector_at_target]
   - name: iiwa_open
     description: Open the gripper.
     parameters: []
@@ -147,6 +154,10 @@ def iiwa_grab(env, task, point):
 
 def iiwa_drop(env, task, point):
     yield from control.release_at(env, point)
+
+
+def iiwa_move(env, task, point):
+    yield from control.move_to(env, point, settle=True)
 
 
 def iiwa_open(env, task):

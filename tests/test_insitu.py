@@ -329,12 +329,13 @@ def test_latest_definitions_skip_what_a_later_iteration_redefined():
 
 
 def test_a_push_that_failed_on_a_moved_cube_is_recomputed_and_retried_without_the_lm(ontology):
-    """The UR5e's push timed out against a cube perturbed after its position was read: the observation
-    explains the failure, so the recomputation is copied in (no LM call, no EI) and the push succeeds."""
+    """The UR5e's push stalled, held up, against a cube perturbed after its position was read: the
+    observation explains the failure, so the recomputation is copied in (no LM call, no EI) and the
+    push succeeds."""
     agent = RecentAgent(RecentSettings(infiller=RuleConfig()), infiller=CountingInfiller(), ontology=ontology)
     result = run_episode(agent, "kinematic/push_cube", "UR5e", seed=42, variations="on")
     assert result.success and result.ei == 0 and result.it == 0
-    stale = [e for e in result.adaptations if "failed (timeout" in e.observation]
+    stale = [e for e in result.adaptations if "failed (waypoint_blocked" in e.observation]
     assert stale and all(e.checks == ("object_unmoved",) and e.attempts == 0 for e in stale)
     assert "cube moved since obj_pos was read" in stale[0].observation
     assert stale[0].after.splitlines()[0] == "obj_pos = task.get_object_position(obj)"

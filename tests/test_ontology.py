@@ -93,6 +93,11 @@ def test_gripper_mechanism_is_inferred_from_mjcf(ontology, tmp_path):
         "Sawyer": "parallel_jaw",
         "Robotiq85": "parallel_jaw",
         "Suction": "suction",
+        "Jaco": "multi_finger",  # three fingers, three actuators
+        "JacoRobotiq85": "parallel_jaw",
+        "Kinova3": "parallel_jaw",
+        "XArm7": "parallel_jaw",
+        "XArm7Robotiq85": "parallel_jaw",
     }
     cup = tmp_path / "cup.xml"
     cup.write_text(

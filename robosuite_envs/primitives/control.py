@@ -108,10 +108,13 @@ def move_to(
         return
     stalled = last is not None and float(np.linalg.norm(session.obs.eef_pos - last)) < SETTLED
     blockers = sorted(name for name, s in session.obs.objects.items() if s.touching and not s.grasped)
-    if stalled and blockers:
+    load = sorted(name for name, s in session.obs.objects.items() if s.grasped)
+    if stalled and (blockers or load):  # pressing on something, or carrying a load that rests on something
+        why = (
+            f"held up by {', '.join(blockers)}" if blockers else f"with {', '.join(load)} in hand resting on something"
+        )
         raise PrimitiveFailure(
-            "waypoint_blocked",
-            f"the arm stopped {err * 100:.1f} cm short of {np.round(goal, 3).tolist()}, held up by {', '.join(blockers)}",
+            "waypoint_blocked", f"the arm stopped {err * 100:.1f} cm short of {np.round(goal, 3).tolist()}, {why}"
         )
     if stalled:
         raise PrimitiveFailure(

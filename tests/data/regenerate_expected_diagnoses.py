@@ -1,8 +1,8 @@
-"""Recompute D(skill, robot) in ``expected_diagnoses.yaml`` for new skills and for the skills named.
+"""Recompute D(skill, robot) in ``expected_diagnoses.yaml`` for new skills, new robots and the skills named.
 
     .venv/bin/python tests/data/regenerate_expected_diagnoses.py [SKILL ...]
 
-Entries of other skills are kept as they are. Review the diff before committing: the table is
+Entries of other skills and robots are kept as they are. Review the diff before committing: the table is
 the reference the ontology test holds D to.
 """
 
@@ -25,15 +25,18 @@ def main(refresh: list[str]) -> None:
     header = "".join(line for line in text.splitlines(keepends=True) if line.startswith("#"))
     table = yaml.safe_load(text) or {}
     onto = build_ontology()
-    changed = [name for name in list_skills() if name not in table or name in refresh]
-    for name in changed:
+    changed = []
+    for name in list_skills():
         skill = load_skill(name)
+        kept = {} if name in refresh else table.get(name, {})
+        robots = [r for r in sorted(set(onto.robot_names()) - {skill.source_embodiment}) if r not in kept]
         table[name] = {
-            robot: diagnose(onto, skill.name, skill.code, robot, source=skill.source_embodiment).summary()
-            for robot in sorted(set(onto.robot_names()) - {skill.source_embodiment})
+            **kept,
+            **{r: diagnose(onto, skill.name, skill.code, r, source=skill.source_embodiment).summary() for r in robots},
         }
+        changed += [f"{name}/{r}" for r in robots]
     TABLE.write_text(header + yaml.safe_dump(table, sort_keys=True))
-    print(f"recomputed {len(changed)} skill(s): {', '.join(changed) or '-'}")
+    print(f"recomputed {len(changed)} (skill, robot) pair(s): {', '.join(changed) or '-'}")
 
 
 if __name__ == "__main__":
