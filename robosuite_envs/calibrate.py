@@ -9,6 +9,7 @@ simulator's versions and the procedure's code. ``recent envs show-embodiment NAM
 from __future__ import annotations
 
 import hashlib
+import os
 import time
 from pathlib import Path
 
@@ -40,7 +41,7 @@ def calibration(name: str, *, refresh: bool = False) -> Calibration:
             pass  # written by another version: measure again
     measured = measure(name)
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(path.name + ".tmp")
+    tmp = path.with_name(f"{path.name}.{os.getpid()}.tmp")  # workers calibrating at once each write whole, then rename
     tmp.write_text(measured.to_json())
     tmp.replace(path)
     return measured

@@ -15,11 +15,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 _ASSETS = Path(__file__).parent / "grippers" / "assets"
+_BUNDLED_APIS = Path(__file__).parent / "primitives"
 ROBOTS_ENV = "RECENT_ROBOTS"  # directories of robots added from files (a YAML with a `robot:` block + its module)
-
-
-# Where robosuite's table mount puts every arm's base on our 0.8 m table (tests check it against the sim).
-ROBOT_BASE_XY = (-0.56, 0.0)
 
 
 @dataclass(frozen=True)
@@ -131,6 +128,15 @@ EMBODIMENTS: dict[str, Embodiment] = {
             gripper_mjcf="models/assets/grippers/robotiq_gripper_85.xml",
             description="UFactory xArm 7, 7-DoF, Robotiq 2F-85",
         ),
+        Embodiment(
+            name="IIWA",
+            robot="IIWA",
+            gripper="Robotiq140Gripper",
+            api="iiwa",
+            robot_mjcf="models/assets/robots/iiwa/robot.xml",
+            gripper_mjcf="models/assets/grippers/robotiq_gripper_140.xml",
+            description="KUKA LBR iiwa 14, 7-DoF, Robotiq 2F-140",
+        ),
     )
 }
 
@@ -196,6 +202,10 @@ def _robots_from_files() -> dict[str, Embodiment]:
             embodiment = load_robot_file(path)
             if embodiment.name in EMBODIMENTS or embodiment.name in found:
                 raise RobotFileError(path, "embodiment", f"{embodiment.name!r} is already an embodiment")
+            if (_BUNDLED_APIS / path.name).exists():
+                raise RobotFileError(
+                    path, "file name", f"a bundled primitive API is named {path.stem!r}: rename the file"
+                )
             found[embodiment.name] = embodiment
     return found
 

@@ -8,6 +8,7 @@ recent model fetch|list|path
 recent ontology build|stats|diagnose
 recent skills list|show
 recent envs list|show        embodiments, subtasks, task suites, variations
+recent envs show-embodiment|check   a robot's calibration; the canonical set against the Panda
 recent logs verify           check (and --recover) logged runs
 recent failures report       failures of logged runs by category, with a bar chart
 recent replay                open or rebuild an episode's Rerun recording
@@ -20,19 +21,23 @@ import argparse
 import logging
 import sys
 
-from lerobot_policy_recent.scripts import (
-    bench_cmd,
-    cache_cmd,
-    envs_cmd,
-    episode_cmd,
-    ground_cmd,
-    logs_cmd,
-    model_cmd,
-    ontology_cmd,
-    skills_cmd,
-)
 
-COMMANDS = (episode_cmd, ground_cmd, bench_cmd, cache_cmd, envs_cmd, model_cmd, ontology_cmd, skills_cmd, logs_cmd)
+def commands() -> tuple:
+    """The subcommand modules, imported when the parser is built (so that what their imports load, such
+    as the robots of ``RECENT_ROBOTS``, fails as a CLI error, not as a traceback)."""
+    from lerobot_policy_recent.scripts import (
+        bench_cmd,
+        cache_cmd,
+        envs_cmd,
+        episode_cmd,
+        ground_cmd,
+        logs_cmd,
+        model_cmd,
+        ontology_cmd,
+        skills_cmd,
+    )
+
+    return (episode_cmd, ground_cmd, bench_cmd, cache_cmd, envs_cmd, model_cmd, ontology_cmd, skills_cmd, logs_cmd)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -42,13 +47,18 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("-v", "--verbose", action="store_true", help="log debug messages")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
-    for module in COMMANDS:
+    for module in commands():
         module.register(sub)
     return parser
 
 
 def main(argv: list[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
+    try:
+        parser = build_parser()
+    except ValueError as exc:  # a robot file on RECENT_ROBOTS that cannot load, named with its field
+        print(f"recent: error: {exc}", file=sys.stderr)
+        return 2
+    args = parser.parse_args(argv)
     logging.basicConfig(
         level=logging.DEBUG if args.verbose else logging.WARNING, format="%(levelname)s %(name)s: %(message)s"
     )

@@ -106,13 +106,13 @@ def test_an_arm_stopped_short_of_its_goal_is_a_calibration_failure_not_a_groundi
 
 # ------------------------------------------------------------------------------- a robot from files
 IIWA_YAML = """\
-embodiment: IIWA
+embodiment: LabIIWA
 robot:
   robosuite: IIWA
-  gripper: Robotiq140Gripper
+  gripper: LinkedRobotiq85Gripper
   robot_mjcf: models/assets/robots/iiwa/robot.xml
-  gripper_mjcf: models/assets/grippers/robotiq_gripper_140.xml
-  description: KUKA LBR iiwa 14, 7-DoF, Robotiq 2F-140
+  gripper_mjcf: models/assets/grippers/robotiq_gripper_85.xml
+  description: the lab's KUKA LBR iiwa 14 with a Robotiq 2F-85
 module: iiwa_prims
 primitives:
   - name: iiwa_grab
@@ -168,7 +168,7 @@ def iiwa_open(env, task):
 def _robot_dir(tmp_path: Path) -> Path:
     folder = tmp_path / "robots"
     folder.mkdir()
-    (folder / "iiwa.yaml").write_text(IIWA_YAML)
+    (folder / "lab_iiwa.yaml").write_text(IIWA_YAML)
     (folder / "iiwa_prims.py").write_text(IIWA_MODULE)
     return folder
 
@@ -178,7 +178,7 @@ def test_a_robot_added_from_files_calibrates_and_runs_a_canonical_task(tmp_path)
     env = {**os.environ, "RECENT_ROBOTS": str(_robot_dir(tmp_path)), "RECENT_CACHE_DIR": str(tmp_path / "cache")}
     cli = [sys.executable, "-m", "lerobot_policy_recent.scripts.cli"]
     shown = subprocess.run(
-        [*cli, "envs", "show-embodiment", "IIWA", "--json"], env=env, cwd=ROOT, capture_output=True, text=True
+        [*cli, "envs", "show-embodiment", "LabIIWA", "--json"], env=env, cwd=ROOT, capture_output=True, text=True
     )
     assert shown.returncode == 0, shown.stderr[-2000:]
     measured = Calibration.from_json(shown.stdout)
@@ -190,7 +190,7 @@ def test_a_robot_added_from_files_calibrates_and_runs_a_canonical_task(tmp_path)
             "--task",
             "kinematic/lift_cube",
             "--robot",
-            "IIWA",
+            "LabIIWA",
             "--infiller.type",
             "rule",
             "--no-log",
@@ -206,8 +206,8 @@ def test_a_robot_added_from_files_calibrates_and_runs_a_canonical_task(tmp_path)
 
 
 def test_a_robot_file_missing_a_field_names_the_file_and_the_field(tmp_path):
-    path = _robot_dir(tmp_path) / "iiwa.yaml"
-    path.write_text(IIWA_YAML.replace("  gripper: Robotiq140Gripper\n", ""))
+    path = _robot_dir(tmp_path) / "lab_iiwa.yaml"
+    path.write_text(IIWA_YAML.replace("  gripper: LinkedRobotiq85Gripper\n", ""))
     with pytest.raises(RobotFileError) as refused:
         load_robot_file(path)
     assert str(path) in str(refused.value) and "robot.gripper" in str(refused.value)
@@ -224,3 +224,16 @@ def test_the_arm_check_compares_a_robot_with_the_reference(tmp_path, capsys):
     out = capsys.readouterr().out
     assert code == 0, out
     assert "| lift_cube | 1/1 | 1/1 |" in out and "JacoRobotiq85: PASS" in out
+
+
+def test_a_bad_robot_directory_is_one_line_from_the_cli(tmp_path):
+    env = {**os.environ, "RECENT_ROBOTS": str(tmp_path / "missing")}
+    done = subprocess.run(
+        [sys.executable, "-m", "lerobot_policy_recent.scripts.cli", "envs", "list"],
+        env=env,
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+    )
+    assert done.returncode == 2 and "Traceback" not in done.stderr
+    assert f"{tmp_path / 'missing'}: RECENT_ROBOTS: is not a directory" in done.stderr

@@ -98,6 +98,7 @@ def test_gripper_mechanism_is_inferred_from_mjcf(ontology, tmp_path):
         "Kinova3": "parallel_jaw",
         "XArm7": "parallel_jaw",
         "XArm7Robotiq85": "parallel_jaw",
+        "IIWA": "parallel_jaw",
     }
     cup = tmp_path / "cup.xml"
     cup.write_text(

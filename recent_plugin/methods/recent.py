@@ -17,7 +17,7 @@ from lerobot_policy_recent.recent_plugin.infillers.base import Infiller
 from lerobot_policy_recent.recent_plugin.insitu.adapter import InSituAdapter
 from lerobot_policy_recent.recent_plugin.insitu.checks import SceneFacts
 from lerobot_policy_recent.recent_plugin.methods.base import Adaptation, Grounding, Method
-from lerobot_policy_recent.robosuite_envs.embodiments import ROBOT_BASE_XY
+from lerobot_policy_recent.robosuite_envs.calibrate import calibration
 
 
 @Method.register_subclass("recent")
@@ -48,7 +48,7 @@ class Recent(Method):
         scene = SceneFacts(
             kinds={o.name: o.kind for o in a.task.objects},
             sizes={o.name: tuple(o.size) for o in a.task.objects if o.size is not None},
-            base_xy=ROBOT_BASE_XY,
+            base_xy=calibration(a.target.name).base_xyz[:2],  # where the mount puts this arm, measured
             reach=a.target.arm.reach,
             push_path=a.ontology.path_of("push_object"),
         )

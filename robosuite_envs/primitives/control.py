@@ -313,8 +313,8 @@ def rotation_error(session: RobotSession) -> np.ndarray:
     """Axis-angle (world frame) from the current grip-site orientation to the held one.
 
     Unless a primitive aligned the gripper explicitly (``session.hold_yaw``), only the tool axis is
-    held: yaw stays free, which keeps top-down motions feasible across the workspace (a Sawyer
-    holding its start yaw cannot reach the table's -y side).
+    held: yaw stays free, which keeps top-down motions feasible across the workspace (an arm
+    holding its start yaw may not reach the far side of the table).
     """
     current, held = quat2mat(session.obs.eef_quat), quat2mat(session.hold_quat)
     if session.hold_yaw:
