@@ -394,3 +394,52 @@ def test_seeded_sampling_makes_seeds_real_repetitions_and_replays_an_episode_exa
         RecentSettings(infiller=RuleConfig(), method=method_named("cap")), ontology=ontology, infiller=greedy
     ).ground("put_in_bin", "UR5e", get_task("cube_in_bin"))
     assert greedy.sampling == [{}]  # the default stays greedy: no sampling arguments at all
+
+
+class _RecordingLM:
+    """Stands in for the llama.cpp worker: records what it is sent, answers with ``reply``."""
+
+    def __init__(self, reply: str):
+        self.reply, self.sent = reply, []
+
+    def tokenize(self, text, special=False):
+        return text.split()
+
+    def generate(self, text, **options):
+        from lerobot_policy_recent.recent_plugin.infillers.lookup_decoding import Decoded
+
+        self.sent.append((text, options))
+        return Decoded(self.reply, len(self.reply.split()), len(text.split()), len(text.split()))
+
+
+def test_an_instruct_model_writes_whole_programs_through_its_chat_template_and_edits_spans_through_fim(ontology):
+    """cap's program goes to the 1.5B-Instruct as ChatML (its reply's code block is the body); RECENT's
+    localized span stays a FIM string under its statement grammar."""
+    from lerobot_policy_recent.recent_plugin.infillers.llamacpp import LlamaCppInfiller
+
+    reply = "Here it is:\n```python\n" + UR5E_BODY.replace("\n    ", "\n") + "\n```"
+    llm = LlamaCppInfiller.__new__(LlamaCppInfiller)  # the infiller's own logic, over a recording LM
+    llm.model, llm.lm = "qwen2.5-coder-1.5b-instruct-q4_k_m.gguf", _RecordingLM(reply)
+    agent, infiller = _agent(ontology, "cap", [UR5E_BODY])
+    agent.ground("put_in_bin", "UR5e", get_task("cube_in_bin"))
+    program = infiller.units[0]
+    completion = llm.infill(program)
+    text, options = llm.lm.sent[-1]
+    assert text.startswith("<|im_start|>system\n") and text.endswith("<|im_start|>assistant\n")
+    assert "<FILL>" in text and "<|fim_prefix|>" not in text
+    assert options["gbnf"] is None and "<|im_end|>" in options["stops"]
+    assert completion.text == UR5E_BODY  # the reply's code, its later lines at the body's indentation
+
+    rule, rule_infiller = _agent(ontology, "recent", _recorded_completions(ontology, "recent"))
+    rule.ground("put_in_bin", "UR5e", get_task("cube_in_bin"))
+    llm.lm.reply = "open_ur5_ee(env, task)"
+    llm.infill(rule_infiller.units[0])
+    text, options = llm.lm.sent[-1]
+    assert text.startswith("<|fim_prefix|>") and options["gbnf"] is not None
+
+
+def test_a_chat_reply_keeps_its_nested_blocks_nested():
+    from lerobot_policy_recent.recent_plugin.refactoring.chat_prompt import span_of_reply
+
+    reply = "```python\nfor p in points:\n    move(env, task, p)\ndone(env, task)\n```"
+    assert span_of_reply(reply, "    ") == "for p in points:\n        move(env, task, p)\n    done(env, task)"

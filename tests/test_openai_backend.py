@@ -124,6 +124,6 @@ def test_cap_llm_asks_a_served_chat_model_and_runs_its_program(ontology):
     ],
 )
 def test_a_chat_reply_is_cut_to_the_span(reply):
-    from lerobot_policy_recent.recent_plugin.infillers.openai_chat import span_of_reply
+    from lerobot_policy_recent.recent_plugin.refactoring.chat_prompt import span_of_reply
 
     assert span_of_reply(reply) == "open_ur5_ee(env, task)\nclose_ur5_ee(env, task)"

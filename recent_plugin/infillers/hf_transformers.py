@@ -5,6 +5,8 @@ greedy, stopped on the family's special tokens and on the span's own end (a one-
 ends at its newline). Generated tokens are counted with the model's tokenizer. A GGUF file (one
 of ours, or any path) is loaded by dequantizing it (``gguf_file=``): slow on a CPU, and the way to
 run the same weights as llama.cpp on a GPU. GBNF grammars are a llama.cpp feature and not used here.
+A whole function body (a baseline's program) is asked for through the model's chat template
+(:mod:`~lerobot_policy_recent.recent_plugin.refactoring.chat_prompt`; ChatML where the tokenizer has none).
 """
 
 from __future__ import annotations
@@ -14,6 +16,12 @@ from pathlib import Path
 
 from lerobot_policy_recent.recent_plugin.infillers.base import Completion
 from lerobot_policy_recent.recent_plugin.infillers.fim_formats import FimFormat, fim_format
+from lerobot_policy_recent.recent_plugin.refactoring.chat_prompt import (
+    build_chat,
+    render_chatml,
+    span_of_reply,
+    writes_whole_body,
+)
 from lerobot_policy_recent.recent_plugin.refactoring.fim_prompt import build_prompt
 from lerobot_policy_recent.recent_plugin.refactoring.units import RefactoringUnit
 
@@ -82,10 +90,18 @@ class TransformersInfiller:
     def infill(self, unit: RefactoringUnit, *, temperature: float = 0.0, seed: int = 0) -> Completion:
         import torch
 
-        prompt = build_prompt(unit, self.count_tokens(unit.span))
-        encoded = self.tokenizer(
-            self.format.render(prompt.prefix, prompt.suffix), return_tensors="pt", add_special_tokens=False
-        ).to(self.device)
+        span_tokens = self.count_tokens(unit.span)
+        chat = build_chat(unit, span_tokens) if writes_whole_body(unit) else None
+        if chat is not None:  # a program is written, not a span edited: the instruct model's chat
+            text_prompt, max_tokens, stops = self._chat_text(chat.messages), chat.max_tokens, ()
+        else:
+            prompt = build_prompt(unit, span_tokens)
+            text_prompt, max_tokens, stops = (
+                self.format.render(prompt.prefix, prompt.suffix),
+                prompt.max_tokens,
+                prompt.stop,
+            )
+        encoded = self.tokenizer(text_prompt, return_tensors="pt", add_special_tokens=False).to(self.device)
         started = time.perf_counter()
         sampling = (
             {"do_sample": True, "temperature": temperature, "top_k": 0} if temperature > 0 else {"do_sample": False}
@@ -95,11 +111,11 @@ class TransformersInfiller:
         with torch.inference_mode():
             out = self.lm.generate(
                 **encoded,
-                max_new_tokens=prompt.max_tokens,
+                max_new_tokens=max_tokens,
                 **sampling,
                 eos_token_id=self._stop_ids or None,
                 pad_token_id=self._stop_ids[0] if self._stop_ids else None,
-                stop_strings=list(prompt.stop),
+                stop_strings=list(stops) or None,
                 tokenizer=self.tokenizer,
                 prompt_lookup_num_tokens=PROMPT_LOOKUP_TOKENS,  # drafts from the prompt: same greedy output, fewer passes
             )
@@ -108,12 +124,20 @@ class TransformersInfiller:
         while new and new[-1] in self._stop_ids:  # the stop token ends the span, it is not part of it
             new.pop()
         text = self.tokenizer.decode(new, skip_special_tokens=True)
-        for stop in prompt.stop:  # generation stops *after* a stop string: cut it (and what follows) off
+        for stop in stops:  # generation stops *after* a stop string: cut it (and what follows) off
             if stop in text:
                 text = text[: text.index(stop)]
+        if chat is not None:
+            text = span_of_reply(text, unit.indent)
         return Completion(
             text=text, generated_tokens=len(new), seconds=seconds, prompt_tokens=int(encoded["input_ids"].shape[1])
         )
+
+    def _chat_text(self, messages) -> str:
+        """The messages in the model's own chat template (ChatML, Qwen2.5's, where it ships none)."""
+        if getattr(self.tokenizer, "chat_template", None):
+            return self.tokenizer.apply_chat_template(list(messages), tokenize=False, add_generation_prompt=True)
+        return render_chatml(messages)
 
 
 def _source(model: str) -> tuple[str, str | None]:

@@ -1,7 +1,9 @@
 """The ``llamacpp`` backend: a GGUF code model on CPU, prompted with Qwen2.5-Coder FIM tokens.
 
 llama-cpp-python 0.3.36's ``create_completion(suffix=...)`` uses the wrong token ids for FIM, so
-the FIM string is built here; its special markers are tokenized as special tokens. Decoding is
+the FIM string is built here; its special markers are tokenized as special tokens. A whole
+function body (a baseline's program) is asked for through the instruct model's chat template
+instead (ChatML, :mod:`~lerobot_policy_recent.recent_plugin.refactoring.chat_prompt`). Decoding is
 greedy (or seeded sampling at a temperature) with prompt-lookup drafts (:mod:`~lerobot_policy_recent.recent_plugin.infillers.lookup_decoding`).
 
 The model runs in a worker process (:mod:`~lerobot_policy_recent.recent_plugin.infillers.llama_worker`) by default: a
@@ -19,6 +21,13 @@ from pathlib import Path
 from lerobot_policy_recent.recent_plugin.infillers.base import Completion
 from lerobot_policy_recent.recent_plugin.infillers.fim_formats import FORMATS
 from lerobot_policy_recent.recent_plugin.infillers.llama_session import LlamaSession
+from lerobot_policy_recent.recent_plugin.refactoring.chat_prompt import (
+    CHATML_STOPS,
+    build_chat,
+    render_chatml,
+    span_of_reply,
+    writes_whole_body,
+)
 from lerobot_policy_recent.recent_plugin.refactoring.fim_prompt import build_prompt
 from lerobot_policy_recent.recent_plugin.refactoring.units import RefactoringUnit
 
@@ -47,18 +56,32 @@ class LlamaCppInfiller:
         return len(self.lm.tokenize(text, False))
 
     def infill(self, unit: RefactoringUnit, *, temperature: float = 0.0, seed: int = 0) -> Completion:
-        prompt = build_prompt(unit, self.count_tokens(unit.span))
+        span_tokens = self.count_tokens(unit.span)
         started = time.perf_counter()
-        out = self.lm.generate(
-            QWEN.render(prompt.prefix, prompt.suffix),
-            max_tokens=prompt.max_tokens,
-            stops=(*prompt.stop, *QWEN.stops),
-            gbnf=prompt.grammar,
-            temperature=temperature,
-            seed=seed,
-        )
+        if writes_whole_body(unit):  # a program is written, not a span edited: the instruct model's chat
+            chat = build_chat(unit, span_tokens)
+            out = self.lm.generate(
+                render_chatml(chat.messages),
+                max_tokens=chat.max_tokens,
+                stops=CHATML_STOPS,
+                gbnf=None,
+                temperature=temperature,
+                seed=seed,
+            )
+            text = span_of_reply(out.text, unit.indent)
+        else:
+            prompt = build_prompt(unit, span_tokens)
+            out = self.lm.generate(
+                QWEN.render(prompt.prefix, prompt.suffix),
+                max_tokens=prompt.max_tokens,
+                stops=(*prompt.stop, *QWEN.stops),
+                gbnf=prompt.grammar,
+                temperature=temperature,
+                seed=seed,
+            )
+            text = out.text
         return Completion(
-            text=out.text,
+            text=text,
             generated_tokens=out.generated_tokens,
             seconds=time.perf_counter() - started,
             prompt_tokens=out.prompt_tokens,
