@@ -443,3 +443,19 @@ def test_a_chat_reply_keeps_its_nested_blocks_nested():
 
     reply = "```python\nfor p in points:\n    move(env, task, p)\ndone(env, task)\n```"
     assert span_of_reply(reply, "    ") == "for p in points:\n        move(env, task, p)\n    done(env, task)"
+
+
+def test_cap_with_the_targets_own_program_as_its_example_is_the_upper_bound_row(ontology):
+    """cap-target-example shows the skill as the ontology renders it for the target (no Panda call in
+    the example), and refuses a target for which the ontology cannot render the program completely."""
+    agent, infiller = _agent(ontology, "cap-target-example", [UR5E_BODY])
+    grounded, _ = agent.ground("put_in_bin", "UR5e", get_task("cube_in_bin"))
+    header = infiller.units[0].prefix
+    example = header[header.index("def put_in_bin_ur5e(") : header.index("# The UR5e robot has")]
+    assert "# Example: this skill written for the UR5e robot" in header
+    assert "ur5_grasp_at(" in example and "pick(" not in example and "open_gripper(" not in example
+    assert grounded.valid and len(infiller.units) == 1  # one program call, as cap; the rendering costs none
+
+    sawyer, _ = _agent(ontology, "cap-target-example", [UR5E_BODY])
+    with pytest.raises(ValueError, match="no reference program of put_in_bin for Sawyer"):
+        sawyer.ground("put_in_bin", "Sawyer", get_task("cube_in_bin"))

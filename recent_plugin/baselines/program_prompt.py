@@ -61,6 +61,9 @@ class ProgramContext:
     instruction: str
     objects: tuple[str, ...] = ()  # "name (kind)"
     plan: str = ""  # SCoT: the structured plan written before the code, one line per substitution
+    # (skill, its program on the target robot): the in-context example in place of the source skill
+    # (the cap-target-example sanity row); a skill without one shows its source program
+    target_examples: tuple[tuple[str, str], ...] = ()
 
 
 @dataclass(frozen=True)
@@ -77,7 +80,7 @@ class ProgramPrompt:
         if self.style.pythonic:
             return self._pythonic_header()
         described = self.style.constraints
-        lines = [f"# Example: this skill written for the {self.skill.source_embodiment} robot", self._example(), ""]
+        lines = [f"# Example: this skill written for the {self._example_robot()} robot", self._example(), ""]
         lines.append(
             f"# The {self.target.name} robot has other primitives (env and task are always the first two arguments):"
         )
@@ -115,11 +118,18 @@ class ProgramPrompt:
 
     def _example(self) -> str:
         """The reference skill, renamed for its robot (``put_in_bin_panda``), as the in-context example."""
+        code = dict(self.context.target_examples).get(self.skill.name, self.skill.code)
         return re.sub(
             rf"\bdef {re.escape(self.skill.entry)}\(",
-            f"def {self.skill.entry}_{self.skill.source_embodiment.lower()}(",
-            self.skill.code,
+            f"def {self.skill.entry}_{self._example_robot().lower()}(",
+            code,
         ).rstrip("\n")
+
+    def _example_robot(self) -> str:
+        """The robot the in-context example is written for: the target where the context has its program."""
+        return (
+            self.target.name if self.skill.name in dict(self.context.target_examples) else self.skill.source_embodiment
+        )
 
     def _pythonic_header(self) -> str:
         """ProgPrompt: import the target's actions (each with its parameters), list the objects, show

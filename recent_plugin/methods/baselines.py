@@ -7,17 +7,21 @@ way (see :mod:`lerobot_policy_recent.recent_plugin.baselines`).
 from __future__ import annotations
 
 import functools
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import ClassVar
 
+from lerobot_policy_recent.ontology.builder import Ontology
+from lerobot_policy_recent.ontology.target import Target
 from lerobot_policy_recent.recent_plugin.baselines.adapter import BaselineAdapter
 from lerobot_policy_recent.recent_plugin.baselines.generate import generate_skill
 from lerobot_policy_recent.recent_plugin.baselines.program_prompt import BaselineStyle, ProgramContext
 from lerobot_policy_recent.recent_plugin.executor import Adapter
-from lerobot_policy_recent.recent_plugin.grounding.grounder import GroundedSkill
+from lerobot_policy_recent.recent_plugin.grounding.grounder import GroundedSkill, ground_skill
 from lerobot_policy_recent.recent_plugin.infillers.base import Infiller
 from lerobot_policy_recent.recent_plugin.methods.base import Adaptation, Grounding, Method
+from lerobot_policy_recent.recent_plugin.refactoring.substitution import has_placeholders
 from lerobot_policy_recent.robosuite_envs.tasks import TaskSpec
+from lerobot_policy_recent.skills.repository import Skill
 
 
 @dataclass
@@ -29,17 +33,23 @@ class Baseline(Method):
         return task.task_id if task is not None else ""  # the prompt shows the task
 
     def ground(self, g: Grounding) -> GroundedSkill:
-        return generate_skill(
-            g.skill, g.target, g.infiller, self.style, program_context(g.task), max_retries=g.max_retries
-        )
+        context = self.context(g.task, (g.skill,), g.target, g.ontology, g.max_retries)
+        return generate_skill(g.skill, g.target, g.infiller, self.style, context, max_retries=g.max_retries)
 
     def adapter(self, a: Adaptation) -> Adapter:
+        skills = {step.skill: a.skill(step.skill) for step in a.task.plan}
         return BaselineAdapter(
             **a.adapter_fields(),
             style=self.style,
-            context=program_context(a.task),
-            skills={step.skill: a.skill(step.skill) for step in a.task.plan},
+            context=self.context(a.task, tuple(skills.values()), a.target, a.ontology, a.max_retries),
+            skills=skills,
         )
+
+    def context(
+        self, task: TaskSpec | None, skills: tuple[Skill, ...], target: Target, ontology: Ontology, max_retries: int
+    ) -> ProgramContext:
+        """What the prompt shows besides the skill (the same for every skill of ``skills``)."""
+        return program_context(task)
 
 
 @Method.register_subclass("cap")
@@ -56,6 +66,42 @@ class RepairAgent(Baseline):
     """RepairAgent-style: generate as ``cap``, then rewrite the failing statement with the error and the scene."""
 
     style: ClassVar[BaselineStyle] = BaselineStyle("repair", constraints=False, statement_repairs=None)
+
+
+@Method.register_subclass("cap-target-example")
+@dataclass
+class CodeAsPoliciesTargetExample(CodeAsPolicies):
+    """Sanity row: CaP with a perfect example, the skill's program for the *target* robot (the
+    ontology's complete rendering, no LM). What CaP can do at best with this model and protocol.
+    A skill the ontology cannot render completely for the target (an argument only an LM can
+    decide) has no such program, and the row refuses it rather than showing a different example."""
+
+    family: ClassVar[str] = "sanity"
+    style: ClassVar[BaselineStyle] = BaselineStyle("cap-target-example", statement_repairs=0)
+
+    def context(
+        self, task: TaskSpec | None, skills: tuple[Skill, ...], target: Target, ontology: Ontology, max_retries: int
+    ) -> ProgramContext:
+        examples = tuple((skill.name, target_program(skill, target, ontology, max_retries)) for skill in skills)
+        return replace(program_context(task), target_examples=examples)
+
+
+def target_program(skill: Skill, target: Target, ontology: Ontology, max_retries: int) -> str:
+    """``skill`` as the ontology renders it for ``target`` with no LM; ValueError where it cannot completely."""
+    from lerobot_policy_recent.recent_plugin.infillers.rule import RuleInfiller
+
+    grounded = ground_skill(skill, target, ontology, RuleInfiller(), max_retries=max_retries)
+    if not grounded.valid or has_placeholders(grounded.code):
+        why = (
+            grounded.verdict.message
+            if grounded.verdict is not None and not grounded.verdict.ok
+            else "placeholders left"
+        )
+        raise ValueError(
+            f"cap-target-example: no reference program of {skill.name} for {target.name}: the ontology cannot "
+            f"render it completely ({why}); the row needs targets whose skills it renders (UR5e, Robotiq85, …)"
+        )
+    return grounded.code
 
 
 @Method.register_subclass("cap-distilled")
