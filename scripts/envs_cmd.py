@@ -14,7 +14,7 @@ from lerobot_policy_recent.robosuite_envs.splits import split_of, split_table
 from lerobot_policy_recent.robosuite_envs.subtasks import SUBTASKS, get_subtask
 from lerobot_policy_recent.robosuite_envs.suites import SEEDS, SUITES, get_task
 from lerobot_policy_recent.robosuite_envs.variations import ON, VARIATIONS
-from lerobot_policy_recent.scripts.common import add_settings_arguments
+from lerobot_policy_recent.scripts.common import DEST, add_settings_arguments
 from lerobot_policy_recent.skills.repository import task_calls
 
 
@@ -41,10 +41,13 @@ def register(sub) -> None:
     check.add_argument("names", help="comma list of embodiments")
     check.add_argument("--seeds", default=",".join(map(str, SEEDS)), help="comma list (default: the paper's five)")
     check.add_argument("--tasks", default=None, help="comma list of canonical task ids (default: all five)")
-    check.add_argument("--out", default=None, help="run directory (default: outputs/check/<names>); resumable")
+    check.add_argument(
+        "--out", default=None, help="run directory (default: outputs/check/<names>-<backend>); resumable"
+    )
     check.add_argument("--workers", type=int, default=0, help="Ray workers (default: as many as the CPUs hold)")
     add_settings_arguments(check, with_method=False)
-    check.set_defaults(handler=_check)
+    # Motion first: the rule backend grounds these tasks completely, so what fails is the arm.
+    check.set_defaults(handler=_check, **{DEST + "infiller.type": "rule"})
 
 
 def _list(args) -> int:
@@ -153,7 +156,7 @@ def _check(args) -> int:
         markdown,
         summarize,
     )
-    from lerobot_policy_recent.recent_plugin.evaluation.runner import load_records, run_bench
+    from lerobot_policy_recent.recent_plugin.evaluation.runner import load_records, pending, run_bench
     from lerobot_policy_recent.robosuite_envs.calibrate import calibration
     from lerobot_policy_recent.scripts.common import settings_from_args
 
@@ -162,11 +165,16 @@ def _check(args) -> int:
     unknown = sorted(set(tasks) - set(CANONICAL_TASKS))
     if unknown:
         raise ValueError(f"not in the canonical set: {', '.join(unknown)}; choose from {', '.join(CANONICAL_TASKS)}")
-    out = Path(args.out or f"outputs/check/{'_'.join(robots)}")
+    settings = settings_from_args(args)
+    backend = settings.infiller.backend
+    out = Path(args.out or f"outputs/check/{'_'.join(robots)}-{backend}")
+    other = sorted({r.get("backend") or backend for r in load_records(out)} - {backend})
+    if other:  # a resumed check must not count another backend's episodes as its own
+        raise ValueError(f"{out} holds a check with the {', '.join(other)} backend; give another --out")
     config = check_config(
         robots,
         out,
-        settings_from_args(args),
+        settings,
         seeds=tuple(int(s) for s in args.seeds.split(",")),
         tasks=tasks,
         workers=args.workers,
@@ -175,8 +183,8 @@ def _check(args) -> int:
         measured = calibration(robot)
         print(f"{robot}: calibrated ({measured.tracking_error_m * 1000:.1f} mm tracking error, "
               f"close {measured.close_time_s:.2f} s)", file=sys.stderr)  # fmt: skip
-    jobs = config.jobs()
-    with tqdm(total=len(jobs), unit="episode", desc="check") as bar:
+    jobs, todo = pending(config)
+    with tqdm(total=len(jobs), initial=len(jobs) - len(todo), unit="episode", desc="check") as bar:
         run_bench(config, on_record=lambda _r: bar.update(1))
     checks = [summarize(load_records(out), robot, tasks) for robot in robots]
     print(markdown(checks))

@@ -226,6 +226,21 @@ def test_the_arm_check_compares_a_robot_with_the_reference(tmp_path, capsys):
     assert "| lift_cube | 1/1 | 1/1 |" in out and "JacoRobotiq85: PASS" in out
 
 
+def test_the_arm_check_defaults_to_the_rule_backend_and_never_mixes_backends(tmp_path, capsys):
+    """Plain `recent envs check` tests motion (rule); a resumed directory of another backend is refused."""
+    from lerobot_policy_recent.recent_plugin.evaluation.jobs import Job
+    from lerobot_policy_recent.scripts.cli import build_parser, main
+
+    args = build_parser().parse_args(["envs", "check", "Jaco"])
+    assert getattr(args, "settings.infiller.type") == "rule"
+    job = Job("recent", "kinematic", "kinematic/lift_cube", "Jaco", 0)
+    job.record_path(tmp_path).parent.mkdir(parents=True)
+    record = {"method": "recent", "suite": "kinematic", "task_id": job.task_id, "target": "Jaco", "seed": 0}
+    job.record_path(tmp_path).write_text(json.dumps({**record, "backend": "llamacpp", "success": True}))
+    code = main(["envs", "check", "Jaco", "--seeds", "0", "--tasks", "kinematic/lift_cube", "--out", str(tmp_path)])
+    assert code == 2 and "holds a check with the llamacpp backend" in capsys.readouterr().err
+
+
 def test_a_bad_robot_directory_is_one_line_from_the_cli(tmp_path):
     env = {**os.environ, "RECENT_ROBOTS": str(tmp_path / "missing")}
     done = subprocess.run(

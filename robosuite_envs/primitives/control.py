@@ -205,10 +205,10 @@ def set_opening(session: RobotSession, fraction: float, velocity: float) -> Step
     yield from actuate_gripper(session, command, max_duration_s=stroke_time(velocity, session, command))
 
 
-def stroke_time(velocity: float, session: RobotSession | None = None, command: float = 1.0) -> float:
+def stroke_time(velocity: float, session: RobotSession, command: float) -> float:
     """Longest time to sweep the gripper stroke at ``velocity`` (stroke fractions per 0.1 s), clamped;
     never shorter than the calibrated stroke of a slow gripper allows."""
-    longest = 4.0 if session is None else max(4.0, STROKE_MARGIN * stroke_seconds(session, command))
+    longest = max(4.0, STROKE_MARGIN * stroke_seconds(session, command))
     return float(min(longest, max(0.5, 0.6 / max(velocity, 1e-3))))
 
 
@@ -234,12 +234,12 @@ def grasp_at(
         raise PrimitiveFailure("grasp_lost", f"nothing is held after grasping at {np.round(target, 3).tolist()}")
 
 
-def grip_site_for(session: RobotSession, grasp_at: np.ndarray) -> np.ndarray:
+def grip_site_for(session: RobotSession, point: np.ndarray) -> np.ndarray:
     """Where the grip site goes so that the calibrated grasp point (where closed pads hold) is over
-    ``grasp_at``: shifted horizontally by that point's offset, as the grip site is turned now."""
+    ``point``: shifted horizontally by that point's offset, as the grip site is turned now."""
     across = np.asarray(session.calibration.grasp_point, dtype=np.float64) * [1.0, 1.0, 0.0]  # not along the tool axis
     offset = quat2mat(session.obs.eef_quat) @ across
-    return grasp_at - np.array([offset[0], offset[1], 0.0])
+    return point - np.array([offset[0], offset[1], 0.0])
 
 
 def suction_grasp_at(session: RobotSession, position: Sequence[float], *, timeout_s: float = 10.0) -> Steps:
