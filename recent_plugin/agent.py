@@ -21,7 +21,7 @@ from lerobot_policy_recent.ontology.target import Target
 from lerobot_policy_recent.recent_plugin.executor import Adapter, PlannedSkill, TaskExecutor
 from lerobot_policy_recent.recent_plugin.grounding.budget import BudgetedInfiller, CallBudget
 from lerobot_policy_recent.recent_plugin.grounding.grounder import GroundedSkill
-from lerobot_policy_recent.recent_plugin.grounding.store import GroundingStore, default_store
+from lerobot_policy_recent.recent_plugin.grounding.store import GroundingStore, default_store, grounding_code_digest
 from lerobot_policy_recent.recent_plugin.infillers import Infiller
 from lerobot_policy_recent.recent_plugin.methods import Adaptation, Grounding
 from lerobot_policy_recent.recent_plugin.settings import RecentSettings
@@ -146,6 +146,7 @@ class RecentAgent:
             method.name,
             method.grounding_key(task),
             self.lm_key(),
+            grounding_code_digest(),  # the prompts and checks of this version of the package
         )
 
     def budget(self) -> CallBudget | None:

@@ -79,6 +79,27 @@ def test_the_key_changes_with_the_code_the_robot_spec_the_ontology_and_the_model
     assert small != large and json.loads(large)["model_sha256"]
 
 
+def test_the_key_changes_with_the_code_that_prompts_the_lm(ontology, tmp_path):
+    """A new prompt format (a baseline's program sent as a chat, a hint reworded) is a new key: a
+    program grounded by the old prompts is never read back as if the new ones had written it."""
+    import shutil
+
+    from lerobot_policy_recent.recent_plugin.grounding.store import GROUNDING_CODE, grounding_code_digest
+
+    package = Path(grounding_code_digest.__wrapped__.__code__.co_filename).parents[1]
+    same, edited = tmp_path / "same", tmp_path / "edited"
+    for copy in (same, edited):
+        for folder in GROUNDING_CODE:
+            shutil.copytree(package / folder, copy / folder, ignore=shutil.ignore_patterns("__pycache__"))
+    prompt = edited / "refactoring" / "chat_prompt.py"
+    prompt.write_text(prompt.read_text().replace("Answer with code only", "Answer with code"))
+    assert grounding_code_digest(same) == grounding_code_digest()  # the same sources, the same digest
+    assert grounding_code_digest(edited) != grounding_code_digest()
+
+    agent = RecentAgent(RecentSettings(infiller=RuleConfig()), infiller=RuleInfiller(), ontology=ontology)
+    assert grounding_code_digest() in agent.grounding_key(agent.skill("put_in_bin"), ontology.target("UR5e"))
+
+
 def test_an_lm_handed_in_is_never_cached_on_disk_unless_asked(ontology, monkeypatch, tmp_path):
     monkeypatch.setenv(ENV, str(tmp_path))
     handed = RecentAgent(RecentSettings(infiller=RuleConfig()), infiller=RuleInfiller(), ontology=ontology)

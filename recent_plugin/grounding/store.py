@@ -2,7 +2,9 @@
 
 A grounding is keyed by everything that could change it: the skill's code, the target, the
 ontology (built from every robot's API spec and MJCF, so a changed spec changes it), the model's
-sha256, the backend's settings, the method and its budgets. A key that differs in any of them
+sha256, the backend's settings, the method and its budgets, and the code that asks the LM and
+judges its answers (:func:`grounding_code_digest`: a new prompt format or hint is a new key, not
+a stale program read back). A key that differs in any of them
 is another file; nothing is ever invalidated in place. The store lives under the project's cache
 dir (``$RECENT_GROUNDING_CACHE`` overrides the directory; ``off`` turns it off), is bounded in
 size (oldest-read files go first), and ``recent cache clear`` empties it.
@@ -13,6 +15,7 @@ load (another version, a truncated write) is deleted and grounded again, never a
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import json
 import logging
@@ -29,6 +32,22 @@ ENV = "RECENT_GROUNDING_CACHE"
 FORMAT = 1  # bump when GroundedSkill's shape changes: old files then simply never match
 MAX_BYTES = 256 * 1024 * 1024
 SUFFIX = ".grounding"
+
+
+# What shapes a grounding besides its inputs: how units are cut and prompted, how each backend and
+# baseline asks, and how answers are validated (package folders, relative to recent_plugin/).
+GROUNDING_CODE = ("refactoring", "infillers", "baselines", "grounding")
+
+
+@functools.cache
+def grounding_code_digest(root: Path = Path(__file__).parents[1]) -> str:
+    """sha256 (16 hex digits) of the Python sources under ``GROUNDING_CODE`` of ``root``, in path order."""
+    digest = hashlib.sha256()
+    for folder in GROUNDING_CODE:
+        for source in sorted((root / folder).glob("*.py")):
+            digest.update(f"{folder}/{source.name}\n".encode())
+            digest.update(source.read_bytes())
+    return digest.hexdigest()[:16]
 
 
 def store_dir() -> Path | None:
