@@ -78,6 +78,34 @@ def test_a_retry_is_held_to_the_ontology_call_with_only_the_placeholders_free(on
     LlamaGrammar.from_string(retry.grammar, verbose=False)  # valid GBNF
 
 
+def test_a_run_time_patch_retry_is_held_to_the_statements_its_check_wrote(ontology, put_in_bin):
+    """An in-situ sweep's first attempt is free FIM; its retry may only write the check's call (a
+    new arm's push primitive, which the 1.5B otherwise renamed to one the robot lacks)."""
+    from llama_cpp import LlamaGrammar
+
+    from lerobot_policy_recent.recent_plugin.refactoring.units import Hints, cut_unit
+
+    sweep = "jaco_shove(env, task, begin_xyz=[0.178, 0.069, 0.854], end_xyz=[0.178, -0.056, 0.854])"
+    start = put_in_bin.code.index("    place(") + 4
+
+    def prompt(attempt: int):
+        hints = Hints(
+            target=ontology.target("JacoRobotiq85"),
+            original_call='place(env, task, target_pos=drop_pos, approach_axis="z")',
+            substitute_call=sweep,
+            reason=f"push it off first: {sweep}",
+            observation="obstacle lies on the release target",
+            feedback="the patch must call ['jaco_shove'], it calls ['jaco_push']" if attempt else None,
+            attempt=attempt,
+        )
+        return build_prompt(cut_unit(put_in_bin.code, start, start, "in_situ_revision", hints), 0)
+
+    assert prompt(0).grammar.startswith("root ::= [a-zA-Z_]")
+    retry = prompt(1).grammar
+    assert retry.splitlines()[0] == f'root ::= "{sweep}" "\\n"'
+    LlamaGrammar.from_string(retry, verbose=False)
+
+
 def test_a_traced_push_is_one_move_per_waypoint_and_its_retry_is_held_to_all_of_them(ontology, rule_infiller):
     from llama_cpp import LlamaGrammar
 

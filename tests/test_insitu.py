@@ -89,6 +89,34 @@ def test_without_insitu_the_moved_object_is_repaired_after_the_grasp_fails(ontol
     assert result.success
 
 
+class SweepThroughTheTarget(RuleInfiller):
+    """The rule renderer, except that the first sweep it is asked for pushes down onto the release target
+    (the right primitive, the wrong arguments: what the 1.5B wrote on a new arm)."""
+
+    name = "sweep-through"
+
+    def infill(self, unit: RefactoringUnit) -> Completion:
+        call = unit.hints.substitute_call or ""
+        if unit.span_type == "in_situ_revision" and call.startswith("push(") and unit.hints.attempt == 0:
+            wrong = 'push(env, task, start_pos=drop_pos, target_pos=[drop_pos[0], drop_pos[1], drop_pos[2] - 0.1], approach_axis="z")'
+            return Completion(text=call.replace(call.splitlines()[0], wrong), generated_tokens=1, seconds=0.0)
+        return super().infill(unit)
+
+
+def test_a_run_time_patch_keeps_the_arguments_its_check_wrote(ontology):
+    """A sweep that calls the right primitive but not where the check put it is rejected, and the
+    retry writes the check's sweep (it is held to it by grammar on the LM backends)."""
+    agent = RecentAgent(RecentSettings(infiller=RuleConfig()), infiller=SweepThroughTheTarget(), ontology=ontology)
+    result = run_episode(agent, "kinematic/cube_on_plate", "Panda", seed=0, variations="obstacle")
+    assert result.success
+    (event,) = result.adaptations
+    assert event.checks == ("target_clear",) and event.attempts == 2
+    first, retry = result.runtime_calls
+    assert not first.accepted and first.category == "hallucinated_kwarg"
+    assert "changes the value the check wrote: keep start_pos=[" in first.message
+    assert retry.accepted and event.after.splitlines()[0] == retry.text.splitlines()[0]
+
+
 def test_ei_it_and_go_add_up_from_the_recorded_calls(counting_agent):
     result = run_episode(counting_agent, "kinematic/cube_on_plate", "UR5e", seed=0, variations="on")
     grounding_calls = [c for s in result.grounding.skills for c in s.calls]

@@ -279,14 +279,18 @@ def _check_span(text: str, unit: RefactoringUnit) -> Verdict | None:
             FailureCategory.HALLUCINATED_API,
             f"the ontology substitutes {unit.substitute}() here, but the span calls {sorted(called) or 'nothing'}",
         )
-    return _changed_argument(statements, unit.hints.substitute_call)
+    return changed_argument(statements, unit.hints.substitute_call)
 
 
-def _changed_argument(statements: list[ast.stmt], expected: str | None) -> Verdict | None:
-    """Grounding edits bindings only: an argument the ontology carried over from the original call keeps its value.
+def changed_argument(
+    statements: list[ast.stmt], expected: str | None, decided_by: str = "the original call passed"
+) -> Verdict | None:
+    """Grounding edits bindings only: an argument the ontology (or a run-time check) wrote keeps its value.
 
     (A small model filling the span sometimes repeats a neighbouring line of the suffix instead,
-    e.g. the approach height where the press height belongs; the code stays valid, the skill not.)
+    e.g. the approach height where the press height belongs; the code stays valid, the skill not.
+    In a run-time sweep it wrote the target's position where the check had put the push beside the
+    obstacle, and pushed down through it.)
     """
     undecided = "_undecided"  # a <type> placeholder: that value is the LM's to choose
     try:
@@ -303,7 +307,7 @@ def _changed_argument(statements: list[ast.stmt], expected: str | None) -> Verdi
             if value is not None and ast.dump(value) != ast.dump(keyword.value):
                 return Verdict.reject(
                     FailureCategory.HALLUCINATED_KWARG,
-                    f"{name}({keyword.arg}={ast.unparse(value)}) changes the value the original call passed: "
+                    f"{name}({keyword.arg}={ast.unparse(value)}) changes the value {decided_by}: "
                     f"keep {keyword.arg}={ast.unparse(keyword.value)}",
                 )
     return None

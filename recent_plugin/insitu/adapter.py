@@ -36,7 +36,7 @@ from lerobot_policy_recent.recent_plugin.grounding.attempts import (
     source_diff,
 )
 from lerobot_policy_recent.recent_plugin.grounding.gate import Verdict, validate_program
-from lerobot_policy_recent.recent_plugin.grounding.grounder import GroundedSkill
+from lerobot_policy_recent.recent_plugin.grounding.grounder import GroundedSkill, changed_argument
 from lerobot_policy_recent.recent_plugin.infillers.base import Infiller
 from lerobot_policy_recent.recent_plugin.insitu.checks import (
     CHECKS,
@@ -305,11 +305,14 @@ class InSituAdapter:
             candidate = apply_unit(code, unit, text + "\n" + unit.indent if text else "")
             if not text:
                 return Verdict.reject(FailureCategory.EMPTY_CONTINUATION, "the patch is empty"), candidate
-            called = _called(_body(text, unit.indent))
+            body = _body(text, unit.indent)
+            called = _called(body)
             if called != wanted:
                 message = f"the patch must call {sorted(wanted)}, it calls {sorted(called)}"
                 return Verdict.reject(FailureCategory.HALLUCINATED_API, message), candidate
-            return validate_program(candidate, self.target.api, executor.grounded.entry, self.apis), candidate
+            verdict = validate_program(candidate, self.target.api, executor.grounded.entry, self.apis)
+            kept = verdict.ok and changed_argument(ast.parse(textwrap.dedent(body)).body, suggestion, "the check wrote")
+            return kept or verdict, candidate
 
         before = len(self.calls)
         accepted = infill_until_valid(

@@ -54,6 +54,8 @@ def call_grammar(call: str, names: tuple[str, ...] = ()) -> str:
     A first attempt is free FIM. After a rejection, a small model tends to copy the same
     neighbouring line again; constraining the retry keeps what the ontology decided (the
     substitute, the keywords, the carried-over values) and leaves the LM only what it did not.
+    A run-time patch's retry is held the same way to the statements its check wrote: left free,
+    the 1.5B named a push primitive the robot lacks on all three attempts of a new arm's sweep.
     An ``<object_name>`` is one of the skill's ``names`` (variables holding an object name) or a
     quoted name: left free, the 1.5B wrote the object's position variable there on every retry.
     """
@@ -169,8 +171,8 @@ def build_prompt(unit: RefactoringUnit, span_tokens: int) -> FimPrompt:
     else:
         single_line = "\n" not in unit.span and "\n" not in (call or "")
     grammar = STATEMENT_LINE if single_line else STATEMENT_LINES
-    if unit.hints.attempt > 0 and call and unit.span_type not in NOT_CONFLICT_SPAN_TYPES:
-        grammar = call_grammar(call, unit_name_variables(unit))  # a retry of a determined conflict
+    if unit.hints.attempt > 0 and call and unit.span_type not in WRITTEN_FREELY:
+        grammar = call_grammar(call, unit_name_variables(unit))  # a retry of what the ontology or a check wrote
     stop = ("\n", "  #") if single_line else ("\n\n",)
     if unit.span_type in WRITTEN_FREELY:
         grammar = None
