@@ -19,7 +19,7 @@ from lerobot_policy_recent.robosuite_envs.observation import ACTION_DIM, AGENT_P
 from lerobot_policy_recent.robosuite_envs.primitives.session import CONTROL_FREQ
 from lerobot_policy_recent.robosuite_envs.suites import get_task
 from lerobot_policy_recent.robosuite_envs.tasks import task_string
-from lerobot_policy_recent.robosuite_envs.variations import episode_variations, parse_variations
+from lerobot_policy_recent.robosuite_envs.variations import apply_build_variations, episode_variations, parse_variations
 from lerobot_policy_recent.robosuite_envs.verdicts import write_verdict
 
 
@@ -96,8 +96,8 @@ class RecentEnv(gym.Env):
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         super().reset(seed=seed)
         variations = episode_variations(self.variations, self.spec_task.task_id, seed)
-        if self._env is not None and self._env.variations != variations:  # mix: another set this episode
-            self._env.close()  # objects may change (non_flat, porous): the model is built anew
+        if self._env is not None and self._env.task_spec != apply_build_variations(self.spec_task, variations, seed):
+            self._env.close()  # objects change (mix: non_flat, porous; odd_obstacle per seed): built anew
             self._env = None
         if self._env is None:
             self._env = self._make(seed, variations)

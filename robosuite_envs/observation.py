@@ -5,9 +5,10 @@
                         encoders report them; an arm with fewer joints (UR5e: 6) leaves the last
                         entries 0
 ``environment_state`` = per object slot: position (3), quaternion xyzw (4), present (1), grasped (1),
-                        touched by the end effector (1), height in metres (1), state (1): the
-                        articulation or progress of the object (drawer opening in metres, lid angle
-                        in radians, button pressed 0/1, fraction of a wipe area wiped)
+                        touched by the end effector (1), bounding-box extents in metres along x, y
+                        and z (3: width, depth, height), state (1): the articulation or progress of
+                        the object (drawer opening in metres, lid angle in radians, button pressed
+                        0/1, fraction of a wipe area wiped)
 
 Slots follow the order of the task's objects; unused slots are zero with present=0.
 """
@@ -21,9 +22,10 @@ import numpy as np
 MAX_ARM_DOF = 7  # Panda and Sawyer have 7 arm joints, UR5e 6; shorter arms are zero-padded
 AGENT_POS_DIM = 8 + 2 * MAX_ARM_DOF
 MAX_OBJECTS = 8
-SLOT_DIM = 12
+SLOT_DIM = 14
 ENV_STATE_DIM = MAX_OBJECTS * SLOT_DIM
 ACTION_DIM = 7  # OSC_POSE delta (6) + gripper (1): -1 opens, +1 closes
+POSITION_SIGMA = 0.004  # metres, per axis: the object perception's stated accuracy (1 sigma)
 
 # What each entry of the vectors is (LeRobot dataset feature names, the Rerun series names).
 JOINT_POS_NAMES = tuple(f"joint{i}_pos" for i in range(MAX_ARM_DOF))
@@ -33,7 +35,22 @@ AGENT_POS_NAMES = (
     + JOINT_POS_NAMES
     + JOINT_VEL_NAMES
 )
-SLOT_NAMES = ("x", "y", "z", "qx", "qy", "qz", "qw", "present", "grasped", "touched", "height", "state")
+SLOT_NAMES = (
+    "x",
+    "y",
+    "z",
+    "qx",
+    "qy",
+    "qz",
+    "qw",
+    "present",
+    "grasped",
+    "touched",
+    "size_x",
+    "size_y",
+    "height",
+    "state",
+)
 ENV_STATE_NAMES = tuple(f"slot{slot}_{name}" for slot in range(MAX_OBJECTS) for name in SLOT_NAMES)
 ACTION_NAMES = ("dx", "dy", "dz", "dax", "day", "daz", "gripper")
 
@@ -44,8 +61,12 @@ class ObjectState:
     quat: np.ndarray
     grasped: bool
     touching: bool = False
-    height: float = 0.0
+    size: np.ndarray = field(default_factory=lambda: np.zeros(3))  # bounding-box extents x, y, z (perception)
     state: float = 0.0
+
+    @property
+    def height(self) -> float:
+        return float(self.size[2])
 
     @property
     def top(self) -> np.ndarray:
@@ -73,7 +94,7 @@ class Observation:
             state = self.objects.get(name)
             if state is None:  # not in view (e.g. an obstacle that has not appeared yet): present = 0
                 continue
-            row = [*state.pos, *state.quat, 1.0, float(state.grasped), float(state.touching), state.height, state.state]
+            row = [*state.pos, *state.quat, 1.0, float(state.grasped), float(state.touching), *state.size, state.state]
             env_state[slot * SLOT_DIM : (slot + 1) * SLOT_DIM] = row
         return agent, env_state
 
@@ -90,8 +111,8 @@ class Observation:
                     quat=row[3:7].copy(),
                     grasped=bool(row[8] > 0.5),
                     touching=bool(row[9] > 0.5),
-                    height=float(row[10]),
-                    state=float(row[11]),
+                    size=row[10:13].copy(),
+                    state=float(row[13]),
                 )
         return cls(
             eef_pos=agent_pos[0:3].copy(),

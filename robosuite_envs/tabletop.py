@@ -30,7 +30,7 @@ from lerobot_policy_recent.robosuite_envs.variations import (
     FAR_TARGET_XY,
     OBSTACLE,
     VariationPlan,
-    manipulated_object,
+    apply_build_variations,
     plan_variations,
 )
 
@@ -39,6 +39,7 @@ TABLE_OFFSET = np.array((0.0, 0.0, TABLE_Z))
 PARKING = np.array([1.5, 1.5, 0.05])  # off the table, on the floor: where unused objects wait
 BUTTON_PRESSED = 0.005  # metres of cap travel that count as a press
 SEAL_CONTACTS = 3  # contact points between cup and face that make a vacuum seal (a ball gives one)
+LEAK_AFTER_STEPS = 30  # seal_failure: policy steps (1.5 s) a seal holds the object before it leaks
 WIPE_GRID = 4  # a wipe area is WIPE_GRID x WIPE_GRID cells
 WIPE_HEIGHT = 0.035  # the grip site counts as wiping below this height above the table
 
@@ -47,7 +48,7 @@ class RecentTabletopEnv(ManipulationEnv):
     """One robot at a table with the objects of one task; success is every plan step achieved."""
 
     def __init__(self, task: TaskSpec, robots: str, gripper_types: str, variations: tuple[str, ...] = (), **kwargs):
-        self.task_spec = _apply_build_variations(task, variations)
+        self.task_spec = apply_build_variations(task, variations, kwargs.get("seed"))
         self.variations = tuple(variations)
         self._specs = {spec.name: spec for spec in self.task_spec.objects}
         self._suction_actuator: int | None = None
@@ -58,6 +59,8 @@ class RecentTabletopEnv(ManipulationEnv):
         self._contact_cache: tuple[tuple[int, float] | None, Counter[tuple[int, int]]] = (None, Counter())
         self._adhesion_gain = 0.0
         self._seal: str | None = None  # the object a vacuum cup is sealed on
+        self._sealed_steps = 0  # policy steps the current seal has held (seal_failure counts them)
+        self._leaked: set[str] = set()  # objects whose seal failed mid-task: no cup seals on them again
         self._episode = 0
         self._snapshot: tuple[tuple[int, float], Observation] | None = None
         self.table_top_z = float(TABLE_OFFSET[2])
@@ -157,7 +160,7 @@ class RecentTabletopEnv(ManipulationEnv):
         self._wiped = {}
         self.achieved = [False] * len(self.task_spec.plan)
         self.elapsed_steps = 0
-        self._seal = None
+        self._seal, self._sealed_steps, self._leaked = None, 0, set()
         self._episode += 1  # sim time restarts at 0: a new key for observe()'s snapshot
 
     def _place(self, name: str, pos: np.ndarray) -> None:
@@ -174,11 +177,14 @@ class RecentTabletopEnv(ManipulationEnv):
         model.body_mass[:] = self._defaults["mass"]
         model.body_inertia[:] = self._defaults["inertia"]
         for name, spec in self._specs.items():
+            body = self._root_ids[name]
+            if spec.mass_kg is not None:  # a drawn mass (odd_obstacle): the inertia scales with it
+                model.body_inertia[body] *= spec.mass_kg / model.body_mass[body]
+                model.body_mass[body] = spec.mass_kg
             if not get_kind(spec.kind).graspable:
                 continue
             for geom in self._objects[name].contact_geoms:
                 model.geom_friction[model.geom_name2id(geom), 0] *= self.plan.friction_scale
-            body = self._root_ids[name]
             model.body_mass[body] *= self.plan.mass_scale
             model.body_inertia[body] *= self.plan.mass_scale
 
@@ -198,8 +204,18 @@ class RecentTabletopEnv(ManipulationEnv):
             contacts = self._cup_contacts()
             if self._seal is not None and not contacts.get(self._seal):
                 self._seal = None  # pulled off: the seal broke
+            if self._seal is not None and self._seal == self.plan.leak_object:
+                self._sealed_steps += 1
+                if self._sealed_steps >= LEAK_AFTER_STEPS:  # seal_failure: the face leaks once it is carried
+                    self._leaked.add(self._seal)
+                    self._seal = None
             if self._seal is None:
-                flat = [n for n, k in contacts.items() if k >= SEAL_CONTACTS and self._specs[n].surface != "porous"]
+                self._sealed_steps = 0
+                flat = [
+                    n
+                    for n, k in contacts.items()
+                    if k >= SEAL_CONTACTS and self._specs[n].surface != "porous" and n not in self._leaked
+                ]
                 self._seal = flat[0] if flat else None
         sim.model.actuator_gainprm[actuator, 0] = self._adhesion_gain if self._seal else 0.0
 
@@ -227,7 +243,8 @@ class RecentTabletopEnv(ManipulationEnv):
         if plan.obstacle_target and step == plan.obstacle_step:
             target = np.array(self.sim.data.body_xpos[self._body_ids[plan.obstacle_target]])
             self._parked.discard(OBSTACLE)
-            self._place(OBSTACLE, np.array([target[0], target[1], self.table_top_z + 0.06]))
+            drop = max(0.06, self._specs[OBSTACLE].size[2] / 2 + 0.03)  # dropped from a little above the table
+            self._place(OBSTACLE, np.array([target[0], target[1], self.table_top_z + drop]))
         if step in (plan.perturb_step, plan.obstacle_step):
             self.sim.forward()
 
@@ -302,7 +319,7 @@ class RecentTabletopEnv(ManipulationEnv):
                 quat=convert_quat(np.array(self.sim.data.body_xquat[body]), to="xyzw"),
                 grasped=self.holds(spec.name),
                 touching=spec.name in touching,
-                height=float(spec.size[2]),
+                size=np.array(spec.size, dtype=float),
                 state=state,
             )
         return Observation(
@@ -360,21 +377,6 @@ class RecentTabletopEnv(ManipulationEnv):
 
     def reward(self, action=None):
         return self.goal_conditioned_success
-
-
-def _apply_build_variations(task: TaskSpec, variations: tuple[str, ...]) -> TaskSpec:
-    """Variations that change the models themselves (shape, surface) before the scene is built."""
-    target = manipulated_object(task)
-    if target is None or not ({"non_flat", "porous"} & set(variations)):
-        return task
-    objects = []
-    for spec in task.objects:
-        if spec.name == target and "non_flat" in variations and spec.kind == "box":
-            spec = replace(spec, kind="sphere", size=(spec.size[0],) * 3)
-        if spec.name == target and "porous" in variations:
-            spec = replace(spec, surface="porous")
-        objects.append(spec)
-    return replace(task, objects=tuple(objects))
 
 
 def exclude_mount_contacts(robot_model) -> None:

@@ -23,6 +23,7 @@ class ObjectSpec:
     rgba: tuple[float, float, float, float] = (0.8, 0.2, 0.2, 1.0)
     state: float = 0.0  # initial articulation (drawer opening m, lid angle rad)
     surface: str = "smooth"  # "porous": a suction cup cannot seal on it
+    mass_kg: float | None = None  # None: as its kind's density makes it
 
     def __post_init__(self) -> None:
         kind = get_kind(self.kind)  # unknown kinds fail here, listing the valid ones

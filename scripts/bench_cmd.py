@@ -34,7 +34,7 @@ def register(sub) -> None:
     parser.add_argument(
         "--variations",
         default="mix",
-        help="mix (default: all eight, each episode drawing each variation with its stated share, seeded), "
+        help="mix (default: every variation, each episode drawing each variation with its stated share, seeded), "
         "on (the paper's three), off, all, or a comma list",
     )
     parser.add_argument("--out", default="outputs/bench", help="run directory (default: outputs/bench)")

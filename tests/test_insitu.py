@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 import time
 
 import numpy as np
@@ -16,9 +17,14 @@ from lerobot_policy_recent.recent_plugin.infillers.configs import RuleConfig
 from lerobot_policy_recent.recent_plugin.infillers.rule import RuleInfiller
 from lerobot_policy_recent.recent_plugin.insitu.adapter import latest_definitions, recomputation
 from lerobot_policy_recent.recent_plugin.insitu.checks import (
+    CLEARANCE,
+    FALSE_MOVES,
+    MOVED,
+    SWEEP_MARGIN,
     CheckInput,
     Derivation,
     SceneFacts,
+    drift_threshold,
     fingers_clear,
     object_unmoved,
     pushed_to_goal,
@@ -28,7 +34,7 @@ from lerobot_policy_recent.recent_plugin.insitu.checks import (
 from lerobot_policy_recent.recent_plugin.methods import method_named
 from lerobot_policy_recent.recent_plugin.refactoring.units import RefactoringUnit
 from lerobot_policy_recent.recent_plugin.settings import RecentSettings
-from lerobot_policy_recent.robosuite_envs.observation import ObjectState, Observation
+from lerobot_policy_recent.robosuite_envs.observation import POSITION_SIGMA, ObjectState, Observation
 from lerobot_policy_recent.robosuite_envs.primitives import api_spec_path
 
 
@@ -179,9 +185,10 @@ def test_a_push_that_left_the_cube_short_is_done_again_after_it_from_the_current
 
 
 def observed(**positions) -> Observation:
-    """An observation of still, ungrasped objects at ``positions`` (name -> [x, y, z])."""
+    """An observation of still, ungrasped objects at ``positions`` (name -> [x, y, z]); their extents
+    unreported, so checks take the scene's."""
     states = {
-        name: ObjectState(np.array(pos, dtype=float), np.array([0, 0, 0, 1.0]), False, False, 0.05, 0.0)
+        name: ObjectState(np.array(pos, dtype=float), np.array([0, 0, 0, 1.0]), False)
         for name, pos in positions.items()
     }
     return Observation(np.zeros(3), np.array([0, 0, 0, 1.0]), 0.0, states)
@@ -192,7 +199,7 @@ UR5E = load_api_spec(api_spec_path("ur5e"))
 
 def test_effect_and_reach_checks_read_the_observation():
     def check_input(cube_at, arguments, roles):
-        scene = SceneFacts({"cube": "box"}, {"cube": (0.05, 0.05, 0.05)}, base_xy=(-0.56, 0.0), reach=0.9)
+        scene = SceneFacts(frozenset({"cube"}), {"cube": (0.05, 0.05, 0.05)}, base_xy=(-0.56, 0.0), reach=0.9)
         return CheckInput(None, observed(cube=cube_at), arguments, roles, frozenset({"cube"}), {}, scene, UR5E)
 
     push = {"contact_pos": "push_start", "goal_pos": "push_goal"}
@@ -210,7 +217,7 @@ def test_effect_and_reach_checks_read_the_observation():
 def test_a_drift_within_sensing_noise_is_not_a_move():
     """Two noisy reads (sigma 4 mm) of a still object must not cost an LM call; a perturbation (4-6 cm) must."""
     read = [0.10, -0.05, 0.845]
-    scene = SceneFacts({"cube": "box"}, {"cube": (0.05, 0.05, 0.05)})
+    scene = SceneFacts(frozenset({"cube"}), {"cube": (0.05, 0.05, 0.05)})
 
     def now_at(pos):
         return CheckInput(
@@ -218,6 +225,13 @@ def test_a_drift_within_sensing_noise_is_not_a_move():
         )
 
     assert object_unmoved(now_at([0.11, -0.04, 0.85])) is None  # 1.5 cm: within the noise
+    # the threshold comes from the perception's stated accuracy and a false-alarm budget, not the perturbation
+    assert MOVED == pytest.approx(drift_threshold(POSITION_SIGMA, FALSE_MOVES)) and 0.019 < MOVED < 0.02
+    rng = np.random.default_rng(0)
+    differences = np.linalg.norm(
+        rng.normal(0, POSITION_SIGMA, (200_000, 3)) - rng.normal(0, POSITION_SIGMA, (200_000, 3)), axis=1
+    )
+    assert np.mean(differences > MOVED) == pytest.approx(FALSE_MOVES, rel=0.1)
     moved = object_unmoved(now_at([0.14, -0.05, 0.845]))
     assert moved.statements == ("obj_pos = task.get_object_position('cube')",)
     assert "cube moved 4.0 cm" in moved.observation
@@ -225,7 +239,7 @@ def test_a_drift_within_sensing_noise_is_not_a_move():
 
 def test_the_lm_sees_only_the_sweeps_coordinates_the_log_keeps_the_slabs():
     """Shown the slab's and the target's positions as well, the 1.5B sometimes pushed from the slab's centre."""
-    scene = SceneFacts({"obstacle": "slab"}, {"obstacle": (0.1, 0.1, 0.03)})
+    scene = SceneFacts(frozenset({"obstacle"}), {"obstacle": (0.1, 0.1, 0.03)})
     target = {"place_pos": [0.173, -0.015, 0.846]}
     obs = observed(obstacle=[0.178, -0.024, 0.834])
     blocked = target_clear(CheckInput(None, obs, target, {"place_pos": "release_target"}, frozenset(), {}, scene, UR5E))
@@ -235,11 +249,54 @@ def test_the_lm_sees_only_the_sweeps_coordinates_the_log_keeps_the_slabs():
     assert sweep.startswith("ur5_push_to(env, task, contact_pos=[0.178, ") and "0.834]" not in sweep
 
 
+def test_checks_decide_from_geometry_not_from_kind_names():
+    """A post the workcell never listed, reported by perception with its own extents, on the release target:
+    it is clutter (loose, named by neither skill nor task) and is swept off by its own width."""
+    scene = SceneFacts(frozenset({"cube"}), {"cube": (0.05, 0.05, 0.05)}, task_objects=frozenset({"cube"}))
+    post = ObjectState(
+        np.array([0.178, -0.024, 0.87]), np.array([0, 0, 0, 1.0]), False, size=np.array([0.06, 0.06, 0.09])
+    )
+    obs = Observation(np.zeros(3), np.array([0, 0, 0, 1.0]), 0.0, {"post": post})
+    args, roles = {"place_pos": [0.178, -0.024, 0.854]}, {"place_pos": "release_target"}
+    violation = target_clear(CheckInput(None, obs, args, roles, frozenset(), {}, scene, UR5E))
+    assert violation.cue == "post (block, 0.06 m wide, 0.09 m high) lies on the release target"
+    (sweep,) = violation.statements
+    start, goal = (np.array(v) for v in _positions(sweep))
+    # its centre moves its own half width past the clearance (a 10 cm slab's 2 cm farther), from 2 cm before it
+    assert np.linalg.norm(goal[:2] - start[:2]) == pytest.approx(0.03 + CLEARANCE + SWEEP_MARGIN + 0.02, abs=1e-3)
+    listed = SceneFacts(frozenset(), {"post": (0.06, 0.06, 0.09)})  # listed as fixed to the table: not clutter
+    assert target_clear(CheckInput(None, obs, args, roles, frozenset(), {}, listed, UR5E)) is None
+
+
+def test_the_checks_name_no_object_kind_and_read_no_variation():
+    """What a check decides from is the observation and the workcell's geometry: its source holds no
+    object kind's name and imports nothing of the variations (their magnitudes, their obstacle)."""
+    import ast
+    import inspect
+
+    from lerobot_policy_recent.recent_plugin.insitu import checks
+    from lerobot_policy_recent.robosuite_envs.objects import KINDS
+
+    tree = ast.parse(inspect.getsource(checks))
+    strings = {n.value for n in ast.walk(tree) if isinstance(n, ast.Constant) and isinstance(n.value, str)}
+    assert not strings & set(KINDS)  # ("slab, 0.10 m wide" describes a flat bounding box; it decides nothing)
+    imported = {n.module for n in ast.walk(tree) if isinstance(n, ast.ImportFrom)}
+    assert not any("variations" in m or "objects" in m for m in imported)
+
+
+def _positions(call: str) -> list[list[float]]:
+    return [[float(x) for x in group.split(",")] for group in re.findall(r"\[([^]]+)\]", call)]
+
+
 def test_an_obstacle_beside_the_grasp_is_swept_away_from_the_object_first():
     """bench_routine: the push shoved the slab along ahead of the cube, into the zone's far side; an
     open finger came down on it and the grasp stopped 1 cm short. The slab lies beyond the table's
     sweep limit already, so only a sweep along the edge, away from the cube, is left."""
-    scene = SceneFacts({"cube": "box", "block": "box", "obstacle": "slab"}, {"obstacle": (0.1, 0.1, 0.03)})
+    scene = SceneFacts(
+        frozenset({"cube", "block", "obstacle"}),
+        {"obstacle": (0.1, 0.1, 0.03)},
+        task_objects=frozenset({"cube", "block"}),
+    )
     grasp = {"grasp_pos": [-0.060, -0.285, 0.821]}
     roles = {"grasp_pos": "grasp_target"}
 
@@ -266,7 +323,9 @@ def test_the_slab_a_push_shoved_beside_the_cube_is_swept_away_before_the_grasp(o
 
 def test_a_robot_without_a_push_sweeps_along_the_ontologys_push_path(ontology):
     """The 2F-85's API only moves and grips: the sweep is the Panda push's declared path, traced with its moves."""
-    scene = SceneFacts({"obstacle": "slab"}, {"obstacle": (0.1, 0.1, 0.03)}, push_path=ontology.path_of("push_object"))
+    scene = SceneFacts(
+        frozenset({"obstacle"}), {"obstacle": (0.1, 0.1, 0.03)}, push_path=ontology.path_of("push_object")
+    )
     target = {"target_pos": [0.173, -0.015, 0.846]}
     obs = observed(obstacle=[0.178, -0.024, 0.834])
     robotiq = ontology.api("Robotiq85")
@@ -313,7 +372,7 @@ def test_a_second_recomputation_copies_only_the_latest_definitions():
 def test_a_moved_object_is_read_again_with_everything_derived_from_it():
     """The call uses `start`, computed from `obj_pos`: after the re-read, `start` and `goal` are recomputed, not `pen_pos`."""
     read = [0.10, -0.05, 0.845]
-    scene = SceneFacts({"cube": "box"}, {"cube": (0.05, 0.05, 0.05)})
+    scene = SceneFacts(frozenset({"cube"}), {"cube": (0.05, 0.05, 0.05)})
     derived = (
         Derivation("pen_pos = task.get_object_position(pen)", frozenset({"task", "pen"}), frozenset({"pen_pos"})),
         Derivation("start = [obj_pos[0] - 0.06, obj_pos[1], obj_pos[2]]", frozenset({"obj_pos"}), frozenset({"start"})),
@@ -386,7 +445,7 @@ def test_an_object_the_hand_holds_has_not_moved_out_from_under_the_skill():
     """A place computed from the picked block's read height: the block rose with the hand, by design."""
     from dataclasses import replace
 
-    scene = SceneFacts({"red": "box"}, {"red": (0.05, 0.05, 0.05)})
+    scene = SceneFacts(frozenset({"red"}), {"red": (0.05, 0.05, 0.05)})
     obs = observed(red=[0.1, -0.05, 0.93])
     obs.objects["red"] = replace(obs.objects["red"], grasped=True)
     inp = CheckInput(None, obs, {}, {}, frozenset({"red"}), {"obj_pos": ("red", [0.1, -0.05, 0.83])}, scene, UR5E)

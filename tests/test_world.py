@@ -186,6 +186,41 @@ def test_obstacle_lands_on_the_target_mid_task_and_cannot_be_grasped():
     env.close()
 
 
+def test_an_odd_obstacle_is_a_drawn_shape_size_and_mass_that_lands_on_the_target_and_is_observed_as_it_is():
+    """Shapes the checks were never written for: the model is built anew when another seed draws another one,
+    the obstacle weighs what was drawn, and perception reports its extents, not the slab's."""
+    from lerobot_policy_recent.robosuite_envs.variations import ODD_MASS_KG, ODD_OBSTACLES, odd_obstacle
+
+    draws = {seed: odd_obstacle("kinematic/cube_on_plate", seed) for seed in range(30)}
+    assert {d.kind for d in draws.values()} == {kind for kind, _, _ in ODD_OBSTACLES}
+    assert draws[3] == odd_obstacle("kinematic/cube_on_plate", 3)  # seeded
+    env = RecentEnv(task="kinematic/cube_on_plate", robot="Panda", render_mode="none", variations="odd_obstacle")
+    for seed in (3, 7):  # a wide slab, then a post
+        odd = draws[seed]
+        env.reset(seed=seed)
+        inner = env._env
+        assert inner.task_spec.spec("obstacle").kind == odd.kind
+        body = inner.sim.model.body_name2id(inner._objects["obstacle"].root_body)
+        assert inner.sim.model.body_mass[body] == pytest.approx(odd.mass_kg) and ODD_MASS_KG[0] <= odd.mass_kg
+        obs = _run_idle(env, inner.plan.obstacle_step + 40)
+        row = obs["environment_state"][_slot(env, "obstacle")]
+        plate = inner.observe().objects["plate"].pos
+        assert row[7] == 1.0 and np.linalg.norm(row[:2] - plate[:2]) < 0.04  # landed on the target
+        np.testing.assert_allclose(row[10:13], odd.size, atol=1e-6)  # size_x, size_y, height as drawn
+    assert draws[7].kind == "post" and draws[3].kind == "slab"
+    env.close()
+
+
+def test_far_perturbation_moves_the_object_twice_as_far_as_the_papers():
+    env = RecentEnv(task="kinematic/cube_on_plate", robot="Panda", render_mode="none", variations="far_perturbation")
+    env.reset(seed=1)
+    before = env._env.observe().objects["cube"].pos.copy()
+    _run_idle(env, env._env.plan.perturb_step + 1)
+    shift = np.linalg.norm(env._env.observe().objects["cube"].pos[:2] - before[:2])
+    assert 0.075 < shift < 0.125
+    env.close()
+
+
 @pytest.mark.parametrize("variation, quantity, factor", [("slippery", "friction", 0.08), ("heavy", "mass", 8.0)])
 def test_slippery_and_heavy_objects(variation, quantity, factor):
     plain = RecentEnv(task="kinematic/lift_cube", robot="Panda", render_mode="none")
@@ -225,6 +260,19 @@ def test_suction_holds_a_flat_box_but_not_a_ball_or_a_porous_box(variation, pand
     else:
         assert result.success, result.failures
     env.close()
+
+
+def test_a_seal_that_fails_mid_carry_drops_the_object_and_never_holds_it_again(panda_agent):
+    """seal_failure: the cube the cup carries leaks after 1.5 s; a dev seed's episode that succeeds
+    without it then fails (RECENT has no check for it: the release runs empty, as reported)."""
+    from lerobot_policy_recent.robosuite_envs.tabletop import LEAK_AFTER_STEPS
+
+    env = RecentEnv(task="kinematic/cube_in_bin", robot="Suction", render_mode="none", variations="seal_failure")
+    result = run_episode(panda_agent, "kinematic/cube_in_bin", "Suction", seed=DEV_SEEDS[0], env=env)
+    assert env._env._leaked == {"cube"} and env._env.plan.leak_object == "cube" and LEAK_AFTER_STEPS == 30
+    assert not result.success and not env._env.observe().objects["cube"].grasped
+    env.close()
+    assert run_episode(panda_agent, "kinematic/cube_in_bin", "Suction", seed=DEV_SEEDS[0]).success
 
 
 def test_suction_stacks_a_tower_the_held_block_going_where_the_skill_places_it(panda_agent):

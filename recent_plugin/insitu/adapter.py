@@ -154,7 +154,7 @@ class InSituAdapter:
         arguments = {k.arg: _value(k.value, executor) for k in call.keywords if k.arg}
         chain = dependencies(executor.segments[: segment.index], call, set(executor.primitives))
         stale = _position_reads(executor, loads(call).union(*(loads(s.node) for s in chain)))
-        named = frozenset(v for v in executor.namespace.values() if isinstance(v, str) and v in self.scene.kinds)
+        named = frozenset(v for v in executor.namespace.values() if isinstance(v, str) and v in self.scene.sizes)
         inp = CheckInput(
             warning=warning,
             obs=executor.session.obs,

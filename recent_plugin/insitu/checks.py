@@ -13,6 +13,7 @@ scene (``rerun``), inserted right after it — what already ran is never repeate
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -20,16 +21,34 @@ import numpy as np
 
 from lerobot_policy_recent.ontology.diagnosis import Warning
 from lerobot_policy_recent.ontology.specs import PATH_ROLE, ApiSpec, Waypoint
-from lerobot_policy_recent.robosuite_envs.observation import Observation
+from lerobot_policy_recent.robosuite_envs.observation import POSITION_SIGMA, Observation
 
-# metres an object may drift from where the skill read it before it counts as moved: above the sensing
-# noise (two reads with sigma 4 mm per axis differ by more than 2 cm once in ~170 checks, by 1.5 cm once
-# in ~14, each a needless LM call) and within what a grasp or a place on a 5 cm block tolerates
-MOVED = 0.02
-LOOSE_KINDS = frozenset({"box", "sphere", "slab", "lid", "rake"})  # what can land somewhere unexpected
-OBSTACLE_KINDS = frozenset({"slab"})  # loose and wider than any gripper: what lands in the way, never what is picked
+FALSE_MOVES = 0.006  # the share of checks on a still object that may call it moved (each a needless patch)
+
+
+def drift_threshold(sigma: float, false_rate: float = FALSE_MOVES) -> float:
+    """Metres two reads of a still object differ by in only ``false_rate`` of checks.
+
+    Each read errs by ``sigma`` per axis, so their difference has ``sigma * sqrt(2)`` per axis and
+    its length follows a chi distribution with 3 degrees of freedom: the threshold is that
+    distribution's ``1 - false_rate`` quantile, from the perception's stated accuracy alone.
+    """
+
+    def tail(r: float) -> float:  # P(chi_3 > r)
+        return math.erfc(r / math.sqrt(2)) + math.sqrt(2 / math.pi) * r * math.exp(-r * r / 2)
+
+    low, high = 0.0, 20.0
+    for _ in range(60):
+        mid = (low + high) / 2
+        low, high = (mid, high) if tail(mid) > false_rate else (low, mid)
+    return high * sigma * math.sqrt(2)
+
+
+# metres an object may drift from where the skill read it before it counts as moved: beyond what the
+# perception's noise explains (about 2 cm at 4 mm), and within what a grasp or a place on a 5 cm block tolerates
+MOVED = drift_threshold(POSITION_SIGMA)
 CLEARANCE = 0.03  # metres around a release target that must be free
-SHIFT = CLEARANCE + 0.075  # metres a swept obstacle's centre moves: past a 10 cm slab's reach of the target
+SWEEP_MARGIN = 0.025  # metres a swept obstacle ends beyond the clearance (it slides on a little, or stops short)
 TABLE_LIMIT = 0.3  # |x|, |y| a swept obstacle may end at (stays on the table)
 FINGER = 0.01  # metres from the hand's centre to the face that pushes
 PUSH_TOLERANCE = 0.03  # metres a pushed object may end from where the push should leave it
@@ -39,10 +58,13 @@ FINGER_DEPTH = 0.02  # metres the fingertips reach below the grasp point
 
 @dataclass(frozen=True)
 class SceneFacts:
-    """What checks know besides the observation: the task's object kinds and sizes."""
+    """What checks know besides the observation, from the workcell's model: which objects are loose (on
+    a free joint, so they can end up somewhere unexpected) and every object's nominal extents. Never
+    what kind an object is: a check decides from geometry and sensing."""
 
-    kinds: dict[str, str]
-    sizes: dict[str, tuple[float, float, float]]
+    loose: frozenset[str]
+    sizes: dict[str, tuple[float, float, float]]  # every object of the scene (perception may report others)
+    task_objects: frozenset[str] = frozenset()  # what the task's instruction names: never clutter to sweep away
     base_xy: tuple[float, float] = (0.0, 0.0)  # the robot's base on the table plane
     reach: float = float("inf")  # metres: the arm's reach (the ontology's upper bound)
     push_path: tuple[Waypoint, ...] = ()  # a push as its hand's path, for robots without one (the ontology's)
@@ -136,7 +158,7 @@ def object_unmoved(inp: CheckInput) -> Violation | None:
 
 
 def object_present(inp: CheckInput) -> Violation | None:
-    missing = sorted(n for n in inp.named if n in inp.scene.kinds and n not in inp.obs.objects)
+    missing = sorted(n for n in inp.named if n in inp.scene.sizes and n not in inp.obs.objects)
     return Violation("object_present", f"not observed: {', '.join(missing)}") if missing else None
 
 
@@ -146,15 +168,15 @@ def target_clear(inp: CheckInput) -> Violation | None:
     if target is None:
         return None
     held = _held(inp)
-    for name, state in _strangers(inp, LOOSE_KINDS, held):
-        size = inp.scene.sizes.get(name, (0.05, 0.05, 0.05))
+    for name, state in _strangers(inp, held):
+        size = extents(inp, name)
         half = max(size[:2]) / 2
-        carried = max((inp.scene.sizes.get(n, (0, 0, 0))[2] / 2 for n in held), default=0.0)
+        carried = max((extents(inp, n)[2] / 2 for n in held), default=0.0)
         # in the way only if its top reaches where the held object's underside will be (not at a bin's bottom)
         reaches_up = state.pos[2] + size[2] / 2 > target[2] - carried - 0.01
         if np.linalg.norm(state.pos[:2] - target[:2]) < half + CLEARANCE and reaches_up:
             statements = sweep_statements(inp, name, held)
-            what = f"{name} ({inp.scene.kinds[name]}, {2 * half:.2f} m wide) lies"
+            what = f"{name} ({_described(size)}) lies"
             return Violation(
                 "target_clear",
                 f"{what} at {_fmt(state.pos)} on the release target {_fmt(target)}",
@@ -174,12 +196,12 @@ def fingers_clear(inp: CheckInput) -> Violation | None:
     if target is None:
         return None
     held = _held(inp)
-    for name, state in _strangers(inp, OBSTACLE_KINDS, held):
-        size = np.asarray(inp.scene.sizes.get(name, (0.1, 0.1, 0.03)), dtype=float)
+    for name, state in _strangers(inp, held):
+        size = np.asarray(extents(inp, name), dtype=float)
         gap = float(np.max(np.abs(np.asarray(state.pos[:2]) - target[:2]) - size[:2] / 2))  # to its nearest face
         if gap < FINGER_SPAN and state.pos[2] + size[2] / 2 > target[2] - FINGER_DEPTH:
             statements = sweep_statements(inp, name, held)
-            what = f"{name} ({inp.scene.kinds[name]}, {max(size[:2]):.2f} m wide) lies"
+            what = f"{name} ({_described(size)}) lies"
             return Violation(
                 "fingers_clear",
                 f"{what} at {_fmt(state.pos)}, {100 * max(gap, 0.0):.1f} cm from the grasp {_fmt(target)}: "
@@ -195,13 +217,29 @@ def _held(inp: CheckInput) -> set[str]:
     return {n for n, s in inp.obs.objects.items() if s.grasped}
 
 
-def _strangers(inp: CheckInput, kinds: frozenset[str], held: set[str]) -> list[tuple[str, object]]:
-    """Objects of ``kinds`` the skill does not name and the hand does not hold (``held``): what may be in the way."""
+def _strangers(inp: CheckInput, held: set[str]) -> list[tuple[str, object]]:
+    """Loose objects neither the skill nor the task names, and the hand does not hold (``held``): clutter
+    that may be in the way. Perception may report an object the workcell's model does not list: it is loose too."""
     return [
         (name, state)
         for name, state in sorted(inp.obs.objects.items())
-        if name not in inp.named and name not in held and inp.scene.kinds.get(name) in kinds
+        if name not in inp.named | inp.scene.task_objects | held
+        and (name in inp.scene.loose or name not in inp.scene.sizes)
     ]
+
+
+def extents(inp: CheckInput, name: str) -> tuple[float, float, float]:
+    """An object's bounding-box extents as perception reports them (the model's nominal ones where it does not)."""
+    state = inp.obs.objects.get(name)
+    if state is not None and np.any(state.size):
+        return tuple(float(v) for v in state.size)
+    return inp.scene.sizes.get(name, (0.05, 0.05, 0.05))
+
+
+def _described(size) -> str:
+    """An obstacle in words, from its bounding box alone: a flat one is a slab, anything else a block."""
+    wide = f"{max(size[:2]):.2f} m wide"
+    return f"slab, {wide}" if size[2] < min(size[:2]) / 2 else f"block, {wide}, {size[2]:.2f} m high"
 
 
 def sweep_statements(inp: CheckInput, obstacle: str, held: set[str]) -> tuple[str, ...]:
@@ -214,21 +252,22 @@ def sweep_statements(inp: CheckInput, obstacle: str, held: set[str]) -> tuple[st
     not reach their start beyond the plate.)
     """
     state = inp.obs.objects[obstacle]
-    size = inp.scene.sizes.get(obstacle, (0.05, 0.05, 0.05))
+    size = extents(inp, obstacle)
     centre, half = np.asarray(state.pos, dtype=float), max(size[:2]) / 2
-    carried = max((inp.scene.sizes.get(n, (0, 0, 0)) for n in held), key=lambda s: s[2], default=None)
+    shift = half + CLEARANCE + SWEEP_MARGIN  # its centre moves this far: its near side ends clear of the target
+    carried = max((extents(inp, n) for n in held), key=lambda s: s[2], default=None)
     bottom = centre[2] - size[2] / 2
     # the held object's lower face (or the closed fingertips, ~2 cm below the grip site) just above the surface
     height = bottom + (0.012 + carried[2] / 2 if carried else 0.025)
     lead = carried[0] / 2 if carried else 0.01  # grip site to the face that touches the obstacle
     others = [
-        (s.pos[:2], np.asarray(inp.scene.sizes.get(n, (0.05, 0.05, 0.05))[:2]) / 2)
+        (s.pos[:2], np.asarray(extents(inp, n)[:2]) / 2)
         for n, s in inp.obs.objects.items()
-        if n != obstacle and n not in held and s.pos[2] + inp.scene.sizes.get(n, (0, 0, 0))[2] / 2 > bottom + 0.005
+        if n != obstacle and n not in held and s.pos[2] + extents(inp, n)[2] / 2 > bottom + 0.005
     ]
 
     def gap(direction: np.ndarray) -> float:
-        end = centre[:2] + direction * SHIFT
+        end = centre[:2] + direction * shift
         if np.any((np.abs(end) + half > TABLE_LIMIT) & (np.abs(end) > np.abs(centre[:2]))):
             return -1.0  # farther out than it is, off the table (where it already lies out there, alongside is fine)
         return min((float(np.max(np.abs(end - pos) - extent - half)) for pos, extent in others), default=1.0)
@@ -236,7 +275,7 @@ def sweep_statements(inp: CheckInput, obstacle: str, held: set[str]) -> tuple[st
     directions = [np.array(d, dtype=float) for d in ((0, 1), (0, -1), (-1, 0))]
     direction = max(directions, key=lambda d: (gap(d) > 0.0 and d[0] == 0, gap(d) > 0.0, gap(d)))
     start = np.array([*(centre[:2] - direction * (half + lead + 0.02)), height])
-    goal = np.array([*(centre[:2] + direction * (SHIFT - half - lead)), height])
+    goal = np.array([*(centre[:2] + direction * (shift - half - lead)), height])
     return _push_calls(inp, start, goal)
 
 
@@ -281,7 +320,7 @@ def within_reach(inp: CheckInput) -> Violation | None:
 
 def _moved_objects(inp: CheckInput) -> list[str]:
     """The loose objects the skill names: what its grasps and pushes act on."""
-    return sorted(n for n in inp.named if inp.scene.kinds.get(n) in LOOSE_KINDS and n in inp.obs.objects)
+    return sorted(n for n in inp.named if n in inp.scene.loose and n in inp.obs.objects)
 
 
 def object_held(inp: CheckInput) -> Violation | None:
@@ -305,7 +344,7 @@ def pushed_to_goal(inp: CheckInput) -> Violation | None:
     direction /= np.linalg.norm(direction)
 
     def miss(name: str) -> tuple[float, np.ndarray]:
-        half = inp.scene.sizes.get(name, (0.05, 0.05, 0.05))[0] / 2
+        half = extents(inp, name)[0] / 2
         expected = goal[:2] + direction * (half + FINGER)
         return float(np.linalg.norm(inp.obs.objects[name].pos[:2] - expected)), expected
 

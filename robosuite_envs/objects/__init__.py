@@ -13,7 +13,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from robosuite.models.objects import BallObject, BoxObject, MujocoObject, MujocoXMLObject
+from robosuite.models.objects import BallObject, BoxObject, CylinderObject, MujocoObject, MujocoXMLObject
 from robosuite.models.objects.composite import Bin
 
 ASSETS = Path(__file__).parent / "assets"
@@ -35,7 +35,12 @@ def _shape(cls, *, density: float = 400.0, friction: float = 1.5, **kwargs):
     """A builder for one of robosuite's generated shapes (``size`` = full extents)."""
 
     def build(name, size, rgba):
-        extents = [size[0] / 2] if cls is BallObject else np.array(size) / 2
+        if cls is BallObject:
+            extents = [size[0] / 2]
+        elif cls is CylinderObject:  # upright: x = y = diameter, z = height
+            extents = [size[0] / 2, size[2] / 2]
+        else:
+            extents = np.array(size) / 2
         return cls(
             name=name, size=extents, rgba=list(rgba), density=density, friction=(friction, 0.005, 0.0001), **kwargs
         )
@@ -46,6 +51,7 @@ def _shape(cls, *, density: float = 400.0, friction: float = 1.5, **kwargs):
 _box = _shape(BoxObject)
 _sphere = _shape(BallObject, friction=1.0)
 _slab = _shape(BoxObject, density=600.0, friction=0.6)
+_post = _shape(CylinderObject, density=600.0, friction=0.6)
 _plate = _shape(BoxObject, friction=1.0, joints=None)
 _region = _shape(BoxObject, joints=None, obj_type="visual")
 
@@ -83,6 +89,8 @@ KINDS: dict[str, ObjectKind] = {
             description="a tool held by its raised handle (0.025 m above its centre); the crossbar is 0.13 m ahead",
         ),
         ObjectKind("slab", _slab, fixed=False, graspable=False, description="a flat block wider than any gripper"),
+        ObjectKind("crate", _slab, fixed=False, graspable=False, description="a box in the way, not to be picked"),
+        ObjectKind("post", _post, fixed=False, graspable=False, description="an upright cylinder in the way"),
         ObjectKind("bin", _bin, fixed=False, graspable=False, description="an open receptacle"),
         ObjectKind("plate", _plate, fixed=True, graspable=False, description="a flat plate to place things on"),
         ObjectKind("region", _region, fixed=True, graspable=False, description="a marked area (no collision)"),
