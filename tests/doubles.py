@@ -9,6 +9,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from lerobot_policy_recent.recent_plugin.infillers.base import Completion
+from lerobot_policy_recent.recent_plugin.refactoring.units import Hints, RefactoringUnit, cut_unit
 
 
 @dataclass
@@ -27,3 +28,20 @@ class ScriptedInfiller:
 
     def count_tokens(self, text):
         return 100
+
+
+def sweep_unit(code: str, before: str, target, sweep: str, observation: str, attempt: int = 0) -> RefactoringUnit:
+    """The in-situ unit a ``target_clear`` check cuts: an empty span right before the statement
+    ``before`` (found in ``code``), whose hints ask for ``sweep`` first."""
+    start = code.index(before)
+    line = code[start : code.index("\n", start)]
+    hints = Hints(
+        target=target,
+        original_call=line,
+        substitute_call=sweep,
+        reason=f"push it off first: {sweep}",
+        observation=observation,
+        feedback="the patch must call another primitive" if attempt else None,
+        attempt=attempt,
+    )
+    return cut_unit(code, start, start, "in_situ_revision", hints)

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import pytest
-from doubles import ScriptedInfiller
+from doubles import ScriptedInfiller, sweep_unit
 
 from lerobot_policy_recent.ontology.diagnosis import diagnose
 from lerobot_policy_recent.recent_plugin.grounding.grounder import ground_skill
@@ -83,22 +83,11 @@ def test_a_run_time_patch_retry_is_held_to_the_statements_its_check_wrote(ontolo
     new arm's push primitive, which the 1.5B otherwise renamed to one the robot lacks)."""
     from llama_cpp import LlamaGrammar
 
-    from lerobot_policy_recent.recent_plugin.refactoring.units import Hints, cut_unit
-
     sweep = "jaco_shove(env, task, begin_xyz=[0.178, 0.069, 0.854], end_xyz=[0.178, -0.056, 0.854])"
-    start = put_in_bin.code.index("    place(") + 4
 
     def prompt(attempt: int):
-        hints = Hints(
-            target=ontology.target("JacoRobotiq85"),
-            original_call='place(env, task, target_pos=drop_pos, approach_axis="z")',
-            substitute_call=sweep,
-            reason=f"push it off first: {sweep}",
-            observation="obstacle lies on the release target",
-            feedback="the patch must call ['jaco_shove'], it calls ['jaco_push']" if attempt else None,
-            attempt=attempt,
-        )
-        return build_prompt(cut_unit(put_in_bin.code, start, start, "in_situ_revision", hints), 0)
+        target, observation = ontology.target("JacoRobotiq85"), "obstacle lies on the release target"
+        return build_prompt(sweep_unit(put_in_bin.code, "place(", target, sweep, observation, attempt), 0)
 
     assert prompt(0).grammar.startswith("root ::= [a-zA-Z_]")
     retry = prompt(1).grammar

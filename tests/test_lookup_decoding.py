@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import pytest
+from doubles import sweep_unit
 
 from lerobot_policy_recent.ontology.diagnosis import diagnose
 from lerobot_policy_recent.recent_plugin.infillers.llamacpp import QWEN
@@ -63,15 +64,9 @@ def test_a_span_ends_where_the_model_ends_it(llama_infiller, ontology):
     """The statement grammar admits the model's end token: an in-situ sweep is the call and nothing
     more (a grammar that demanded the newline ran on with ' # <the call again>' to the length cap)."""
     sweep = "ur5_push_to(env, task, contact_pos=[0.178, 0.069, 0.854], goal_pos=[0.178, -0.056, 0.854])"
-    start = GROUNDED.index("ur5_release_at")
-    hints = Hints(
-        target=ontology.target("UR5e"),
-        original_call="ur5_release_at(env, task, place_pos=drop_pos)",
-        substitute_call=sweep,
-        reason=f"push it off first: {sweep}",
-        observation="obstacle (slab, 0.10 m wide) lies at [0.178, -0.024, 0.834] on the release target",
-    )
-    completion = llama_infiller.infill(cut_unit(GROUNDED, start, start, "in_situ_revision", hints))
+    observation = "obstacle (slab, 0.10 m wide) lies at [0.178, -0.024, 0.834] on the release target"
+    unit = sweep_unit(GROUNDED, "ur5_release_at", ontology.target("UR5e"), sweep, observation)
+    completion = llama_infiller.infill(unit)
     assert completion.text == sweep
     assert completion.generated_tokens <= llama_infiller.count_tokens(sweep) + 1
 
