@@ -96,8 +96,11 @@ class RecentEnv(gym.Env):
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         super().reset(seed=seed)
         variations = episode_variations(self.variations, self.spec_task.task_id, seed)
-        if self._env is not None and self._env.task_spec != apply_build_variations(self.spec_task, variations, seed):
-            self._env.close()  # objects change (mix: non_flat, porous; odd_obstacle per seed): built anew
+        if self._env is not None and (
+            self._env.variations != variations  # mix: another set this episode
+            or self._env.task_spec != apply_build_variations(self.spec_task, variations, seed)  # odd_obstacle per seed
+        ):
+            self._env.close()  # the plan and possibly the objects change: the model is built anew
             self._env = None
         if self._env is None:
             self._env = self._make(seed, variations)

@@ -142,8 +142,16 @@ def test_an_env_with_the_mix_applies_each_episodes_draw():
     from lerobot_policy_recent.robosuite_envs.variations import episode_variations
 
     env = RecentEnv(task="kinematic/cube_on_plate", robot="Panda", render_mode="none", variations="mix")
-    seeds = [s for s in range(40) if "non_flat" in episode_variations(("mix",), "kinematic/cube_on_plate", s)][:1]
-    seeds += [s for s in range(40) if not episode_variations(("mix",), "kinematic/cube_on_plate", s)][:1]
+    seeds = [s for s in range(200) if "non_flat" in episode_variations(("mix",), "kinematic/cube_on_plate", s)][:1]
+    seeds += [s for s in range(200) if not episode_variations(("mix",), "kinematic/cube_on_plate", s)][:1]
+    built = {"non_flat", "porous", "odd_obstacle"}  # then a set that changes no object: the plan must change still
+
+    def plan_only(seed: int) -> bool:
+        drawn = set(episode_variations(("mix",), "kinematic/cube_on_plate", seed))
+        return bool(drawn) and not drawn & built
+
+    seeds += [s for s in range(200) if plan_only(s)][:1]
+    assert len(seeds) == 3
     for seed in seeds:  # a ball in one episode, nothing changed in the next: the model is rebuilt between
         env.reset(seed=seed)
         assert env.episode_variations == episode_variations(("mix",), "kinematic/cube_on_plate", seed)
