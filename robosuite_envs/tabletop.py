@@ -51,6 +51,7 @@ class RecentTabletopEnv(ManipulationEnv):
         self.task_spec = apply_build_variations(task, variations, kwargs.get("seed"))
         self.variations = tuple(variations)
         self._specs = {spec.name: spec for spec in self.task_spec.objects}
+        self._extents = {name: _frozen(spec.size) for name, spec in self._specs.items()}  # read every step: built once
         self._suction_actuator: int | None = None
         self._cup_geom = -1
         self._geom_owner: dict[int, str] = {}
@@ -319,7 +320,7 @@ class RecentTabletopEnv(ManipulationEnv):
                 quat=convert_quat(np.array(self.sim.data.body_xquat[body]), to="xyzw"),
                 grasped=self.holds(spec.name),
                 touching=spec.name in touching,
-                size=np.array(spec.size, dtype=float),
+                size=self._extents[spec.name],
                 state=state,
             )
         return Observation(
@@ -377,6 +378,12 @@ class RecentTabletopEnv(ManipulationEnv):
 
     def reward(self, action=None):
         return self.goal_conditioned_success
+
+
+def _frozen(values) -> np.ndarray:
+    array = np.array(values, dtype=float)
+    array.flags.writeable = False
+    return array
 
 
 def exclude_mount_contacts(robot_model) -> None:
