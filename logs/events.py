@@ -183,6 +183,18 @@ class SubtaskSucceeded(Event):
 
 
 @dataclass(frozen=True)
+class HeldChanged(Event):
+    """The simulator's ground truth of what the gripper holds changed (for replay and failure analysis:
+    the policy never sees it, and infers a grasp from its sensors)."""
+
+    name: ClassVar[str] = "held_changed"
+    held: list[str]  # empty: nothing held
+
+    def summary(self) -> str:
+        return f"ground truth: holding {', '.join(self.held)}" if self.held else "ground truth: nothing held"
+
+
+@dataclass(frozen=True)
 class EpisodeEnded(Event):
     """The per-task result row: SR/GC and the grounding accounting (GO, EI, IT, IGT)."""
 
@@ -227,6 +239,7 @@ EVENT_TYPES: dict[str, type[Event]] = {
         SegmentEnded,
         SegmentFailed,
         SubtaskSucceeded,
+        HeldChanged,
         EpisodeEnded,
     )
 }

@@ -3,7 +3,8 @@
 Foxglove protobuf schemas where one fits — ``/tf`` (``FrameTransforms``: end effector and every
 object in ``world``), ``/log`` (``Log``: every event, by level), ``/joint_states`` (``JointStates``:
 the arm's joint positions and velocities, and the gripper opening), ``/camera/front`` (``CompressedImage``) — and JSON schemas with stable names
-(``recent.<event>``) for grounding events on ``/recent/<event>`` and the action on ``/action``.
+(``recent.<event>``) for grounding events on ``/recent/<event>``, the action on ``/action`` and the
+gripper's sensors (finger contacts, object detection, vacuum, end-effector contact) on ``/gripper_sensors``.
 Messages are written unchunked and the file is flushed after every step and event, so a killed
 process loses at most the step in flight; ``recent logs verify --recover`` rewrites such a file
 with its summary.
@@ -30,13 +31,24 @@ from mcap_protobuf.schema import build_file_descriptor_set
 from lerobot_policy_recent.logs.events import EVENT_TYPES, Stamped, Step, json_schema
 from lerobot_policy_recent.logs.layout import LogLayout
 from lerobot_policy_recent.robosuite_envs.embodiments import arm_dof
-from lerobot_policy_recent.robosuite_envs.observation import MAX_ARM_DOF, SLOT_DIM
+from lerobot_policy_recent.robosuite_envs.observation import (
+    GRIPPER_SENSORS,
+    JOINTS_AT,
+    MAX_ARM_DOF,
+    SENSORS_AT,
+    SLOT_DIM,
+)
 
 LOG_LEVELS = {"debug": Log.DEBUG, "info": Log.INFO, "warning": Log.WARNING, "error": Log.ERROR}
 ACTION_SCHEMA = {
     "title": "recent.action",
     "type": "object",
     "properties": {"frame_index": {"type": "integer"}, "action": {"type": "array"}, "sim_time": {"type": "number"}},
+}
+SENSORS_SCHEMA = {
+    "title": "recent.gripper_sensors",
+    "type": "object",
+    "properties": {name: {"type": "number"} for name in GRIPPER_SENSORS},
 }
 
 
@@ -96,6 +108,8 @@ class McapSink:
         )
         joints = JointStates(timestamp=stamp, joints=_joint_states(step.state, f.arm_dof))
         self._write(f, "/joint_states", "protobuf", joints.SerializeToString(), t, JointStates)
+        sensors = dict(zip(GRIPPER_SENSORS, step.state[SENSORS_AT:JOINTS_AT].tolist(), strict=True))
+        self._write(f, "/gripper_sensors", "json", json.dumps(sensors).encode(), t, "gripper_sensors")
         action = {"frame_index": step.frame_index, "sim_time": step.sim_time, "action": step.action.tolist()}
         self._write(f, "/action", "json", json.dumps(action).encode(), t, "action")
         if step.image is not None:
@@ -137,7 +151,8 @@ def _register(writer: Writer, topic: str, encoding: str, schema) -> int:
             data=build_file_descriptor_set(schema).SerializeToString(),
         )
     else:
-        body = ACTION_SCHEMA if schema == "action" else json_schema(EVENT_TYPES[schema])
+        fixed = {"action": ACTION_SCHEMA, "gripper_sensors": SENSORS_SCHEMA}
+        body = fixed[schema] if schema in fixed else json_schema(EVENT_TYPES[schema])
         schema_id = writer.register_schema(name=body["title"], encoding="jsonschema", data=json.dumps(body).encode())
     return writer.register_channel(topic=topic, message_encoding=encoding, schema_id=schema_id)
 
@@ -156,7 +171,9 @@ def _transform(stamp: Timestamp, child: str, pos: np.ndarray, quat_xyzw: np.ndar
 def _joint_states(state: np.ndarray, arm_dof: int) -> list[JointState]:
     """The arm's joints (``joint0`` .. in the robot's order) and the gripper, from the state vector."""
     joints = [
-        JointState(name=f"joint{i}", position=float(state[8 + i]), velocity=float(state[8 + MAX_ARM_DOF + i]))
+        JointState(
+            name=f"joint{i}", position=float(state[JOINTS_AT + i]), velocity=float(state[JOINTS_AT + MAX_ARM_DOF + i])
+        )
         for i in range(min(arm_dof, MAX_ARM_DOF))
     ]
     return [*joints, JointState(name="gripper", position=float(state[7]))]

@@ -28,7 +28,15 @@ from lerobot_policy_recent.logs.events import EVENT_TYPES, Stamped, Step
 from lerobot_policy_recent.logs.layout import LogLayout, episode_name
 from lerobot_policy_recent.logs.readers import mcap_messages, read_table
 from lerobot_policy_recent.logs.rerun_sink import RerunSink
-from lerobot_policy_recent.robosuite_envs.observation import AGENT_POS_DIM, ENV_STATE_DIM, MAX_ARM_DOF, SLOT_DIM
+from lerobot_policy_recent.robosuite_envs.observation import (
+    AGENT_POS_DIM,
+    ENV_STATE_DIM,
+    GRIPPER_SENSORS,
+    JOINTS_AT,
+    MAX_ARM_DOF,
+    SENSORS_AT,
+    SLOT_DIM,
+)
 
 
 def replay_episode(root: str | Path, episode: int, out: Path) -> Path:
@@ -110,7 +118,7 @@ def mcap_episode(path: Path) -> tuple[list[Stamped], list[Step]]:
 
     A step is whole once its ``/action`` message is there (``/tf`` and ``/joint_states`` precede it);
     a step cut short by a crash is dropped. The state fields no MCAP topic carries (an object's
-    grasped/touched/height/state) are zero: the Rerun recording does not show them.
+    extents and state) are zero: the Rerun recording does not show them.
     """
     from foxglove_schemas_protobuf.CompressedImage_pb2 import CompressedImage
     from foxglove_schemas_protobuf.FrameTransforms_pb2 import FrameTransforms
@@ -121,6 +129,7 @@ def mcap_episode(path: Path) -> tuple[list[Stamped], list[Step]]:
     steps: list[Step] = []
     poses: dict[str, tuple[list[float], list[float]]] = {}
     joints: dict[str, tuple[float, float]] = {}
+    sensors: dict[str, float] = {}
     objects: list[str] = []
     for m in messages:
         if m.topic.startswith("/recent/"):
@@ -138,9 +147,11 @@ def mcap_episode(path: Path) -> tuple[list[Stamped], list[Step]]:
             }
         elif m.topic == "/joint_states":
             joints = {j.name: (j.position, j.velocity) for j in JointStates.FromString(m.data).joints}
+        elif m.topic == "/gripper_sensors":
+            sensors = json.loads(m.data)
         elif m.topic == "/action" and stamped:
             action = json.loads(m.data)
-            state, environment = _state_vectors(poses, joints, objects)
+            state, environment = _state_vectors(poses, joints, sensors, objects)
             steps.append(
                 Step(
                     stamped[0].episode_index,
@@ -160,15 +171,19 @@ def mcap_episode(path: Path) -> tuple[list[Stamped], list[Step]]:
 
 
 def _state_vectors(
-    poses: dict[str, tuple[list[float], list[float]]], joints: dict[str, tuple[float, float]], objects: list[str]
+    poses: dict[str, tuple[list[float], list[float]]],
+    joints: dict[str, tuple[float, float]],
+    sensors: dict[str, float],
+    objects: list[str],
 ) -> tuple[np.ndarray, np.ndarray]:
-    """``agent_pos`` and ``environment_state`` as far as the MCAP's poses and joints give them."""
+    """``agent_pos`` and ``environment_state`` as far as the MCAP's poses, joints and sensors give them."""
     state = np.zeros(AGENT_POS_DIM, dtype=np.float32)
     if "eef" in poses:
         state[0:3], state[3:7] = poses["eef"]
     state[7] = joints.get("gripper", (0.0, 0.0))[0]
+    state[SENSORS_AT:JOINTS_AT] = [sensors.get(name, 0.0) for name in GRIPPER_SENSORS]
     for i in range(MAX_ARM_DOF):
-        state[8 + i], state[8 + MAX_ARM_DOF + i] = joints.get(f"joint{i}", (0.0, 0.0))
+        state[JOINTS_AT + i], state[JOINTS_AT + MAX_ARM_DOF + i] = joints.get(f"joint{i}", (0.0, 0.0))
     environment = np.zeros(ENV_STATE_DIM, dtype=np.float32)
     for slot, name in enumerate(objects):
         if name in poses:  # an object is on /tf while it is present

@@ -26,7 +26,15 @@ import rerun.blueprint as rrb
 from lerobot_policy_recent.logs.events import EpisodeStarted, InfillCall, PatchApplied, Stamped, Step
 from lerobot_policy_recent.logs.layout import episode_name
 from lerobot_policy_recent.robosuite_envs.embodiments import arm_dof
-from lerobot_policy_recent.robosuite_envs.observation import ACTION_NAMES, JOINT_POS_NAMES, MAX_ARM_DOF, SLOT_DIM
+from lerobot_policy_recent.robosuite_envs.observation import (
+    ACTION_NAMES,
+    GRIPPER_SENSORS,
+    JOINT_POS_NAMES,
+    JOINTS_AT,
+    MAX_ARM_DOF,
+    SENSORS_AT,
+    SLOT_DIM,
+)
 from lerobot_policy_recent.robosuite_envs.primitives.session import CONTROL_FREQ
 
 BATCH = 64  # steps buffered before they are sent as one column chunk
@@ -45,6 +53,7 @@ def blueprint() -> rrb.Blueprint:
             rrb.Vertical(
                 rrb.TimeSeriesView(name="actions", origin="action"),
                 rrb.TimeSeriesView(name="gripper", origin="gripper"),
+                rrb.TimeSeriesView(name="gripper sensors", origin="gripper_sensors"),
                 rrb.TimeSeriesView(name="arm joints (rad)", origin="joints"),
                 rrb.TimeSeriesView(name="LM latency (s)", origin="grounding"),
             ),
@@ -85,6 +94,7 @@ class RerunSink:
         joints = arm_dof(event.robot, MAX_ARM_DOF)
         rec.log("action", rr.SeriesLines(names=list(ACTION_NAMES)), static=True)
         rec.log("joints", rr.SeriesLines(names=list(JOINT_POS_NAMES[:joints])), static=True)
+        rec.log("gripper_sensors", rr.SeriesLines(names=list(GRIPPER_SENSORS)), static=True)
         self._episodes[start.episode_index] = _Episode(rec, list(event.object_names), joints)
         self.event(start)
 
@@ -140,7 +150,10 @@ class RerunSink:
         states = np.stack([s.state for s in steps])
         rec.send_columns("action", index, rr.Scalars.columns(scalars=np.stack([s.action for s in steps])))
         rec.send_columns("gripper", index, rr.Scalars.columns(scalars=states[:, 7]))
-        rec.send_columns("joints", index, rr.Scalars.columns(scalars=states[:, 8 : 8 + episode.arm_dof]))
+        rec.send_columns("gripper_sensors", index, rr.Scalars.columns(scalars=states[:, SENSORS_AT:JOINTS_AT]))
+        rec.send_columns(
+            "joints", index, rr.Scalars.columns(scalars=states[:, JOINTS_AT : JOINTS_AT + episode.arm_dof])
+        )
         rec.send_columns("world/eef", index, rr.Points3D.columns(positions=states[:, 0:3]))
         positions, labels, counts = [], [], []
         for s in steps:

@@ -6,7 +6,7 @@ import time
 from collections import Counter
 from dataclasses import dataclass, field, fields
 
-from lerobot_policy_recent.logs.events import EpisodeEnded, SubtaskSucceeded, ignore
+from lerobot_policy_recent.logs.events import EpisodeEnded, HeldChanged, SubtaskSucceeded, ignore
 from lerobot_policy_recent.logs.recorder import Recorder
 from lerobot_policy_recent.recent_plugin.agent import EpisodeGrounding, RecentAgent
 from lerobot_policy_recent.recent_plugin.executor import SkillFailure, TaskExecutor
@@ -244,7 +244,7 @@ def _run(
         started_event = agent.started_event(task_id, robot, seed, ",".join(env.episode_variations))
         episode = recorder.start_episode(started_event)
     bar = _bar(env._max_episode_steps, progress, f"{task_id} on {robot}")
-    success, steps, settled, info, done = False, 0, 0, {}, 0
+    success, steps, settled, info, done, held = False, 0, 0, {}, 0, ()
     try:
         executor, grounding = agent.start_episode(
             task_id,
@@ -265,6 +265,9 @@ def _run(
             if episode is not None and info["subtasks_done"] > done:
                 done = info["subtasks_done"]
                 episode.emit(SubtaskSucceeded(done - 1, done, len(env.spec_task.plan)))
+            if episode is not None and info["held"] != held:
+                held = info["held"]
+                episode.emit(HeldChanged(list(held)))
             settled = settled + 1 if executor.finished else 0
             if (terminated and not to_completion) or truncated or settled > SETTLE_STEPS:
                 break

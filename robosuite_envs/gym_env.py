@@ -137,11 +137,14 @@ class RecentEnv(gym.Env):
         return self._observation(), info["gc"], info["is_success"], truncated, info
 
     def _info(self) -> dict:
-        """``is_success``: every plan step achieved; ``gc``: the fraction achieved (goal-conditioned)."""
+        """``is_success``: every plan step achieved; ``gc``: the fraction achieved (goal-conditioned);
+        ``held``: the simulator's ground truth of what the gripper holds (for logs, never the policy)."""
+        truth = self._env.observe().truth
         return {
             "is_success": bool(self._env._check_success()),
             "gc": self._env.goal_conditioned_success,
             "subtasks_done": int(sum(self._env.achieved)),
+            "held": tuple(sorted(truth.held)) if truth is not None else (),
         }
 
     def render(self):

@@ -1,7 +1,8 @@
 """The subtask library: what each subtask means, as a success predicate over an observation.
 
-Predicates read only the :class:`~lerobot_policy_recent.robosuite_envs.observation.Observation` (true object poses,
-grasp flags, articulation state) and the task's object sizes, so the env can latch per-subtask
+Predicates read only the env's exact :class:`~lerobot_policy_recent.robosuite_envs.observation.Observation` (true
+object poses, articulation state, and its :class:`~lerobot_policy_recent.robosuite_envs.observation.GroundTruth`:
+what the gripper holds) and the task's object sizes, so the env can latch per-subtask
 success for goal-conditioned success (GC) and anyone holding a recorded observation can recompute it.
 Families and categories mirror the paper's two evaluation suites.
 """
@@ -51,6 +52,11 @@ def _half(task: TaskSpec, name: str) -> np.ndarray:
     return np.array(task.spec(name).size) / 2
 
 
+def held(obs: Observation, name: str) -> bool:
+    """The simulator's answer: the gripper holds ``name`` (an observation without ground truth holds nothing)."""
+    return obs.truth is not None and name in obs.truth.held
+
+
 def _xy_within(state: ObjectState, centre: np.ndarray, half: float | np.ndarray) -> bool:
     return bool(np.all(np.abs(state.pos[:2] - centre[:2]) < half))
 
@@ -61,7 +67,7 @@ def rests_on(task: TaskSpec, obs: Observation, obj: str, support: str, *, xy_tol
     base_half, obj_half = _half(task, support), _half(task, obj)
     tol = xy_tol if xy_tol is not None else np.maximum(base_half[:2], 0.02)
     on_top = abs((state.pos[2] - obj_half[2]) - (base.pos[2] + base_half[2])) < 0.02
-    return _xy_within(state, base.pos, tol) and on_top and not state.grasped
+    return _xy_within(state, base.pos, tol) and on_top and not held(obs, obj)
 
 
 def on_table(task: TaskSpec, obs: Observation, obj: str) -> bool:
@@ -70,19 +76,19 @@ def on_table(task: TaskSpec, obs: Observation, obj: str) -> bool:
 
 def in_region(task: TaskSpec, obs: Observation, obj: str, region: str) -> bool:
     state = obs.objects[obj]
-    return _xy_within(state, obs.objects[region].pos, _half(task, region)[:2]) and not state.grasped
+    return _xy_within(state, obs.objects[region].pos, _half(task, region)[:2]) and not held(obs, obj)
 
 
 # ------------------------------------------------------------------ predicates
 def _pick_and_lift(task, obs, a):
     state = obs.objects[a["obj"]]
-    return state.grasped and state.pos[2] > TABLE_Z + _half(task, a["obj"])[2] + 0.06
+    return held(obs, a["obj"]) and state.pos[2] > TABLE_Z + _half(task, a["obj"])[2] + 0.06
 
 
 def _put_in_bin(task, obs, a):
     state, centre = obs.objects[a["obj"]], obs.objects[a["receptacle"]].pos
     half = _half(task, a["receptacle"])
-    return _xy_within(state, centre, half[:2] - 0.01) and state.pos[2] < centre[2] + half[2] and not state.grasped
+    return _xy_within(state, centre, half[:2] - 0.01) and state.pos[2] < centre[2] + half[2] and not held(obs, a["obj"])
 
 
 def _place_on(task, obs, a):
@@ -105,7 +111,7 @@ def _insert_peg(task, obs, a):
     peg, hole = obs.objects[a["peg"]], obs.objects[a["hole"]]
     hole_top = hole.pos[2] + task.spec(a["hole"]).size[2]
     bottom = peg.pos[2] - _half(task, a["peg"])[2]
-    return _xy_within(peg, hole.pos, 0.012) and bottom < hole_top - 0.02 and not peg.grasped
+    return _xy_within(peg, hole.pos, 0.012) and bottom < hole_top - 0.02 and not held(obs, a["peg"])
 
 
 def _drag_with_tool(task, obs, a):
@@ -127,7 +133,7 @@ def _close_drawer(task, obs, a):
 def _put_in_drawer(task, obs, a):
     state, knob = obs.objects[a["obj"]], obs.objects[a["drawer"]].pos
     tray = knob + DRAWER_TRAY_OFFSET
-    return _xy_within(state, tray, DRAWER_TRAY_HALF) and state.pos[2] < knob[2] and not state.grasped
+    return _xy_within(state, tray, DRAWER_TRAY_HALF) and state.pos[2] < knob[2] and not held(obs, a["obj"])
 
 
 def _open_hinged_box(task, obs, a):
@@ -147,7 +153,7 @@ def _arrange_in_row(task, obs, a):
     names = [a["first"], a["second"], a["third"]]
     for name, dy in zip(names, ROW_SLOTS, strict=True):
         state = obs.objects[name]
-        if not _xy_within(state, row + np.array([0.0, dy, 0.0]), 0.025) or state.grasped:
+        if not _xy_within(state, row + np.array([0.0, dy, 0.0]), 0.025) or held(obs, name):
             return False
     for i, first in enumerate(names):  # "without contact": a visible gap between neighbours
         for second in names[i + 1 :]:
@@ -160,8 +166,7 @@ def _arrange_in_row(task, obs, a):
 def _sweep_into_pen(task, obs, a):
     pen = obs.objects[a["pen"]].pos
     return all(
-        _xy_within(obs.objects[a[role]], pen, PEN_HALF) and not obs.objects[a[role]].grasped
-        for role in ("first", "second")
+        _xy_within(obs.objects[a[role]], pen, PEN_HALF) and not held(obs, a[role]) for role in ("first", "second")
     )
 
 

@@ -22,7 +22,7 @@ from lerobot_policy_recent.robosuite_envs.grippers import (
     SuctionGripper,  # also registers our gripper models with robosuite
 )
 from lerobot_policy_recent.robosuite_envs.objects import get_kind
-from lerobot_policy_recent.robosuite_envs.observation import ObjectState, Observation
+from lerobot_policy_recent.robosuite_envs.observation import GroundTruth, ObjectState, Observation
 from lerobot_policy_recent.robosuite_envs.primitives.session import CONTROL_FREQ
 from lerobot_policy_recent.robosuite_envs.subtasks import TABLE_Z, get_subtask
 from lerobot_policy_recent.robosuite_envs.tasks import ObjectSpec, TaskSpec
@@ -56,6 +56,7 @@ class RecentTabletopEnv(ManipulationEnv):
         self._cup_geom = -1
         self._geom_owner: dict[int, str] = {}
         self._gripper_geoms: frozenset[int] = frozenset()
+        self._robot_root = -1  # the robot's root body: contacts with its own links are not sensed
         self._finger_pads: tuple[frozenset[int], ...] = ()
         self._contact_cache: tuple[tuple[int, float] | None, Counter[tuple[int, int]]] = (None, Counter())
         self._adhesion_gain = 0.0
@@ -123,6 +124,7 @@ class RecentTabletopEnv(ManipulationEnv):
             model.geom_name2id(geom): name for name, obj in self._objects.items() for geom in obj.contact_geoms
         }
         self._gripper_geoms = frozenset(model.geom_name2id(g) for g in gripper.contact_geoms)
+        self._robot_root = int(model.body_rootid[model.body_name2id(robot.robot_model.root_body)])
         self._finger_pads = tuple(
             frozenset(model.geom_name2id(g) for g in gripper.important_geoms[side])
             for side in ("left_fingerpad", "right_fingerpad")
@@ -281,7 +283,8 @@ class RecentTabletopEnv(ManipulationEnv):
 
     # ----------------------------------------------------------- observation
     def observe(self) -> Observation:
-        """The true state primitives may use: end effector, gripper opening, object poses, grasps.
+        """The exact state: end effector, gripper sensors, object poses, and the simulator's own
+        answers (:class:`GroundTruth`: what is held and touched) for success predicates and logs.
 
         Computed once per simulated instant: robosuite's ``step`` asks for the reward, the gym
         wrapper for success and for the observation — all read the same snapshot.
@@ -292,8 +295,9 @@ class RecentTabletopEnv(ManipulationEnv):
         return self._snapshot[1]
 
     def sensed(self) -> Observation:
-        """What the robot's sensors report: the true state plus the ``sensing_noise`` variation."""
-        obs = self.observe()
+        """What the robot's sensors report: the exact state without the simulator's answers, plus the
+        ``sensing_noise`` variation on perceived positions."""
+        obs = replace(self.observe(), truth=None)
         if not self.plan.noise_sigma:
             return obs
         noisy = {
@@ -308,6 +312,7 @@ class RecentTabletopEnv(ManipulationEnv):
         site = robot.eef_site_id[arm]
         eef_quat = mat2quat(np.array(self.sim.data.site_xmat[site]).reshape(3, 3))
         objects, touching = {}, self._touching()
+        held = frozenset(name for name in self._specs if name not in self._parked and self.holds(name))
         for spec in self.task_spec.objects:
             if spec.name in self._parked:
                 continue
@@ -318,8 +323,6 @@ class RecentTabletopEnv(ManipulationEnv):
             objects[spec.name] = ObjectState(
                 pos=np.array(self.sim.data.body_xpos[body]),
                 quat=convert_quat(np.array(self.sim.data.body_xquat[body]), to="xyzw"),
-                grasped=self.holds(spec.name),
-                touching=spec.name in touching,
                 size=self._extents[spec.name],
                 state=state,
             )
@@ -330,6 +333,11 @@ class RecentTabletopEnv(ManipulationEnv):
             objects=objects,
             joint_pos=np.array(self.sim.data.qpos[robot._ref_arm_joint_pos_indexes]),
             joint_vel=np.array(self.sim.data.qvel[robot._ref_arm_joint_vel_indexes]),
+            finger_contact=tuple(self._pad_contact(pads) for pads in self._finger_pads) or (False, False),
+            object_detected=bool(held),
+            vacuum=1.0 if self._seal is not None else 0.0,
+            eef_contact=bool(touching - held),
+            truth=GroundTruth(held=held, touching=frozenset(touching)),
         )
 
     def gripper_opening(self) -> float:
@@ -364,6 +372,13 @@ class RecentTabletopEnv(ManipulationEnv):
     def _touching(self) -> set[str]:
         """Objects any gripper geom touches."""
         return {self._geom_owner[b] for a, b in self._contacts() if a in self._gripper_geoms and b in self._geom_owner}
+
+    def _pad_contact(self, pads: frozenset[int]) -> bool:
+        """A finger pad's tactile reading: it touches anything that is not the robot itself."""
+        return any(
+            a in pads and self.sim.model.body_rootid[self.sim.model.geom_bodyid[b]] != self._robot_root
+            for a, b in self._contacts()
+        )
 
     def _pad_touches(self, pads: frozenset[int], name: str) -> bool:
         return any(a in pads and self._geom_owner.get(b) == name for a, b in self._contacts())

@@ -7,7 +7,13 @@ import pytest
 
 from lerobot_policy_recent.robosuite_envs.embodiments import get_embodiment
 from lerobot_policy_recent.robosuite_envs.gym_env import RecentEnv
-from lerobot_policy_recent.robosuite_envs.observation import AGENT_POS_DIM, AGENT_POS_NAMES, ENV_STATE_DIM, MAX_ARM_DOF
+from lerobot_policy_recent.robosuite_envs.observation import (
+    AGENT_POS_DIM,
+    AGENT_POS_NAMES,
+    ENV_STATE_DIM,
+    JOINTS_AT,
+    MAX_ARM_DOF,
+)
 from lerobot_policy_recent.robosuite_envs.tasks import parse_task_string
 
 
@@ -21,7 +27,12 @@ def env():
 def test_observation_layout_and_task_string(env):
     obs, info = env.reset(seed=0)
     assert obs["agent_pos"].shape == (AGENT_POS_DIM,) and obs["environment_state"].shape == (ENV_STATE_DIM,)
-    assert env.observation_space.contains(obs) and info == {"is_success": False, "gc": 0.0, "subtasks_done": 0}
+    assert env.observation_space.contains(obs) and info == {
+        "is_success": False,
+        "gc": 0.0,
+        "subtasks_done": 0,
+        "held": (),
+    }
     assert parse_task_string(env.task_description)[:2] == ("cube_in_bin", "UR5e")
     env.reset(seed=42)  # each env of a vectorised lerobot-eval tells the policy its own seed
     assert parse_task_string(env.task_description) == ("cube_in_bin", "UR5e", 42) and env.task == env.task_description
@@ -35,11 +46,13 @@ def test_arm_joint_states_are_observed_and_padded(env):
     robot = env._env.robots[0]
     dof = get_embodiment("UR5e").arm_dof
     assert dof == len(robot.robot_arm_joints) == 6 and len(AGENT_POS_NAMES) == AGENT_POS_DIM
-    q = obs["agent_pos"][8 : 8 + MAX_ARM_DOF]
+    q = obs["agent_pos"][JOINTS_AT : JOINTS_AT + MAX_ARM_DOF]
     np.testing.assert_allclose(q[:dof], env._env.sim.data.qpos[robot._ref_arm_joint_pos_indexes], atol=1e-6)
     assert q[dof:].tolist() == [0.0] * (MAX_ARM_DOF - dof)
     moved, *_ = env.step(np.array([0.5, 0, 0, 0, 0, 0, -1.0]))
-    assert np.abs(moved["agent_pos"][8 + MAX_ARM_DOF : 8 + MAX_ARM_DOF + dof]).max() > 1e-3  # velocities read too
+    assert (
+        np.abs(moved["agent_pos"][JOINTS_AT + MAX_ARM_DOF : JOINTS_AT + MAX_ARM_DOF + dof]).max() > 1e-3
+    )  # velocities read too
 
 
 def test_same_seed_same_scene_other_seed_other_scene(env):

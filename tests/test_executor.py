@@ -18,8 +18,8 @@ def _obs(eef=(0.0, 0.0, 1.0), cube=(0.0, -0.1, 0.82)) -> Observation:
         eef_quat=np.array([1.0, 0.0, 0.0, 0.0]),
         gripper_opening=0.0,
         objects={
-            "cube": ObjectState(np.array(cube), np.array([0, 0, 0, 1.0]), False),
-            "bin": ObjectState(np.array([0.0, 0.2, 0.84]), np.array([0, 0, 0, 1.0]), False),
+            "cube": ObjectState(np.array(cube), np.array([0, 0, 0, 1.0])),
+            "bin": ObjectState(np.array([0.0, 0.2, 0.84]), np.array([0, 0, 0, 1.0])),
         },
     )
 

@@ -188,8 +188,7 @@ def observed(**positions) -> Observation:
     """An observation of still, ungrasped objects at ``positions`` (name -> [x, y, z]); their extents
     unreported, so checks take the scene's."""
     states = {
-        name: ObjectState(np.array(pos, dtype=float), np.array([0, 0, 0, 1.0]), False)
-        for name, pos in positions.items()
+        name: ObjectState(np.array(pos, dtype=float), np.array([0, 0, 0, 1.0])) for name, pos in positions.items()
     }
     return Observation(np.zeros(3), np.array([0, 0, 0, 1.0]), 0.0, states)
 
@@ -253,9 +252,7 @@ def test_checks_decide_from_geometry_not_from_kind_names():
     """A post the workcell never listed, reported by perception with its own extents, on the release target:
     it is clutter (loose, named by neither skill nor task) and is swept off by its own width."""
     scene = SceneFacts(frozenset({"cube"}), {"cube": (0.05, 0.05, 0.05)}, task_objects=frozenset({"cube"}))
-    post = ObjectState(
-        np.array([0.178, -0.024, 0.87]), np.array([0, 0, 0, 1.0]), False, size=np.array([0.06, 0.06, 0.09])
-    )
+    post = ObjectState(np.array([0.178, -0.024, 0.87]), np.array([0, 0, 0, 1.0]), size=np.array([0.06, 0.06, 0.09]))
     obs = Observation(np.zeros(3), np.array([0, 0, 0, 1.0]), 0.0, {"post": post})
     args, roles = {"place_pos": [0.178, -0.024, 0.854]}, {"place_pos": "release_target"}
     violation = target_clear(CheckInput(None, obs, args, roles, frozenset(), {}, scene, UR5E))
@@ -446,7 +443,8 @@ def test_an_object_the_hand_holds_has_not_moved_out_from_under_the_skill():
     from dataclasses import replace
 
     scene = SceneFacts(frozenset({"red"}), {"red": (0.05, 0.05, 0.05)})
-    obs = observed(red=[0.1, -0.05, 0.93])
-    obs.objects["red"] = replace(obs.objects["red"], grasped=True)
+    obs = observed(red=[0.1, -0.05, 0.93])  # the gripper reports an object, and the grip site is inside the block
+    obs.objects["red"] = replace(obs.objects["red"], size=np.array([0.05, 0.05, 0.05]))
+    obs = replace(obs, eef_pos=np.array([0.1, -0.05, 0.935]), object_detected=True)
     inp = CheckInput(None, obs, {}, {}, frozenset({"red"}), {"obj_pos": ("red", [0.1, -0.05, 0.83])}, scene, UR5E)
     assert object_unmoved(inp) is None

@@ -95,6 +95,8 @@ def test_rerun_opens_the_mcap(run):
     root, _ = run
     entities = {chunk.entity_path for chunk in McapReader(str(LogLayout(root).mcap(0))).stream().collect().stream()}
     assert {"/tf", "/log", "/joint_states", "/action", "/recent/patch_applied", "/recent/check_verdict"} <= entities
+    # the simulator's ground truth of the grasp goes to the logs (never to the policy), beside what the gripper sensed
+    assert {"/recent/held_changed", "/gripper_sensors"} <= entities
 
 
 def test_rerun_recording_matches_the_mcap(run):
@@ -131,7 +133,8 @@ def test_datasets_load_and_join_on_episode_index(run):
     assert int(frame["episode_index"]) == 0 and int(frame["frame_index"]) == patch["frame_index"]
     np.testing.assert_allclose(frames[0]["action"].numpy(), read_mcap_action(layout.mcap(0)), atol=1e-6)
     features = frames.meta.features
-    assert features["observation.state"]["names"][7:9] == ["gripper_opening", "joint0_pos"]
+    assert features["observation.state"]["names"][7:9] == ["gripper_opening", "finger_contact_left"]
+    assert features["observation.state"]["names"][12:14] == ["eef_contact", "joint0_pos"]
     assert features["observation.state"]["names"][-1] == "joint6_vel"
     assert features["observation.environment_state"]["names"][:3] == ["slot0_x", "slot0_y", "slot0_z"]
     assert features["action"]["names"][-1] == "gripper"

@@ -84,7 +84,7 @@ def test_panda_reference_skill_achieves_the_subtask(subtask, panda_agent):
 def test_success_is_latched_per_subtask_in_plan_order():
     env = RecentEnv(task="kinematic/plate_then_button", robot="Panda", render_mode="none")
     obs, info = env.reset(seed=0)
-    assert info == {"is_success": False, "gc": 0.0, "subtasks_done": 0}
+    assert info == {"is_success": False, "gc": 0.0, "subtasks_done": 0, "held": ()}
     inner = env._env
     inner._latched_state["button"] = 1.0  # the button pressed first does not count: the plate comes first
     inner._snapshot = None  # observe the pressed button now
@@ -214,7 +214,7 @@ def test_an_odd_obstacle_is_a_drawn_shape_size_and_mass_that_lands_on_the_target
         row = obs["environment_state"][_slot(env, "obstacle")]
         plate = inner.observe().objects["plate"].pos
         assert row[7] == 1.0 and np.linalg.norm(row[:2] - plate[:2]) < 0.04  # landed on the target
-        np.testing.assert_allclose(row[10:13], odd.size, atol=1e-6)  # size_x, size_y, height as drawn
+        np.testing.assert_allclose(row[8:11], odd.size, atol=1e-6)  # size_x, size_y, height as drawn
     assert draws[7].kind == "post" and draws[3].kind == "slab"
     env.close()
 
@@ -278,7 +278,7 @@ def test_a_seal_that_fails_mid_carry_drops_the_object_and_never_holds_it_again(p
     env = RecentEnv(task="kinematic/cube_in_bin", robot="Suction", render_mode="none", variations="seal_failure")
     result = run_episode(panda_agent, "kinematic/cube_in_bin", "Suction", seed=DEV_SEEDS[0], env=env)
     assert env._env._leaked == {"cube"} and env._env.plan.leak_object == "cube" and LEAK_AFTER_STEPS == 30
-    assert not result.success and not env._env.observe().objects["cube"].grasped
+    assert not result.success and "cube" not in env._env.observe().truth.held
     env.close()
     assert run_episode(panda_agent, "kinematic/cube_in_bin", "Suction", seed=DEV_SEEDS[0]).success
 
@@ -333,9 +333,9 @@ def test_a_release_aimed_below_where_the_load_comes_to_rest_sets_it_down_instead
     try:
         block = session.obs.objects["red"].pos.copy()
         run(control.suction_grasp_at(session, block))
-        assert session.obs.objects["red"].grasped
+        assert session.obs.held() == "red" and session.obs.vacuum == 1.0  # what the cup's sensor and perception say
         run(control.release_at(session, [block[0] + 0.1, block[1], block[2] - 0.012], hanging_load=True))
         placed = session.obs.objects["red"]
-        assert not placed.grasped and abs(placed.pos[2] - block[2]) < 0.005  # on the table, 10 cm over
+        assert session.obs.held() is None and abs(placed.pos[2] - block[2]) < 0.005  # on the table, 10 cm over
     finally:
         env.close()

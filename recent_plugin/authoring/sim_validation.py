@@ -22,9 +22,10 @@ from lerobot_policy_recent.skills.records import ValidationRecord
 from lerobot_policy_recent.skills.repository import Skill
 
 
-# Testable conditions of skill metadata, read off an observation of the plan's objects.
+# Testable conditions of skill metadata, read off the env's exact observation (its ground truth included):
+# validation judges the skill, as a success predicate does, and is not the robot's own guess.
 def _holding(obs: Observation) -> bool:
-    return any(state.grasped for state in obs.objects.values())
+    return obs.truth is not None and bool(obs.truth.held)
 
 
 PRECONDITION_CHECKS = {
@@ -68,8 +69,8 @@ def validate(skill: Skill, seeds: tuple[int, ...] = SEEDS, *, agent=None, on_epi
 
 def _validate_once(skill: Skill, agent, env: RecentEnv, task_id: str, seed: int, objects: list[str]) -> str:
     """Empty string when the seed passes, else why it did not."""
-    raw, _ = env.reset(seed=seed)
-    first = Observation.decode(raw["agent_pos"], raw["environment_state"], env.spec_task.object_names())
+    env.reset(seed=seed)
+    first = env._env.observe()
     for condition in skill.preconditions:
         check = PRECONDITION_CHECKS.get(condition)
         if check and not check(first, objects):
@@ -80,7 +81,7 @@ def _validate_once(skill: Skill, agent, env: RecentEnv, task_id: str, seed: int,
         return f"[{failure.category}] line {failure.line}: {failure.message}"
     if not result.success:
         return f"the {skill.subtask} success predicate never held"
-    last = env._env.observe()  # the true state, not the sensed one
+    last = env._env.observe()
     for condition in skill.effects:
         check = EFFECT_CHECKS.get(condition)
         if check and not check(last, objects):

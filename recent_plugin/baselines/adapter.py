@@ -137,5 +137,5 @@ def describe_scene(obs: Observation, *, raw: bool = False) -> str:
     ]
     if raw:
         parts.append(f"end effector at [{numbers(obs.eef_pos)}] quat [{numbers(obs.eef_quat)}]")
-    held = [name for name, state in obs.objects.items() if state.grasped]
-    return "; ".join(parts) + (f"; holding {', '.join(held)}" if held else "")
+    held = obs.held()
+    return "; ".join(parts) + (f"; holding {held}" if held else "")

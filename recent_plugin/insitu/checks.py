@@ -129,7 +129,7 @@ def moved_reads(
     out = []
     for variable, (name, then) in sorted(stale_reads.items()):
         state = obs.objects.get(name)
-        if state is None or state.grasped:
+        if state is None or name == obs.held():
             continue
         drift = float(np.linalg.norm(np.asarray(state.pos) - np.asarray(then)))
         if drift > MOVED:
@@ -214,7 +214,9 @@ def fingers_clear(inp: CheckInput) -> Violation | None:
 
 
 def _held(inp: CheckInput) -> set[str]:
-    return {n for n, s in inp.obs.objects.items() if s.grasped}
+    """What the grip holds, as the robot infers it from its gripper's sensors and perception."""
+    held = inp.obs.held()
+    return set() if held is None else {held}
 
 
 def _strangers(inp: CheckInput, held: set[str]) -> list[tuple[str, object]]:
@@ -326,7 +328,7 @@ def _moved_objects(inp: CheckInput) -> list[str]:
 def object_held(inp: CheckInput) -> Violation | None:
     """After a grasp: one of the objects the skill names is held."""
     candidates = _moved_objects(inp)
-    if not candidates or any(inp.obs.objects[n].grasped for n in candidates):
+    if not candidates or inp.obs.held() in candidates:
         return None
     where = "; ".join(f"{n} at {_fmt(inp.obs.objects[n].pos)}" for n in candidates)
     return Violation("object_held", f"nothing held after the grasp ({where})", rerun=True)

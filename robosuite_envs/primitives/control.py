@@ -107,11 +107,13 @@ def move_to(
     if settle and err < tol:
         return
     stalled = last is not None and float(np.linalg.norm(session.obs.eef_pos - last)) < SETTLED
-    blockers = sorted(name for name, s in session.obs.objects.items() if s.touching and not s.grasped)
-    load = sorted(name for name, s in session.obs.objects.items() if s.grasped)
-    if stalled and (blockers or load):  # pressing on something, or carrying a load that rests on something
+    blocked, load = session.obs.eef_contact, session.obs.held()
+    if stalled and (blocked or load):  # pressing on something, or carrying a load that rests on something
+        near = session.obs.in_contact()
         why = (
-            f"held up by {', '.join(blockers)}" if blockers else f"with {', '.join(load)} in hand resting on something"
+            f"held up by contact{' with ' + near[0] if near else ''}"
+            if blocked
+            else f"with {load} in hand resting on something"
         )
         raise PrimitiveFailure(
             "waypoint_blocked", f"the arm stopped {err * 100:.1f} cm short of {np.round(goal, 3).tolist()}, {why}"
@@ -157,10 +159,9 @@ def load_rests(session: RobotSession, goal: np.ndarray, trail: Sequence[np.ndarr
 
 
 def resting_above(session: RobotSession, goal: np.ndarray, tol: float = POS_TOL) -> bool:
-    """The tool touches an object it does not hold, right above ``goal``: it cannot get any lower."""
+    """The tool touches something besides what it holds, right above ``goal``: it cannot get any lower."""
     error = goal - session.obs.eef_pos
-    touching = any(s.touching and not s.grasped for s in session.obs.objects.values())
-    return touching and error[2] < 0 and float(np.linalg.norm(error[:2])) < tol
+    return session.obs.eef_contact and error[2] < 0 and float(np.linalg.norm(error[:2])) < tol
 
 
 def actuate_gripper(
@@ -229,8 +230,8 @@ def grasp_at(
     yield from move_to(session, target, timeout_s=timeout_s / 2, tol=0.006)
     yield from actuate_gripper(session, 1.0)
     yield from move_to(session, above, timeout_s=timeout_s / 2, settle=True)
-    held = [name for name, state in session.obs.objects.items() if state.grasped]
-    if not held or (object_name is not None and object_name not in held):
+    held = session.obs.held()
+    if held is None or (object_name is not None and held != object_name):
         raise PrimitiveFailure("grasp_lost", f"nothing is held after grasping at {np.round(target, 3).tolist()}")
 
 
@@ -251,7 +252,7 @@ def suction_grasp_at(session: RobotSession, position: Sequence[float], *, timeou
     yield from descend_until_contact(session, target, timeout_s=timeout_s / 2)
     yield from actuate_gripper(session, 1.0, duration_s=0.3, max_duration_s=0.5)
     yield from move_to(session, above, timeout_s=timeout_s / 2, settle=True)
-    if not any(state.grasped for state in session.obs.objects.values()):
+    if not session.obs.object_detected:  # the vacuum sensor reads no seal
         raise PrimitiveFailure(
             "grasp_lost",
             f"suction did not hold anything at {np.round(target, 3).tolist()} (no seal: surface not flat, porous, or missed)",
@@ -261,12 +262,12 @@ def suction_grasp_at(session: RobotSession, position: Sequence[float], *, timeou
 def descend_until_contact(
     session: RobotSession, target: np.ndarray, *, timeout_s: float = 5.0, overshoot: float = 0.01, press_steps: int = 3
 ) -> Steps:
-    """Lower towards ``target`` (and ``overshoot`` below it) until the end effector touches an object,
+    """Lower towards ``target`` (and ``overshoot`` below it) until the end effector's contact sensor fires,
     then press on for ``press_steps`` so a cup's whole face comes down on the surface."""
     goal = np.array(target) - np.array([0.0, 0.0, overshoot])
     pressed = 0
     for _ in range(max(1, int(timeout_s * CONTROL_FREQ))):
-        if any(state.touching for state in session.obs.objects.values()):
+        if session.obs.eef_contact:
             if pressed >= press_steps:
                 return
             pressed += 1
@@ -332,9 +333,9 @@ def orientation_error(session: RobotSession) -> float:
 
 
 def held_position(session: RobotSession) -> np.ndarray | None:
-    """The held object's centre (None when nothing is held)."""
-    held = [state.pos for state in session.obs.objects.values() if state.grasped]
-    return np.asarray(held[0], dtype=np.float64) if held else None
+    """The held object's perceived centre (None when nothing is held)."""
+    held = session.obs.held()
+    return None if held is None else np.asarray(session.obs.objects[held].pos, dtype=np.float64)
 
 
 def held_offset(session: RobotSession) -> np.ndarray:
