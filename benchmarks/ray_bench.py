@@ -40,7 +40,7 @@ def scaling(workers: list[int], seeds: tuple[int, ...], out: Path) -> list[dict]
     for n in workers:
         config = BenchConfig(
             out=out / f"workers_{n}",
-            suites=("kinematic",),
+            suites=("kinematic-v1",),
             targets=("UR5e",),
             methods=("recent", "recent-no-insitu"),
             seeds=seeds,
@@ -85,7 +85,7 @@ def costs(tasks: tuple[str, ...], out: Path) -> dict:
 
     config = BenchConfig(
         out=out / "lm",
-        suites=("kinematic",),
+        suites=("kinematic-v1",),
         targets=("UR5e",),
         methods=("recent",),
         tasks=tasks,

@@ -29,7 +29,7 @@ from lerobot_policy_recent.robosuite_envs.calibrate import calibration
 from lerobot_policy_recent.robosuite_envs.observation import Observation
 from lerobot_policy_recent.robosuite_envs.suites import get_task
 from lerobot_policy_recent.robosuite_envs.tasks import TaskSpec
-from lerobot_policy_recent.skills.repository import LIBRARY, Skill, serve_skill
+from lerobot_policy_recent.skills.repository import LIBRARY, Skill, serve_skill, task_calls
 
 log = logging.getLogger(__name__)
 
@@ -149,9 +149,17 @@ class RecentAgent:
             grounding_code_digest(),  # the prompts and checks of this version of the package
         )
 
-    def budget(self) -> CallBudget | None:
-        """A fresh per-task LM call budget (None for the rule backend: it makes no LM calls)."""
-        return None if self.lm.name == "rule" else CallBudget(self.settings.max_lm_calls)
+    def budget(self, task: TaskSpec) -> CallBudget | None:
+        """A fresh LM call budget for ``task`` (None for the rule backend: it makes no LM calls):
+        ``max_lm_calls``, or for a task that scales it, as many calls per primitive call of its
+        reference skills if that is more (a paper-length task has a span per call to ground)."""
+        if self.lm.name == "rule":
+            return None
+        limit = self.settings.max_lm_calls
+        if limit and task.lm_calls_per_primitive:
+            calls = task_calls([step.skill for step in task.plan], self.library).primitives
+            limit = max(limit, task.lm_calls_per_primitive * calls)
+        return CallBudget(limit)
 
     def episode_lm(self, budget: CallBudget | None, seed: int | None = None) -> Infiller:
         """The method's infiller over the LM for one episode: every LM call taken from ``budget``, and
@@ -192,7 +200,7 @@ class RecentAgent:
         started = time.perf_counter()
         task = get_task(task_id)
         report = EpisodeGrounding(task_id=task_id, robot=robot)
-        budget = self.budget()
+        budget = self.budget(task)
         plan, cached = [], []
         for step in task.plan:
             grounded, hit = self.ground(step.skill, target, task, budget, seed)

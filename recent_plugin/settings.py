@@ -27,7 +27,9 @@ class RecentSettings:
     method: Method = field(default_factory=Recent)  # RECENT, one of its ablations, or a baseline
     max_retries: int = 2  # retries per rejected span
     max_repairs: int = 2  # reactive repairs of failed segments, per skill
-    max_lm_calls: int = 24  # LM calls per task, grounding and run time together, the same for every method; 0: no limit
+    # LM calls per task, grounding and run time together, the same for every method; 0: no limit. A paper-length
+    # task gets TaskSpec.lm_calls_per_primitive calls per primitive call of its skills where that is more
+    max_lm_calls: int = 24
     lm_seed: int = 0  # the LM's sampling seed (the episode seed is the env's)
     temperature: float = 0.0  # 0: greedy; above 0: seeded sampling, each episode seeded by lm_seed and its own seed
     max_skill_steps: int = 3000  # control steps a skill may take before it is stopped

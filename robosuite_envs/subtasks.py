@@ -27,6 +27,9 @@ LID_OPEN, LID_CLOSED = 1.2, 0.08  # radians
 ROW_SLOTS = (-0.1, 0.0, 0.1)  # y offsets of the three slots along a row marker
 PEN_HALF = 0.085  # interior half-width of the pen, minus a wall's thickness
 WIPED = 0.8  # fraction of a wipe area's cells the end effector must pass over
+BOX_INNER_HALF = 0.06  # half the hinged box's interior, inside its walls
+CLEARED = ("first", "second", "third", "fourth")  # clear_into_bin's objects
+PRESSED = ("first", "second", "third")  # press_buttons' buttons, in the order they are pressed
 
 
 @dataclass(frozen=True)
@@ -95,7 +98,8 @@ def _place_on(task, obs, a):
     return rests_on(task, obs, a["obj"], a["target"])
 
 
-def _push_to_region(task, obs, a):
+def _lies_in_region(task, obs, a):
+    """Pushed, dragged or set down: the object lies on the table inside the region."""
     return in_region(task, obs, a["obj"], a["region"]) and on_table(task, obs, a["obj"])
 
 
@@ -112,10 +116,6 @@ def _insert_peg(task, obs, a):
     hole_top = hole.pos[2] + task.spec(a["hole"]).size[2]
     bottom = peg.pos[2] - _half(task, a["peg"])[2]
     return _xy_within(peg, hole.pos, 0.012) and bottom < hole_top - 0.02 and not held(obs, a["peg"])
-
-
-def _drag_with_tool(task, obs, a):
-    return in_region(task, obs, a["obj"], a["region"]) and on_table(task, obs, a["obj"])
 
 
 def _wipe_area(task, obs, a):
@@ -163,6 +163,25 @@ def _arrange_in_row(task, obs, a):
     return True
 
 
+def _clear_into_bin(task, obs, a):
+    return all(_put_in_bin(task, obs, {"obj": a[role], "receptacle": a["receptacle"]}) for role in CLEARED)
+
+
+def _press_buttons(task, obs, a):
+    return all(obs.objects[a[role]].state > 0.5 for role in PRESSED)
+
+
+def _fill_drawer(task, obs, a):
+    return all(_put_in_drawer(task, obs, {"obj": a[role], "drawer": a["drawer"]}) for role in ("first", "second"))
+
+
+def _fill_box(task, obs, a):
+    """Inside the box's walls, below its rim, let go (``box`` is observed at its bottom centre)."""
+    state, base = obs.objects[a["obj"]], obs.objects[a["box"]].pos
+    rim = base[2] + task.spec(a["box"]).size[2]
+    return _xy_within(state, base, BOX_INNER_HALF) and state.pos[2] < rim and not held(obs, a["obj"])
+
+
 def _sweep_into_pen(task, obs, a):
     pen = obs.objects[a["pen"]].pos
     return all(
@@ -176,7 +195,7 @@ SUBTASKS: dict[str, Subtask] = {
         Subtask("pick_and_lift", "kinematic", "single-object manipulation", ("obj",),
                 "grasp an object and hold it at least 6 cm above the table", _pick_and_lift),
         Subtask("push_to_region", "kinematic", "single-object manipulation", ("obj", "region"),
-                "push an object along the table into a marked region", _push_to_region),
+                "push an object along the table into a marked region", _lies_in_region),
         Subtask("put_in_bin", "kinematic", "inter-object manipulation", ("obj", "receptacle"),
                 "put an object into an open bin", _put_in_bin),
         Subtask("place_on_plate", "kinematic", "inter-object manipulation", ("obj", "target"),
@@ -190,9 +209,19 @@ SUBTASKS: dict[str, Subtask] = {
         Subtask("insert_peg", "kinematic", "precision interaction", ("peg", "hole"),
                 "insert a peg at least 2 cm deep into a square hole", _insert_peg),
         Subtask("drag_with_tool", "kinematic", "tool use", ("obj", "tool", "region"),
-                "drag a far object into a region with a rake", _drag_with_tool),
+                "drag a far object into a region with a rake", _lies_in_region),
         Subtask("wipe_area", "kinematic", "tool use", ("area",),
                 "wipe a marked area of the table with the closed gripper", _wipe_area),
+        Subtask("move_to_region", "kinematic", "single-object manipulation", ("obj", "region"),
+                "pick an object up and set it down inside a marked region", _lies_in_region),
+        Subtask("clear_into_bin", "kinematic", "inter-object manipulation", (*CLEARED, "receptacle"),
+                "put four objects into an open bin, one per corner", _clear_into_bin),
+        Subtask("press_buttons", "kinematic", "precision interaction", PRESSED,
+                "press three buttons one after another (a panel: power, channel, volume)", _press_buttons),
+        Subtask("fill_drawer", "end_effector", "object placement", ("first", "second", "drawer"),
+                "put two objects into an open drawer, one behind the other", _fill_drawer),
+        Subtask("fill_box", "end_effector", "articulated objects", ("obj", "box"),
+                "put an object into a hinged box whose lid is open", _fill_box),
         Subtask("put_in_drawer", "end_effector", "object placement", ("obj", "drawer"),
                 "put an object into an open drawer", _put_in_drawer),
         Subtask("open_drawer", "end_effector", "articulated objects", ("drawer",),

@@ -362,10 +362,10 @@ class RecentTabletopEnv(ManipulationEnv):
         by the grasp, touch and vacuum-seal checks."""
         key = (self._episode, self.sim.data.time)
         if self._contact_cache[0] != key:
-            pairs: Counter[tuple[int, int]] = Counter()
-            for contact in self.sim.data.contact[: self.sim.data.ncon]:
-                pairs[(contact.geom1, contact.geom2)] += 1
-                pairs[(contact.geom2, contact.geom1)] += 1
+            contacts = self.sim.data.contact  # the ncon active contacts, as arrays (no MjContact per point)
+            first, second = contacts.geom1.tolist(), contacts.geom2.tolist()
+            pairs: Counter[tuple[int, int]] = Counter(zip(first, second, strict=True))
+            pairs.update(zip(second, first, strict=True))
             self._contact_cache = (key, pairs)
         return self._contact_cache[1]
 

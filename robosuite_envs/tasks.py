@@ -50,6 +50,9 @@ class TaskSpec:
     plan: tuple[PlanStep, ...]
     max_steps: int = 400
     suite: str = ""
+    # LM calls the task's budget allows per primitive call of its reference skills (0: the flat budget
+    # alone); a long task then affords one call per span and as many retries
+    lm_calls_per_primitive: int = 0
 
     def object_names(self) -> list[str]:
         return [o.name for o in self.objects]

@@ -29,8 +29,15 @@ def register(sub) -> None:
     show = actions.add_parser("show", help="code, metadata and last validation of one skill")
     show.add_argument("name")
     show.set_defaults(handler=_show)
-    check = actions.add_parser("validate", help="run skills on Panda over the five seeds and record the outcome")
+    check = actions.add_parser("validate", help="run skills on Panda over five seeds and record the outcome")
     check.add_argument("--skill", action="append", help="a skill to validate (repeatable; default: all)")
+    check.add_argument(
+        "--seeds",
+        choices=("paper", "dev"),
+        default="paper",
+        help="the paper's five seeds (every record of the -v1 suites' skills), or the five dev seeds (the skills "
+        "of the paper-length suites' new subtasks: the paper's seeds are the test split's)",
+    )
     check.set_defaults(handler=_validate)
     gen = actions.add_parser(
         "generate",
@@ -103,13 +110,16 @@ def _show(args) -> int:
 def _validate(args) -> int:
     from tqdm import tqdm
 
+    from lerobot_policy_recent.robosuite_envs.splits import DEV_SEEDS
+
     names = args.skill or list_skills()
     skills = [load_skill(name) for name in names]  # unknown names fail before anything runs
+    seeds = DEV_SEEDS if args.seeds == "dev" else SEEDS
     failed = []
-    with tqdm(total=len(SEEDS) * len(skills), unit="episode", desc="validate") as bar:
+    with tqdm(total=len(seeds) * len(skills), unit="episode", desc="validate") as bar:
         for skill in skills:
             bar.set_postfix_str(skill.name)
-            record = validate(skill, on_episode=lambda seed, reason: bar.update(1))
+            record = validate(skill, seeds, on_episode=lambda seed, reason: bar.update(1))
             save_record(record)
             if not record.validated:
                 failed.append(f"{skill.name}: {record.failures}")

@@ -27,7 +27,7 @@ from lerobot_policy_recent.recent_plugin.infillers.configs import RuleConfig  # 
 from lerobot_policy_recent.recent_plugin.settings import RecentSettings  # noqa: E402
 
 SLICE = dict(
-    suites=("kinematic",),
+    suites=("kinematic-v1",),
     targets=("UR5e",),
     methods=("recent", "recent-no-insitu"),
     tasks=("cube_on_plate",),

@@ -280,6 +280,15 @@ def test_recent_is_held_to_the_same_budget(ontology):
         "put_in_bin", "UR5e", get_task("cube_in_bin"), budget=CallBudget(3)
     )
     assert not grounded.valid and len(infiller.units) == 3  # 11 attempts allowed per span, 3 calls per task
+    assert "after 3 attempt(s): the task's LM call budget is spent" in grounded.verdict.message  # not the LM's doing
+
+
+def test_a_paper_length_task_budgets_two_lm_calls_per_primitive_call(ontology):
+    """The flat budget (24) would not cover one call per span of a 51-call task; the -v1 tasks keep it."""
+    agent = RecentAgent(RecentSettings(infiller=RuleConfig()), ontology=ontology, infiller=ScriptedInfiller([]))
+    assert agent.budget(get_task("kinematic/serve_then_clear")).limit == 2 * 51
+    assert agent.budget(get_task("kinematic/tidy_bench")).limit == 24  # kinematic-v1: 10 calls
+    assert agent.budget(get_task("kinematic/lift_panel_bin")).limit == 2 * 20
 
 
 @pytest.mark.slow

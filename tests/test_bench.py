@@ -13,7 +13,7 @@ from lerobot_policy_recent.scripts.cli import main
 
 RUN = [
     "bench",
-    "--suite=kinematic",
+    "--suite=kinematic-v1",
     "--tasks=cube_on_plate",
     "--target=UR5e",
     "--method=recent,recent-no-insitu",
@@ -46,15 +46,15 @@ def test_every_episode_has_a_record_and_results_json_aggregates_them(bench_dir):
     results = json.loads((bench_dir / "results.json").read_text())
     assert results["backend"] == "rule" and results["seeds"] == [0, 1] and results["machine"]["cores"]
     assert results["command"].startswith("recent bench") and results["runs"][-1]["command"] == results["command"]
-    setting = results["by_setting"]["recent|kinematic"]
+    setting = results["by_setting"]["recent|kinematic-v1"]
     assert setting["episodes"] == 2 and set(setting) >= {"sr", "gc", "go", "ei", "it", "igt"}
     assert setting["sr_ci95"] == [100.0, 100.0] and "gc_ci95" in setting
-    assert results["paired"]["recent vs recent-no-insitu|kinematic"]["sr_diff"] == 100.0
+    assert results["paired"]["recent vs recent-no-insitu|kinematic-v1"]["sr_diff"] == 100.0
     assert results["engine"] == "ray" and results["workers"] >= 1 and results["model_sha256"] is None  # rule: no model
     assert "recent|UR5e|kinematic/cube_on_plate" in results["by_task"]
     assert all(r["split"] == "dev" for r in records) and set(results["by_split"]) == {
-        "recent|kinematic|dev",
-        "recent-no-insitu|kinematic|dev",
+        "recent|kinematic-v1|dev",
+        "recent-no-insitu|kinematic-v1|dev",
     }
     from lerobot_policy_recent.logs.readers import dataset_lengths
 
@@ -86,7 +86,7 @@ def test_a_rerun_is_compared_episode_by_episode_with_the_run_it_reproduces(bench
     assert main(["bench", "compare", str(bench_dir), str(rerun)]) == 3  # 1 of 4 episodes: not "reproduced"
     text = capsys.readouterr().out
     assert "**Verdict: partial.** 1 of 1 shared episodes reproduced" in text and "(25.0 %; at least 100 %" in text
-    assert "Reference episodes the re-run lacks (3):" in text and "- recent-no-insitu kinematic UR5e" in text
+    assert "Reference episodes the re-run lacks (3):" in text and "- recent-no-insitu kinematic-v1 UR5e" in text
     assert main(["bench", "compare", str(bench_dir), str(rerun), "--min-coverage=0.25"]) == 0
     assert "**Verdict: reproduced.**" in capsys.readouterr().out
 
@@ -96,7 +96,7 @@ def test_a_rerun_is_compared_episode_by_episode_with_the_run_it_reproduces(bench
     assert main(["bench", "compare", str(bench_dir), str(rerun), "--min-coverage=0.25"]) == 1
     text = capsys.readouterr().out
     assert "0 of 1 shared episodes reproduced" in text
-    assert "| recent | kinematic | UR5e | kinematic/cube_on_plate | 1 | success: True → False; steps:" in text
+    assert "| recent | kinematic-v1 | UR5e | kinematic/cube_on_plate | 1 | success: True → False; steps:" in text
 
     assert main(["bench", "compare", str(bench_dir), str(tmp_path / "nowhere")]) == 2  # named, not a traceback
 
@@ -105,13 +105,13 @@ def test_report_renders_tables_checks_and_plots(bench_dir, tmp_path, capsys):
     assert main(["bench", "report", str(bench_dir), "--out", str(tmp_path)]) == 0
     report = (tmp_path / "report.md").read_text()
     assert "| **recent** | 100.0 ± 0.0 [100.0, 100.0] |" in report  # main table: SR ± std over seeds [95 % CI]
-    assert "| recent vs recent-no-insitu | kinematic | 2 | +100.0 [+100.0, +100.0] |" in report  # paired
+    assert "| recent vs recent-no-insitu | kinematic-v1 | 2 | +100.0 [+100.0, +100.0] |" in report  # paired
     assert "| paper: recent (7B) | 73.00 | 81.76 | 7.85 | 0.72 | 1.77 |" in report
     assert "| **recent-no-insitu** | 0.0 ± 0.0 [0.0, 0.0] |" in report  # ablation table
     assert "- `recent-no-insitu`: SR (%) expected lower: -100.00 ✓" in report
     # the rule backend has no LM: the paper's targets are listed with their values, never ticked
     assert "not checked against the paper's targets: the rule backend has no LM" in report
-    assert "- kinematic: SR 100.0% (target ≥ 73.0%) (not checked)" in report
+    assert "- kinematic-v1: SR" not in report  # the paper's targets are for the paper-length suites only
     assert "| episode: motion_planning |" in report  # failure categories per method (a place held up by the obstacle)
     assert "No held-out test episode in these runs: every number above is a dev number." in report
     for png in ("sr_vs_go.png", "failures_by_method.png"):
@@ -232,7 +232,7 @@ def test_a_crashed_episode_is_no_result_and_is_retried_on_request(tmp_path, caps
     out = tmp_path / "crash"
     one = [
         "bench",
-        "--suite=kinematic",
+        "--suite=kinematic-v1",
         "--tasks=cube_in_bin",
         "--target=UR5e",
         "--seeds=0",

@@ -8,6 +8,7 @@ import shutil
 import pytest
 
 from lerobot_policy_recent.recent_plugin.authoring.sim_validation import validate
+from lerobot_policy_recent.robosuite_envs.splits import DEV_SEEDS
 from lerobot_policy_recent.robosuite_envs.suites import SEEDS
 from lerobot_policy_recent.skills.records import load_record
 from lerobot_policy_recent.skills.repository import (
@@ -26,7 +27,9 @@ def test_every_stored_skill_passed_validate_on_all_five_seeds_with_its_current_c
         skill, record = load_skill(name), load_record(name)
         assert record is not None, f"{name}: no validation record"
         assert record.code_sha256 == skill.code_sha256, f"{name}: edited since validation"
-        assert record.robot == "Panda" and sorted(record.passed) == sorted(SEEDS) == sorted(record.seeds), name
+        assert record.robot == "Panda" and sorted(record.passed) == sorted(record.seeds), name
+        # the -v1 suites' skills on the paper's seeds; those of the paper-length suites' subtasks on the dev seeds
+        assert sorted(record.seeds) in (sorted(SEEDS), sorted(DEV_SEEDS)), name
         assert serve_skill(name).code == skill.code
 
 
@@ -77,7 +80,7 @@ def test_skills_list_json_has_the_documented_fields(capsys):
     assert {r["name"] for r in rows} == set(list_skills())
     for row in rows:
         assert set(row) == {"name", "subtask", "validated", "code_sha256", "seeds_passed"}
-        assert row["validated"] and row["seeds_passed"] == sorted(SEEDS)
+        assert row["validated"] and row["seeds_passed"] in (sorted(SEEDS), sorted(DEV_SEEDS))
 
 
 def test_skills_show_prints_code_metadata_and_last_validation(capsys):

@@ -45,7 +45,7 @@ def check_config(
     targets = tuple(dict.fromkeys((SOURCE_EMBODIMENT, *robots)))
     return BenchConfig(
         out=out,
-        suites=("kinematic",),
+        suites=("kinematic-v1",),  # the canonical tasks are single subtasks of the earlier suite
         targets=targets,
         methods=("recent",),
         seeds=seeds,

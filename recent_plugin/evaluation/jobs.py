@@ -23,7 +23,11 @@ from lerobot_policy_recent.robosuite_envs.embodiments import EMBODIMENTS
 from lerobot_policy_recent.robosuite_envs.splits import SPLITS, split_of
 from lerobot_policy_recent.robosuite_envs.suites import SEEDS, get_suite
 
-SUITE_TARGETS = {"kinematic": ("UR5e", "Sawyer"), "end_effector": ("Robotiq85", "Suction")}
+SUITE_TARGETS = {
+    suite + version: targets
+    for suite, targets in (("kinematic", ("UR5e", "Sawyer")), ("end_effector", ("Robotiq85", "Suction")))
+    for version in ("", "-v1")
+}
 
 
 @dataclass(frozen=True)

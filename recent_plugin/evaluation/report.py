@@ -26,7 +26,8 @@ from lerobot_policy_recent.recent_plugin.evaluation.metrics import (
 )
 from lerobot_policy_recent.recent_plugin.evaluation.runner import load_records
 
-SETTINGS = ("kinematic", "end_effector")
+SETTINGS = ("kinematic", "end_effector")  # the paper's two settings; a suite is one of them or its -v1
+SUITE_ORDER = (*SETTINGS, *(f"{s}-v1" for s in SETTINGS))
 MAIN_METRICS = ("sr", "gc", "go", "ei", "it")
 HEADLINE_METHODS = ("recent", "recent+fast-path")  # the rows the headline targets are checked on
 ABLATION_METRICS = ("sr", "go", "ei", "it")
@@ -57,7 +58,7 @@ def _ordered(methods) -> list[str]:
 
 
 def main_table(records: list[dict]) -> str:
-    settings = [s for s in SETTINGS if any(r["suite"] == s for r in records)]
+    settings = [s for s in SUITE_ORDER if any(r["suite"] == s for r in records)]
     by = {k: summarize(v) for k, v in group(records, lambda r: (r["method"], r["suite"])).items()}
     head = "| method | " + " | ".join(f"{s}: {LABELS[m]}" for s in settings for m in MAIN_METRICS) + " |"
     lines = [head, "|---|" + "---:|" * (len(settings) * len(MAIN_METRICS))]
@@ -67,7 +68,7 @@ def main_table(records: list[dict]) -> str:
         lines.append(f"| **{method}** | " + " | ".join(cells) + " |")
     for method in methods:
         if method in PAPER_MAIN:
-            cells = [f"{v:.2f}" for s in settings for v in PAPER_MAIN[method][s]]
+            cells = [f"{v:.2f}" for s in settings for v in PAPER_MAIN[method][s.removesuffix("-v1")]]
             lines.append(f"| paper: {method} (7B) | " + " | ".join(cells) + " |")
     return "\n".join(lines)
 
@@ -242,7 +243,7 @@ def plot_sr_vs_go(records: list[dict], path: Path) -> Path:
     import matplotlib.pyplot as plt
     from matplotlib.ticker import FuncFormatter
 
-    suites = [s for s in SETTINGS if any(r["suite"] == s for r in records)] or ["(none)"]
+    suites = [s for s in SUITE_ORDER if any(r["suite"] == s for r in records)] or ["(none)"]
     fig, axes = _figure((4.2 * len(suites) + 2.8, 4.6), cols=len(suites), sharey=True)
     axes = axes if len(suites) > 1 else [axes]
     cmap = plt.get_cmap("tab10")

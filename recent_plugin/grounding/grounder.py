@@ -165,11 +165,17 @@ def ground_skill(
     pending = list(diagnosis.conflicts)
     while pending:
         conflict = pending.pop()  # last first: earlier offsets stay valid
+        made = len(result.calls)
         accepted = _resolve(result, conflict, pending, target, infiller, apis, max_retries)
         if accepted is None:
+            tried = len(result.calls) - made
+            why = (
+                f"after {max_retries + 1} attempts"
+                if tried > max_retries
+                else f"after {tried} attempt(s): the task's LM call budget is spent"  # no further call was made
+            )
             result.verdict = unrecoverable(
-                result,
-                f"unrecoverable: could not ground {conflict.original!r} at line {conflict.span.line} after {max_retries + 1} attempts",
+                result, f"unrecoverable: could not ground {conflict.original!r} at line {conflict.span.line} {why}"
             )
             result.seconds = time.perf_counter() - started
             return result
