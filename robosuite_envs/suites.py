@@ -111,7 +111,9 @@ SWEEP = (
 
 # the paper-length suites' scenes: more objects, so that a task can chain up to five subtasks
 KITCHEN = (
-    *WORKBENCH[:4],
+    *WORKBENCH[:2],
+    ObjectSpec("bin", "bolted_bin", (0.05, 0.17), (0.2, 0.2, 0.08), 0.0, WOOD),  # bolted down: no contacts to solve
+    WORKBENCH[3],
     ObjectSpec("zone", "region", (-0.05, -0.3), (0.1, 0.1, 0.001), 0.0, MARK),
     ObjectSpec("can", "box", (-0.18, -0.1), (0.04, 0.04, 0.04), 0.015, YELLOW),
     ObjectSpec("dice", "box", (-0.22, 0.0), (0.04, 0.04, 0.04), 0.015, BLUE),

@@ -68,6 +68,21 @@ def _bin(name, size, rgba):
     )
 
 
+class BoltedBin(Bin):
+    """robosuite's ``Bin`` without its free joint: a bin bolted to the bench. A free bin's base and four
+    walls rest on the table with four contact points each, which the solver resolves every step; a
+    fixed one has none (a paper-length scene simulates within the env's speed target with it)."""
+
+    def _get_geom_attrs(self):
+        return {**super()._get_geom_attrs(), "joints": None}
+
+
+def _bolted_bin(name, size, rgba):
+    return BoltedBin(
+        name=name, bin_size=size, wall_thickness=0.01, transparent_walls=False, use_texture=False, rgba=rgba
+    )
+
+
 def _xml(asset: str, *, free: bool = False):
     def build(name, size, rgba):
         return MujocoXMLObject(str(ASSETS / asset), name=name, joints="default" if free else None, obj_type="all")
@@ -92,6 +107,9 @@ KINDS: dict[str, ObjectKind] = {
         ObjectKind("crate", _slab, fixed=False, graspable=False, description="a box in the way, not to be picked"),
         ObjectKind("post", _post, fixed=False, graspable=False, description="an upright cylinder in the way"),
         ObjectKind("bin", _bin, fixed=False, graspable=False, description="an open receptacle"),
+        ObjectKind(
+            "bolted_bin", _bolted_bin, fixed=True, graspable=False, description="an open receptacle bolted down"
+        ),
         ObjectKind("plate", _plate, fixed=True, graspable=False, description="a flat plate to place things on"),
         ObjectKind("region", _region, fixed=True, graspable=False, description="a marked area (no collision)"),
         ObjectKind(
