@@ -161,10 +161,11 @@ CLEAR = {"first": "cube", "second": "block", "third": "can", "fourth": "dice", "
 
 # The paper's length: 3-5 subtasks per task, its four subtask categories across the suite.
 KINEMATIC = (
-    task(K, "serve_then_clear", "Move the red cube to the zone, set the can on the plate and the dice on the can, "
+    task(K, "serve_then_clear", "Move the red cube to the zone, set the can on the plate and the dice on the block, "
          "switch the panel on, then clear all four into the bin.", KITCHEN,
          step("move_to_region", obj="cube", region="zone"), step("place_on_plate", obj="can", target="plate"),
-         step("stack", obj="dice", target="can"), step("press_buttons", **PANEL), step("clear_into_bin", **CLEAR)),
+         step("stack", obj="dice", target="block"), step("press_buttons", **PANEL),
+         step("clear_into_bin", **{**CLEAR, "second": "dice", "third": "block"})),  # the dice off the block first
     task(K, "plate_clear_switch", "Set the cube on the plate, clear all four objects into the bin, then switch the "
          "panel on.", KITCHEN,
          step("place_on_plate", obj="cube", target="plate"), step("clear_into_bin", **CLEAR),
