@@ -7,7 +7,7 @@ whichever suite lists them (``kinematic/tidy_bench`` is a ``kinematic-v1`` task)
 ``lerobot-eval --env.type=recent --env.task=kinematic/serve_then_clear`` runs one. Which tasks are
 held out for testing is :mod:`.splits`'s.
 
-The paper-length suites count 28.05 and 30.67 primitive calls per task on average (the paper: 24.6
+The paper-length suites count 27.85 and 30.25 primitive calls per task on average (the paper: 24.6
 and 29), the longest 51 (the paper: 54); ``recent envs list`` recounts them from the skills.
 """
 
