@@ -147,6 +147,8 @@ def test_a_run_can_take_only_the_held_out_split_and_records_say_which_split():
     assert sorted(dev + test, key=str) == sorted(everything, key=str)
     with pytest.raises(ValueError, match="unknown split 'val'"):
         BenchConfig(out="/tmp/x", split="val").jobs()
+    with pytest.raises(ValueError, match="they are in --suite kinematic-v1"):  # an earlier suite's task, named
+        BenchConfig(out="/tmp/x", suites=("kinematic",), tasks=("cube_on_plate",)).jobs()
 
 
 def test_unknown_methods_and_tasks_are_named():

@@ -21,7 +21,7 @@ from lerobot_policy_recent.recent_plugin.failures import FailureCategory
 from lerobot_policy_recent.recent_plugin.settings import RecentSettings
 from lerobot_policy_recent.robosuite_envs.embodiments import EMBODIMENTS
 from lerobot_policy_recent.robosuite_envs.splits import SPLITS, split_of
-from lerobot_policy_recent.robosuite_envs.suites import SEEDS, get_suite
+from lerobot_policy_recent.robosuite_envs.suites import SEEDS, SUITES, get_suite
 
 SUITE_TARGETS = {
     suite + version: targets
@@ -86,7 +86,17 @@ class BenchConfig:
         known = {t for suite in self.suites for s in get_suite(suite) for t in (s.task_id, s.task_id.split("/")[-1])}
         unknown = sorted(set(self.tasks) - known)
         if unknown:
-            raise ValueError(f"unknown task(s) {', '.join(unknown)} in suite(s) {', '.join(self.suites)}")
+            elsewhere = sorted(
+                {
+                    name
+                    for name, specs in SUITES.items()
+                    for s in specs
+                    for t in unknown
+                    if t in (s.task_id, s.task_id.split("/")[-1])
+                }
+            )
+            hint = f" (they are in --suite {','.join(elsewhere)})" if elsewhere else ""
+            raise ValueError(f"unknown task(s) {', '.join(unknown)} in suite(s) {', '.join(self.suites)}{hint}")
         return jobs
 
 
