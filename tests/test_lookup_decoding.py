@@ -78,9 +78,41 @@ def test_seeded_sampling_repeats_a_seed_and_varies_across_seeds(llama_infiller, 
     end = GROUNDED.index("\n", start)
     hints = Hints(target=ontology.target("UR5e"), original_call=GROUNDED[start:end], reason="open the hand")
     unit = cut_unit(GROUNDED, start, end, "api_substitution", hints)
-    greedy = llama_infiller.infill(unit).text  # the prompt is in the cache from here on: every call starts alike
+    llama_infiller.infill(unit)  # the prompt is in the cache from here on: every call below starts alike
+    greedy = llama_infiller.infill(unit).text  # (the first may have started from another test's saved state)
     texts = [llama_infiller.infill(unit, temperature=1.0, seed=seed).text for seed in (1, 2, 3, 4, 5, 1)]
     assert texts[0] == texts[-1]  # a seed replays
     assert len(set(texts)) > 1  # seeds are repetitions, not copies
     assert all(t and not t.lstrip().startswith("#") for t in texts)
     assert llama_infiller.infill(unit).text == greedy  # greedy stays greedy
+
+
+def test_a_prompt_starts_from_the_saved_state_it_shares_most_with(ontology, put_in_bin, llama_session):
+    """Prompt A, then an unrelated prompt B, then A again with another hint: the third call starts from
+    A's saved state (the KV cache held B), evaluates only what differs, and decodes exactly what a cold
+    evaluation of the whole prompt decodes."""
+    session = llama_session
+    diagnosis = diagnose(ontology, put_in_bin.name, put_in_bin.code, "UR5e", source=put_in_bin.source_embodiment)
+    conflict = diagnosis.conflicts[-1]
+    first = unit_from_conflict(put_in_bin.code, conflict, ontology.target("UR5e"))
+    retry = unit_from_conflict(put_in_bin.code, conflict, ontology.target("UR5e"), feedback="wrong call", attempt=1)
+    texts = [QWEN.render(p.prefix, p.suffix) for p in (build_prompt(u, 20) for u in (first, retry))]
+    unrelated = QWEN.render("def area(w, h):\n    return ", "\n")
+    stops = QWEN.stops
+
+    session.forget_prompt_states()
+    session.generate(texts[0], max_tokens=4, stops=stops)
+    session.generate(unrelated, max_tokens=4, stops=stops)
+    restored_before = session.prompt_state_stats()["restored"]
+    again = session.generate(texts[1], max_tokens=24, stops=stops)
+    tokens = session.tokenize(texts[1], special=True)
+    shared = next(
+        i for i, (a, b) in enumerate(zip(session.tokenize(texts[0], special=True), tokens, strict=False)) if a != b
+    )
+    assert session.prompt_state_stats()["restored"] == restored_before + 1
+    assert again.evaluated_prompt_tokens == len(tokens) - shared
+
+    session.forget_prompt_states()
+    cold = session.generate(texts[1], max_tokens=24, stops=stops)
+    assert cold.evaluated_prompt_tokens == len(tokens)
+    assert again.text == cold.text

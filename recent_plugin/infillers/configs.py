@@ -11,7 +11,9 @@ from dataclasses import dataclass
 import draccus
 
 from lerobot_policy_recent.recent_plugin.infillers.base import Infiller
+from lerobot_policy_recent.recent_plugin.infillers.prompt_states import STATE_BUDGET_BYTES
 from lerobot_policy_recent.recent_plugin.models.registry import DEFAULT_MODEL
+from lerobot_policy_recent.recent_plugin.refactoring.window import WINDOWS
 
 
 @dataclass
@@ -31,24 +33,44 @@ class InfillerConfig(draccus.ChoiceRegistry):
         raise NotImplementedError
 
 
+@dataclass
+class LMConfig(InfillerConfig):
+    """What every code-LM backend shares."""
+
+    # How much of a span's enclosing function its FIM prompt shows: ``function`` (all of it) or
+    # ``dataflow`` (what the edit reads and writes; docs/grounding.md "Prompt windows")
+    prompt_window: str = "function"
+
+    def __post_init__(self) -> None:
+        if self.prompt_window not in WINDOWS:
+            raise ValueError(f"unknown prompt_window {self.prompt_window!r}; choose one of: {', '.join(WINDOWS)}")
+
+
 @InfillerConfig.register_subclass("llamacpp")
 @dataclass
-class LlamaCppConfig(InfillerConfig):
+class LlamaCppConfig(LMConfig):
     """A GGUF code model on CPU through llama.cpp, in a worker process."""
 
     model: str = DEFAULT_MODEL  # a known model name (`recent model list`) or a path to a .gguf file
     n_threads: int | None = None  # CPU threads for llama.cpp (None: up to 2)
+    prompt_state_mib: int = STATE_BUDGET_BYTES // 2**20  # earlier prompts' KV states kept for reuse (0: none)
 
     def build(self, seed: int = 0) -> Infiller:
         from lerobot_policy_recent.recent_plugin.infillers.llamacpp import LlamaCppInfiller
         from lerobot_policy_recent.recent_plugin.models import ensure_model
 
-        return LlamaCppInfiller(str(ensure_model(self.model)), n_threads=self.n_threads, seed=seed)
+        return LlamaCppInfiller(
+            str(ensure_model(self.model)),
+            n_threads=self.n_threads,
+            seed=seed,
+            prompt_window=self.prompt_window,
+            state_bytes=self.prompt_state_mib * 2**20,
+        )
 
 
 @InfillerConfig.register_subclass("transformers")
 @dataclass
-class TransformersConfig(InfillerConfig):
+class TransformersConfig(LMConfig):
     """A Hugging Face model: a Hub id, a local model directory, a known name or a GGUF path."""
 
     model: str = DEFAULT_MODEL  # Hub id, model directory, known name or .gguf path
@@ -61,13 +83,18 @@ class TransformersConfig(InfillerConfig):
         from lerobot_policy_recent.recent_plugin.infillers.hf_transformers import TransformersInfiller
 
         return TransformersInfiller(
-            self.model, device=self.device, dtype=self.dtype, quantization=self.quantization, n_threads=self.n_threads
+            self.model,
+            device=self.device,
+            dtype=self.dtype,
+            quantization=self.quantization,
+            n_threads=self.n_threads,
+            prompt_window=self.prompt_window,
         )
 
 
 @InfillerConfig.register_subclass("openai")
 @dataclass
-class OpenAIConfig(InfillerConfig):
+class OpenAIConfig(LMConfig):
     """An OpenAI-compatible completions server (vLLM, llama.cpp's server, ...)."""
 
     model: str = DEFAULT_MODEL  # the server's model id
@@ -80,7 +107,7 @@ class OpenAIConfig(InfillerConfig):
             raise ValueError(
                 "the openai infiller needs a server: pass --infiller.base_url (e.g. http://127.0.0.1:8000)"
             )
-        return OpenAICompatInfiller(self.base_url, self.model)
+        return OpenAICompatInfiller(self.base_url, self.model, prompt_window=self.prompt_window)
 
 
 @InfillerConfig.register_subclass("rule")

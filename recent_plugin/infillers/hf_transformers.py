@@ -42,6 +42,7 @@ class TransformersInfiller:
         quantization: str | None = None,
         fim_family: str | None = None,
         n_threads: int | None = None,
+        prompt_window: str = "function",
     ):
         """``model``: a Hub id, a local directory, or a ``.gguf`` file (dequantized on load).
 
@@ -58,6 +59,7 @@ class TransformersInfiller:
         self.device = device or ("cuda" if torch.cuda.is_available() else "cpu")
         if quantization and self.device != "cuda":
             raise ValueError(f"{quantization} quantization (bitsandbytes) needs a CUDA device, not {self.device}")
+        self.prompt_window = prompt_window  # how much of a span's function its FIM prompt shows
         if n_threads:
             torch.set_num_threads(n_threads)
         source, gguf = _source(model)
@@ -95,7 +97,7 @@ class TransformersInfiller:
         if chat is not None:  # a program is written, not a span edited: the instruct model's chat
             text_prompt, max_tokens, stops = self._chat_text(chat.messages), chat.max_tokens, ()
         else:
-            prompt = build_prompt(unit, span_tokens)
+            prompt = build_prompt(unit, span_tokens, self.prompt_window)
             text_prompt, max_tokens, stops = (
                 self.format.render(prompt.prefix, prompt.suffix),
                 prompt.max_tokens,

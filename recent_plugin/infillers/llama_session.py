@@ -13,6 +13,7 @@ from collections import OrderedDict
 
 from lerobot_policy_recent.recent_plugin.infillers.llama_runtime import CpuKernels, load_cpu_kernels, wheel_description
 from lerobot_policy_recent.recent_plugin.infillers.lookup_decoding import Decoded, LookupDecoder
+from lerobot_policy_recent.recent_plugin.infillers.prompt_states import STATE_BUDGET_BYTES, PromptStates
 
 GRAMMARS_KEPT = 8  # compiled GBNF grammars kept per session (the statement grammars recur; retry grammars do not)
 
@@ -20,7 +21,16 @@ GRAMMARS_KEPT = 8  # compiled GBNF grammars kept per session (the statement gram
 class LlamaSession:
     """One loaded GGUF with its decoder: tokenize, generate, measure. Runs wherever it is built."""
 
-    def __init__(self, model_path: str, *, n_threads: int | None = None, n_ctx: int = 2048, seed: int = 0):
+    def __init__(
+        self,
+        model_path: str,
+        *,
+        n_threads: int | None = None,
+        n_ctx: int = 2048,
+        seed: int = 0,
+        state_bytes: int = STATE_BUDGET_BYTES,
+    ):
+        """``state_bytes``: how much memory earlier prompts' saved KV states may take (0: none kept)."""
         self.kernels: CpuKernels = load_cpu_kernels()  # before the model: it decides which kernels run
         from llama_cpp import Llama
 
@@ -37,7 +47,7 @@ class LlamaSession:
             use_mmap=False,
         )
         self._grammars: OrderedDict[str, object] = OrderedDict()
-        self.decoder = LookupDecoder(self.llm)
+        self.decoder = LookupDecoder(self.llm, states=PromptStates(state_bytes))
 
     def info(self) -> dict[str, object]:
         """What runs: model, threads, CPU kernels and wheel (for logs, errors and benchmarks)."""
@@ -51,6 +61,15 @@ class LlamaSession:
             "wheel": wheel_description(),
             "pid": os.getpid(),
         }
+
+    def forget_prompt_states(self) -> None:
+        """Drop every saved prompt state and the KV cache (a cold start, for benchmarks)."""
+        self.decoder.states.clear()
+        self.llm.reset()
+
+    def prompt_state_stats(self) -> dict[str, int]:
+        states = self.decoder.states
+        return {"saved": len(states), "bytes": states.bytes, "restored": states.restored}
 
     def grammar(self, gbnf: str | None):
         if gbnf is None:

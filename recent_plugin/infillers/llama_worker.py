@@ -11,7 +11,11 @@ a report starts a fresh worker, so a long benchmark loses only the episode in fl
 Cost, measured in ``benchmarks/llm_runtime_bench.py`` (BENCHMARKS.md "LM runtime"): a few hundred
 microseconds per call against seconds of prompt evaluation, and about a second more to start.
 
-``python -m lerobot_policy_recent.recent_plugin.infillers.llama_worker FD MODEL THREADS CTX SEED`` is the child's entry.
+The worker is also where the model's prompt states live (the KV cache and the saved states of
+earlier prompts): one worker serves every episode of its process (and of its Ray actor), so an
+episode's LM calls start from what earlier episodes evaluated.
+
+``python -m lerobot_policy_recent.recent_plugin.infillers.llama_worker FD MODEL THREADS CTX SEED STATE_BYTES`` is the child's entry.
 """
 
 from __future__ import annotations
@@ -28,6 +32,7 @@ from multiprocessing.connection import Connection
 from typing import NoReturn
 
 from lerobot_policy_recent.recent_plugin.infillers.llama_runtime import VARIANT_ENV, cpu_description, wheel_description
+from lerobot_policy_recent.recent_plugin.infillers.prompt_states import STATE_BUDGET_BYTES
 
 START_TIMEOUT_S = 300.0  # loading a GGUF takes 1-3 s; this only bounds a child that hangs before answering
 
@@ -75,12 +80,13 @@ class LlamaWorker:
         n_threads: int | None = None,
         n_ctx: int = 2048,
         seed: int = 0,
+        state_bytes: int = STATE_BUDGET_BYTES,
         env: dict[str, str] | None = None,
         site: str | None = None,
     ):
         """``env``: more environment for the child (e.g. a forced CPU variant); ``site``: a directory
         whose ``llama_cpp`` the child imports first (the runtime benchmark compares builds this way)."""
-        self._args = [model_path, str(n_threads or 0), str(n_ctx), str(seed)]
+        self._args = [model_path, str(n_threads or 0), str(n_ctx), str(seed), str(state_bytes)]
         self._env, self._site = dict(env or {}), site
         self._info: dict | None = None
         self._conn: Connection | None = None
@@ -176,6 +182,12 @@ class LlamaWorker:
     def speed(self, prompt: str, *, repeats: int = 3, gen_tokens: int = 64) -> dict[str, float]:
         return self._call("speed", prompt, repeats=repeats, gen_tokens=gen_tokens)
 
+    def forget_prompt_states(self) -> None:
+        return self._call("forget_prompt_states")
+
+    def prompt_state_stats(self) -> dict[str, int]:
+        return self._call("prompt_state_stats")
+
 
 def _stop(proc: subprocess.Popen, conn: Connection) -> None:
     try:
@@ -191,15 +203,15 @@ def _stop(proc: subprocess.Popen, conn: Connection) -> None:
 
 
 # ---------------------------------------------------------------------------------------------- the child
-CALLS = ("tokenize", "generate", "speed", "info")
+CALLS = ("tokenize", "generate", "speed", "info", "forget_prompt_states", "prompt_state_stats")
 
 
-def serve(conn: Connection, model_path: str, n_threads: int, n_ctx: int, seed: int) -> None:
+def serve(conn: Connection, model_path: str, n_threads: int, n_ctx: int, seed: int, state_bytes: int) -> None:
     """Load the model, say ready with its info, then answer calls until told to close (or the parent goes)."""
     from lerobot_policy_recent.recent_plugin.infillers.llama_session import LlamaSession
 
     try:
-        session = LlamaSession(model_path, n_threads=n_threads or None, n_ctx=n_ctx, seed=seed)
+        session = LlamaSession(model_path, n_threads=n_threads or None, n_ctx=n_ctx, seed=seed, state_bytes=state_bytes)
         conn.send(("ok", session.info()))
     except Exception as exc:  # noqa: BLE001 - a load error travels to the parent as its own exception
         conn.send(("error", (type(exc).__name__, str(exc), traceback.format_exc())))
@@ -220,9 +232,9 @@ def serve(conn: Connection, model_path: str, n_threads: int, n_ctx: int, seed: i
 
 
 def main(argv: list[str]) -> None:
-    fd, model_path, n_threads, n_ctx, seed = argv
+    fd, model_path, n_threads, n_ctx, seed, state_bytes = argv
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the parent's to handle; it then closes us
-    serve(Connection(int(fd)), model_path, int(n_threads), int(n_ctx), int(seed))
+    serve(Connection(int(fd)), model_path, int(n_threads), int(n_ctx), int(seed), int(state_bytes))
 
 
 if __name__ == "__main__":

@@ -39,9 +39,11 @@ class LlamaCppInfiller:
 
     name = "llamacpp"
 
-    def __init__(self, model_path: str, *, in_process: bool = False, **options):
-        """``options`` are :class:`LlamaSession`'s (``n_threads``, ``n_ctx``, ``seed``)."""
+    def __init__(self, model_path: str, *, in_process: bool = False, prompt_window: str = "function", **options):
+        """``options`` are :class:`LlamaSession`'s (``n_threads``, ``n_ctx``, ``seed``, ``state_bytes``);
+        ``prompt_window``: how much of a span's function its prompt shows (``function`` or ``dataflow``)."""
         self.model = os.path.basename(model_path)
+        self.prompt_window = prompt_window
         if in_process:
             self.lm = LlamaSession(model_path, **options)
         else:
@@ -70,7 +72,7 @@ class LlamaCppInfiller:
             )
             text = span_of_reply(out.text, unit.indent)
         else:
-            prompt = build_prompt(unit, span_tokens)
+            prompt = build_prompt(unit, span_tokens, self.prompt_window)
             out = self.lm.generate(
                 QWEN.render(prompt.prefix, prompt.suffix),
                 max_tokens=prompt.max_tokens,

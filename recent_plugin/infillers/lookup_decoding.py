@@ -12,7 +12,9 @@ is tested alone, and only when the grammar refuses it are all 150k candidates co
 grammar pass costs ~30 ms on this CPU, the argmax well under one).
 
 The KV cache is kept between calls: a prompt that shares its start with the previous one (the
-same skill's next span) only evaluates what differs.
+same skill's next span) only evaluates what differs. Earlier prompts' states are saved too
+(:mod:`~lerobot_policy_recent.recent_plugin.infillers.prompt_states`): a prompt that shares a longer start with one of
+them than with the last prompt starts from that state instead.
 """
 
 from __future__ import annotations
@@ -23,6 +25,8 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
+
+from lerobot_policy_recent.recent_plugin.infillers.prompt_states import PromptStates, shared_start
 
 
 @dataclass(frozen=True)
@@ -121,10 +125,49 @@ class GreedyGrammarSampler:
 class LookupDecoder:
     """Greedy (grammar-constrained) decoding with prompt-lookup drafts on a ``llama_cpp.Llama``."""
 
-    def __init__(self, llm, *, max_ngram: int = 3, max_draft: int = 8):
+    def __init__(self, llm, *, max_ngram: int = 3, max_draft: int = 8, states: PromptStates | None = None):
         self.llm = llm
         self.max_ngram = max_ngram
         self.max_draft = max_draft
+        self.states = states if states is not None else PromptStates(0)
+
+    def _start_from(self, prompt: list[int]) -> int:
+        """Put the longest start of ``prompt`` that the KV cache or a saved state holds into the cache; its length.
+
+        At least the prompt's last token is left to evaluate, so its logits are fresh."""
+        tokens = np.asarray(prompt[:-1], dtype=np.intc)
+        cached = np.asarray(self._cached(), dtype=np.intc)
+        keep = shared_start(cached, tokens)
+        found = self.states.best(tokens)
+        if found is not None and found[1] > keep and self._restore(found[0].tokens, found[0].data, found[0].size):
+            self.states.restored += 1
+            keep = found[1]
+        self._truncate(keep)
+        return keep
+
+    def _restore(self, tokens: np.ndarray, data, size: int) -> bool:
+        import llama_cpp
+
+        llm = self.llm
+        llm._ctx.kv_cache_seq_rm(0, -1, -1)
+        llm.n_tokens = 0
+        if llama_cpp.llama_state_seq_set_data(llm._ctx.ctx, data, size, 0) != size:
+            llm._ctx.kv_cache_seq_rm(0, -1, -1)  # a state that did not load leaves an empty cache, never a wrong one
+            return False
+        llm.input_ids[: len(tokens)] = tokens
+        llm.n_tokens = len(tokens)
+        return True
+
+    def _save(self, prompt: list[int]) -> None:
+        import llama_cpp
+
+        if self.states.budget_bytes <= 0:
+            return
+        ctx = self.llm._ctx.ctx
+        size = llama_cpp.llama_state_seq_get_size(ctx, 0)
+        data = (ctypes.c_uint8 * size)()
+        if llama_cpp.llama_state_seq_get_data(ctx, data, size, 0) == size:
+            self.states.save(np.asarray(prompt, dtype=np.intc), data, size)
 
     def _cached(self) -> list[int]:
         return list(self.llm.input_ids[: self.llm.n_tokens])
@@ -155,13 +198,10 @@ class LookupDecoder:
         import llama_cpp
 
         llm = self.llm
-        cached = self._cached()
-        keep = 0
-        while keep < min(len(cached), len(prompt) - 1) and cached[keep] == prompt[keep]:
-            keep += 1
-        self._truncate(keep)
         started = time.perf_counter()
+        keep = self._start_from(prompt)
         self._decode(prompt[keep:], all_logits=False)
+        self._save(prompt)
         prompt_seconds = time.perf_counter() - started
         sampler = GreedyGrammarSampler(llm, grammar, temperature=temperature, rng=np.random.default_rng(seed))
         vocab = llm._model.vocab

@@ -22,8 +22,17 @@ log = logging.getLogger(__name__)
 class OpenAICompatInfiller:
     name = "openai"
 
-    def __init__(self, base_url: str, model: str, *, api_key: str | None = None, timeout_s: float = 60.0):
+    def __init__(
+        self,
+        base_url: str,
+        model: str,
+        *,
+        api_key: str | None = None,
+        timeout_s: float = 60.0,
+        prompt_window: str = "function",
+    ):
         self.base_url = base_url.rstrip("/")
+        self.prompt_window = prompt_window  # how much of a span's function its FIM prompt shows
         self.model = model
         self.format = fim_format(model)
         self.api_key = api_key
@@ -47,7 +56,7 @@ class OpenAICompatInfiller:
         return approximate_tokens(text)
 
     def infill(self, unit: RefactoringUnit, *, temperature: float = 0.0, seed: int = 0) -> Completion:
-        prompt = build_prompt(unit, approximate_tokens(unit.span))
+        prompt = build_prompt(unit, approximate_tokens(unit.span), self.prompt_window)
         started = time.perf_counter()
         out = self._post(
             "/v1/completions",

@@ -15,6 +15,7 @@ from lerobot_policy_recent.ontology.diagnosis import SPAN_TYPES, ParameterMappin
 from lerobot_policy_recent.ontology.skill_code import name_variables, variable_kinds
 from lerobot_policy_recent.recent_plugin.refactoring.substitution import PLACEHOLDER, has_placeholders
 from lerobot_policy_recent.recent_plugin.refactoring.units import Hints, RefactoringUnit
+from lerobot_policy_recent.recent_plugin.refactoring.window import WINDOWS, dataflow_window
 
 # GBNF grammars for RECENT's localized spans: code statements, never comments (a small model
 # otherwise sometimes copies a hint line instead of writing the call). Whole programs and a
@@ -163,7 +164,11 @@ def _render_mapping(mapping: ParameterMapping) -> str:
     return f"{mapping.source} -> {mapping.target}" + (f" ({values})" if values else "")
 
 
-def build_prompt(unit: RefactoringUnit, span_tokens: int) -> FimPrompt:
+def build_prompt(unit: RefactoringUnit, span_tokens: int, window: str = "function") -> FimPrompt:
+    """The FIM prompt for ``unit``. ``window`` (:mod:`~lerobot_policy_recent.recent_plugin.refactoring.window`) applies
+    to RECENT's localized spans; whole bodies and the baselines' rewrites always show the whole function."""
+    if window not in WINDOWS:
+        raise ValueError(f"unknown prompt window {window!r}; choose one of: {', '.join(WINDOWS)}")
     comments = "".join(f"{unit.indent}# {line}\n" for line in hint_lines(unit.span_type, unit.hints))
     call = unit.hints.substitute_call
     if call and unit.span_type not in NOT_CONFLICT_SPAN_TYPES:  # what replaces the span, however the call was written
@@ -180,9 +185,14 @@ def build_prompt(unit: RefactoringUnit, span_tokens: int) -> FimPrompt:
         stop = ("\ndef ", "\nclass ")  # the body ends where the model ends the middle, or at the next definition
     if unit.span_type == "structured_plan":
         stop = ("\n\n", "\ndef ")  # comment lines, up to the code
+    prefix, suffix = unit.prefix, unit.suffix
+    if window == "dataflow" and unit.span_type not in (*BASELINE_SPAN_TYPES, *WHOLE_BODY_SPAN_TYPES):
+        prefix, suffix = dataflow_window(
+            prefix, unit.indent, unit.span, suffix, (unit.hints.original_call, unit.hints.substitute_call)
+        )
     return FimPrompt(
-        prefix=unit.prefix + comments + unit.indent,
-        suffix=unit.suffix,
+        prefix=prefix + comments + unit.indent,
+        suffix=suffix,
         stop=stop,
         max_tokens=max(24, 2 * max(span_tokens, approximate_tokens(call or "")) + 16),
         grammar=grammar,

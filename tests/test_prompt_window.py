@@ -1,0 +1,96 @@
+"""Prompt windows and saved prompt states: what a span's prompt shows, and what the LM keeps of earlier prompts."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from lerobot_policy_recent.recent_plugin.infillers.configs import LlamaCppConfig
+from lerobot_policy_recent.recent_plugin.infillers.prompt_states import PromptStates
+from lerobot_policy_recent.recent_plugin.refactoring.fim_prompt import build_prompt
+from lerobot_policy_recent.recent_plugin.refactoring.units import Hints, cut_unit
+from lerobot_policy_recent.recent_plugin.refactoring.window import dataflow_window
+
+SKILL = '''def clear(env, task, first="cube", second="block", receptacle="bin"):
+    """Put two objects into the bin."""
+    bin_pos = task.get_object_position(receptacle)
+    height = 0.2
+    for name, dx in [[first, -0.04], [second, 0.04]]:
+        obj_pos = task.get_object_position(name)
+        open_gripper(env, task)
+        pick(env, task, target_pos=obj_pos)
+        drop = [bin_pos[0] + dx, bin_pos[1], bin_pos[2] + height]
+        place(env, task, target_pos=drop)
+        move(env, task, target_pos=[bin_pos[0], bin_pos[1], bin_pos[2] + height])
+'''
+
+
+def _window(statement: str, *, insertion: bool = False, hint: str | None = None) -> str:
+    start = SKILL.index(statement)
+    end = start if insertion else SKILL.index("\n", start)
+    line_start = SKILL.rfind("\n", 0, start) + 1
+    indent = SKILL[line_start:start]
+    suffix = SKILL[end:] if not insertion else "\n" + indent + SKILL[end:]
+    prefix, suffix = dataflow_window(SKILL[:line_start], indent, SKILL[start:end], suffix, (hint,))
+    return prefix + indent + "<FILL>" + suffix
+
+
+def test_a_span_sees_its_signature_its_blocks_and_what_it_reads():
+    shown = _window("pick(env")
+    assert shown.startswith('def clear(env, task, first="cube"') and '"""Put two objects into the bin."""' in shown
+    assert "for name, dx in" in shown  # the block it sits in
+    assert "obj_pos = task.get_object_position(name)" in shown  # what it reads
+    assert "bin_pos" not in shown and "open_gripper" not in shown  # nothing it does not read
+    assert "place(" not in shown  # and not the next call, which a small model copies
+
+
+def test_definitions_are_followed_through_other_definitions():
+    shown = _window("place(env")
+    assert "drop = [bin_pos[0] + dx" in shown and "bin_pos = task.get_object_position(receptacle)" in shown
+    assert "height = 0.2" in shown
+    assert "obj_pos =" not in shown and "pick(" not in shown
+
+
+def test_after_the_span_only_readers_of_what_it_assigns():
+    shown = _window("drop = [")
+    after = shown.split("<FILL>")[1]
+    assert "place(env, task, target_pos=drop)" in after and "move(" not in after
+
+
+def test_an_insertion_sees_the_statement_it_serves():
+    shown = _window("pick(env", insertion=True, hint="obj_pos = task.get_object_position(name)")
+    assert shown.split("<FILL>")[1].strip() == "pick(env, task, target_pos=obj_pos)"
+    assert "obj_pos = task.get_object_position(name)" in shown
+
+
+def test_code_that_does_not_parse_keeps_the_whole_function():
+    prefix, suffix = "def f(env, task):\n    x = (\n", "\n    y = 1\n"
+    assert dataflow_window(prefix, "    ", "g(x)", suffix) == (prefix, suffix)
+
+
+def test_the_window_applies_to_localized_spans_only(ontology):
+    hints = Hints(target=ontology.target("UR5e"), original_call="pick(env, task, target_pos=obj_pos)")
+    start = SKILL.index("pick(env")
+    span_unit = cut_unit(SKILL, start, SKILL.index("\n", start), "api_substitution", hints)
+    assert "open_gripper" not in build_prompt(span_unit, 10, "dataflow").prefix
+    assert "open_gripper" in build_prompt(span_unit, 10, "function").prefix
+    rewrite = cut_unit(SKILL, start, SKILL.index("\n", start), "localized_repair", hints)
+    assert build_prompt(rewrite, 10, "dataflow").prefix == build_prompt(rewrite, 10, "function").prefix
+    with pytest.raises(ValueError, match="unknown prompt window"):
+        build_prompt(span_unit, 10, "tiny")
+    with pytest.raises(ValueError, match="prompt_window"):
+        LlamaCppConfig(prompt_window="tiny")
+
+
+def test_saved_states_are_an_lru_bounded_in_bytes_without_dominated_entries():
+    states = PromptStates(budget_bytes=100)
+    states.save(np.array([1, 2, 3]), "a", 40)
+    states.save(np.array([1, 2, 3, 4, 5]), "b", 40)  # extends [1, 2, 3]: that one can never be the better start
+    assert len(states) == 1 and states.bytes == 40
+    states.save(np.array([7, 8]), "c", 40)
+    found, shared = states.best(np.array([1, 2, 3, 4, 9]))
+    assert (found.data, shared) == ("b", 4)
+    states.save(np.array([9, 9]), "d", 40)  # over budget: the least recently used ([7, 8]) goes
+    assert len(states) == 2 and states.best(np.array([7, 8])) is None
+    states.save(np.array([5]), "e", 101)  # larger than the whole budget: not kept
+    assert len(states) == 2
