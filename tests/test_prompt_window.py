@@ -94,3 +94,44 @@ def test_saved_states_are_an_lru_bounded_in_bytes_without_dominated_entries():
     assert len(states) == 2 and states.best(np.array([7, 8])) is None
     states.save(np.array([5]), "e", 101)  # larger than the whole budget: not kept
     assert len(states) == 2
+
+
+def test_a_reactive_repair_keeps_the_whole_function(ontology):
+    hints = Hints(target=ontology.target("UR5e"), original_call="", reason="recompute obj_pos before retrying")
+    start = SKILL.index("pick(env")
+    repair = cut_unit(SKILL, start, start, "reactive_repair", hints)
+    revision = cut_unit(SKILL, start, start, "in_situ_revision", hints)
+    assert "open_gripper" in build_prompt(repair, 10, "dataflow").prefix
+    assert "open_gripper" not in build_prompt(revision, 10, "dataflow").prefix
+
+
+def test_the_logs_record_the_prompt_the_model_was_sent(ontology):
+    """An LM call's record holds the backend's own prompt (its window), not a re-rendering of the unit."""
+    from lerobot_policy_recent.recent_plugin.grounding.attempts import infill_until_valid
+    from lerobot_policy_recent.recent_plugin.grounding.gate import Verdict
+    from lerobot_policy_recent.recent_plugin.infillers.base import Completion
+
+    start = SKILL.index("pick(env")
+    hints = Hints(target=ontology.target("UR5e"), original_call="pick(env, task, target_pos=obj_pos)")
+    unit = cut_unit(SKILL, start, SKILL.index("\n", start), "api_substitution", hints)
+    sent = build_prompt(unit, 10, "dataflow").shown()
+
+    class Sent:
+        name, model = "scripted", "scripted"
+
+        def infill(self, unit):
+            return Completion("ur5_grasp_at(env, task, grasp_pos=obj_pos)", 9, 0.01, prompt=sent)
+
+        def count_tokens(self, text):
+            return len(text.split())
+
+    calls = []
+    infill_until_valid(
+        Sent(),
+        lambda feedback, attempt: unit,
+        lambda u, text: (Verdict(True), text),
+        kind="ground",
+        max_retries=0,
+        calls=calls,
+    )
+    assert calls[0].prompt == sent and "open_gripper" not in calls[0].prompt

@@ -24,8 +24,6 @@ from lerobot_policy_recent.recent_plugin.refactoring.units import RefactoringUni
 
 log = logging.getLogger(__name__)
 
-FILL = "<FILL>"  # where the span goes, in the prompts the logs record
-
 
 @dataclass(frozen=True)
 class LMCall:
@@ -127,7 +125,6 @@ def infill_until_valid(
             return None
         text = clean(completion.text, unit)
         verdict, candidate = judge(unit, text)
-        prompt = build_prompt(unit, 0)
         calls.append(
             LMCall(
                 kind=kind,
@@ -141,7 +138,7 @@ def infill_until_valid(
                 message=verdict.message,
                 span=unit.span,
                 hints=tuple(hint_lines(unit.span_type, unit.hints)),
-                prompt=prompt.prefix + FILL + prompt.suffix,
+                prompt=completion.prompt or build_prompt(unit, 0).shown(),
                 rendered=completion.rendered,
                 attempt=attempt,
                 decided=decided_by_rule(unit),

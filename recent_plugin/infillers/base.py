@@ -18,6 +18,7 @@ class Completion:
     evaluated_prompt_tokens: int = 0  # the prompt tokens not already in the model's cache (where a backend knows)
     prompt_seconds: float = 0.0  # of ``seconds``: evaluating the prompt (where a backend measures it)
     generation_seconds: float = 0.0  # of ``seconds``: generating the completion
+    prompt: str = ""  # the FIM prompt as sent (``FimPrompt.shown()``), for the logs; empty where a backend has none
 
 
 class Infiller(Protocol):

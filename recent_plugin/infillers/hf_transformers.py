@@ -94,6 +94,7 @@ class TransformersInfiller:
 
         span_tokens = self.count_tokens(unit.span)
         chat = build_chat(unit, span_tokens) if writes_whole_body(unit) else None
+        shown = ""
         if chat is not None:  # a program is written, not a span edited: the instruct model's chat
             text_prompt, max_tokens, stops = self._chat_text(chat.messages), chat.max_tokens, ()
         else:
@@ -103,6 +104,7 @@ class TransformersInfiller:
                 prompt.max_tokens,
                 prompt.stop,
             )
+            shown = prompt.shown()
         encoded = self.tokenizer(text_prompt, return_tensors="pt", add_special_tokens=False).to(self.device)
         started = time.perf_counter()
         sampling = (
@@ -132,7 +134,11 @@ class TransformersInfiller:
         if chat is not None:
             text = span_of_reply(text, unit.indent)
         return Completion(
-            text=text, generated_tokens=len(new), seconds=seconds, prompt_tokens=int(encoded["input_ids"].shape[1])
+            text=text,
+            generated_tokens=len(new),
+            seconds=seconds,
+            prompt_tokens=int(encoded["input_ids"].shape[1]),
+            prompt=shown,
         )
 
     def _chat_text(self, messages) -> str:

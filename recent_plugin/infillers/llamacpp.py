@@ -38,6 +38,7 @@ class LlamaCppInfiller:
     """The FIM infiller over a :class:`LlamaSession`, by default one in a worker process."""
 
     name = "llamacpp"
+    prompt_window = "function"  # how much of a span's function its FIM prompt shows (set per instance)
 
     def __init__(self, model_path: str, *, in_process: bool = False, prompt_window: str = "function", **options):
         """``options`` are :class:`LlamaSession`'s (``n_threads``, ``n_ctx``, ``seed``, ``state_bytes``);
@@ -70,7 +71,7 @@ class LlamaCppInfiller:
                 temperature=temperature,
                 seed=seed,
             )
-            text = span_of_reply(out.text, unit.indent)
+            text, shown = span_of_reply(out.text, unit.indent), ""
         else:
             prompt = build_prompt(unit, span_tokens, self.prompt_window)
             out = self.lm.generate(
@@ -81,7 +82,7 @@ class LlamaCppInfiller:
                 temperature=temperature,
                 seed=seed,
             )
-            text = out.text
+            text, shown = out.text, prompt.shown()
         return Completion(
             text=text,
             generated_tokens=out.generated_tokens,
@@ -90,6 +91,7 @@ class LlamaCppInfiller:
             evaluated_prompt_tokens=out.evaluated_prompt_tokens,
             prompt_seconds=out.prompt_seconds,
             generation_seconds=out.generation_seconds,
+            prompt=shown,
         )
 
     def close(self) -> None:

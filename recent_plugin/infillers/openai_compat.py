@@ -77,4 +77,5 @@ class OpenAICompatInfiller:
             generated_tokens=int(usage.get("completion_tokens", 0)),
             seconds=seconds,
             prompt_tokens=int(usage.get("prompt_tokens", 0)),
+            prompt=prompt.shown(),
         )

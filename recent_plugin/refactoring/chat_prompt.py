@@ -13,11 +13,10 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass
 
-from lerobot_policy_recent.recent_plugin.refactoring.fim_prompt import WHOLE_BODY_SPAN_TYPES, build_prompt
+from lerobot_policy_recent.recent_plugin.refactoring.fim_prompt import FILL, WHOLE_BODY_SPAN_TYPES, build_prompt
 from lerobot_policy_recent.recent_plugin.refactoring.units import RefactoringUnit
 
 SYSTEM = "You write Python skill code for robots. Answer with code only, in one ```python block."
-FILL = "<FILL>"
 FENCE_TOKENS = 16  # the reply's ```python … ``` around the code
 CHATML_STOPS = ("<|im_end|>", "<|endoftext|>")  # the end of an assistant turn in ChatML
 _BLOCK = re.compile(r"```(?:python)?\n(.*?)(?:```|$)", re.DOTALL)

@@ -34,6 +34,12 @@ BASELINE_SPAN_TYPES = ("program_synthesis", "localized_repair", "structured_plan
 NOT_CONFLICT_SPAN_TYPES = (*RUNTIME_SPAN_TYPES, *BASELINE_SPAN_TYPES, "full_regeneration")
 WHOLE_BODY_SPAN_TYPES = ("program_synthesis", "full_regeneration")  # a function body, blank lines and all
 WRITTEN_FREELY = (*BASELINE_SPAN_TYPES, "full_regeneration")  # no grammar: the model writes Python as it would
+# The spans a ``dataflow`` window applies to: RECENT's localized edits before and during execution.
+# A reactive repair after a failure keeps the whole function: its hint asks to recompute several
+# values, and shown only their definitions (an unrolled loop defines them twice) the 1.5B wrote
+# them over and over to the length cap (dev: end_effector/stock_drawer, Suction, seed 3).
+WINDOWED_SPAN_TYPES = (*SPAN_TYPES, "in_situ_revision")
+FILL = "<FILL>"  # where the span goes, in the prompts the logs record
 
 
 def decided_by_rule(unit: RefactoringUnit) -> bool:
@@ -89,6 +95,10 @@ class FimPrompt:
     stop: tuple[str, ...]  # text stops that end the span (on top of the model's special tokens)
     max_tokens: int
     grammar: str | None  # GBNF the generated span must match (None: unconstrained)
+
+    def shown(self) -> str:
+        """The prompt as the logs record it: prefix, ``<FILL>`` at the span, suffix (format-independent)."""
+        return self.prefix + FILL + self.suffix
 
 
 def hint_lines(span_type: str, hints: Hints) -> list[str]:
@@ -166,7 +176,7 @@ def _render_mapping(mapping: ParameterMapping) -> str:
 
 def build_prompt(unit: RefactoringUnit, span_tokens: int, window: str = "function") -> FimPrompt:
     """The FIM prompt for ``unit``. ``window`` (:mod:`~lerobot_policy_recent.recent_plugin.refactoring.window`) applies
-    to RECENT's localized spans; whole bodies and the baselines' rewrites always show the whole function."""
+    to :data:`WINDOWED_SPAN_TYPES`; whole bodies, reactive repairs and the baselines' rewrites show the whole function."""
     if window not in WINDOWS:
         raise ValueError(f"unknown prompt window {window!r}; choose one of: {', '.join(WINDOWS)}")
     comments = "".join(f"{unit.indent}# {line}\n" for line in hint_lines(unit.span_type, unit.hints))
@@ -186,7 +196,7 @@ def build_prompt(unit: RefactoringUnit, span_tokens: int, window: str = "functio
     if unit.span_type == "structured_plan":
         stop = ("\n\n", "\ndef ")  # comment lines, up to the code
     prefix, suffix = unit.prefix, unit.suffix
-    if window == "dataflow" and unit.span_type not in (*BASELINE_SPAN_TYPES, *WHOLE_BODY_SPAN_TYPES):
+    if window == "dataflow" and unit.span_type in WINDOWED_SPAN_TYPES:
         prefix, suffix = dataflow_window(
             prefix, unit.indent, unit.span, suffix, (unit.hints.original_call, unit.hints.substitute_call)
         )
