@@ -6,8 +6,10 @@
 Each (task, robot) pair is grounded cold (the grounding cache emptied; the model loaded and its
 prompt-state cache emptied), the paper's method (every span the LM's, no fast path). Printed per
 pair: spans, LM calls, prompt tokens, the prompt tokens the model evaluated (the rest came from its
-KV cache or a saved prompt state), prompt-evaluation and generation seconds, and IGT against the
-issue's target (2 s per span). The physical bound is evaluated tokens ÷ the host's prefill rate,
+KV cache or a saved prompt state), prompt-evaluation, generation and other seconds (diagnosis,
+validation, the worker's IPC), IGT against the issue's target (2 s per span), and IGT of a repeat
+within the process (grounded skills served from memory). A new process reads them from disk:
+``benchmarks/grounding_cache_bench.py``. The physical bound is evaluated tokens ÷ the host's prefill rate,
 printed with it. Dev tasks only: the prompt window is a design choice checked on dev.
 """
 
@@ -41,9 +43,12 @@ SPEED_PROMPT = Path(__file__).parents[1].joinpath("skills", "library", "clear_in
 def ground_cold(agent: RecentAgent, task_id: str, robot: str, seed: int = 3):
     """The task's grounding report, grounded from nothing (no grounded skill, no saved prompt state)."""
     agent._cache.clear()
-    forget = getattr(agent.infiller.lm, "forget_prompt_states", None)
-    if forget is not None:
-        forget()
+    agent.infiller.lm.forget_prompt_states()
+    return ground_again(agent, task_id, robot, seed)
+
+
+def ground_again(agent: RecentAgent, task_id: str, robot: str, seed: int = 3):
+    """The task's grounding report as the agent's caches stand (a repeat within the process)."""
     env = RecentEnv(task=task_id, robot=robot)
     try:
         raw, _ = env.reset(seed=seed)
@@ -106,12 +111,14 @@ def main() -> None:
         started = time.perf_counter()
         row = {"task": task_id, "robot": robot, **summarize(ground_cold(agent, task_id, robot))}
         row["wall_s"] = time.perf_counter() - started
+        row["other_s"] = row["igt_s"] - row["prompt_s"] - row["generation_s"]  # diagnosis, validation, IPC
+        row["igt_repeat_ms"] = 1000 * ground_again(agent, task_id, robot).igt_seconds
         rows.append(row)
         target = 2.0 * row["spans"]
         print(
             f"| {task_id} | {robot} | {row['spans']} | {row['calls']} | {row['prompt_tokens']} | "
-            f"{row['evaluated_tokens']} | {row['prompt_s']:.1f} | {row['generation_s']:.1f} | {row['igt_s']:.1f} | "
-            f"{target:.0f} {'✓' if row['igt_s'] <= target else '✗'} |",
+            f"{row['evaluated_tokens']} | {row['prompt_s']:.1f} | {row['generation_s']:.1f} | {row['other_s']:.1f} | "
+            f"{row['igt_s']:.1f} | {target:.0f} {'✓' if row['igt_s'] <= target else '✗'} | {row['igt_repeat_ms']:.1f} |",
             flush=True,
         )
     evaluated = sum(r["evaluated_tokens"] for r in rows)
