@@ -37,9 +37,9 @@ class InfillerConfig(draccus.ChoiceRegistry):
 class LMConfig(InfillerConfig):
     """What every code-LM backend shares."""
 
-    # How much of a span's enclosing function its FIM prompt shows: ``function`` (all of it) or
-    # ``dataflow`` (what the edit reads and writes; docs/grounding.md "Prompt windows")
-    prompt_window: str = "function"
+    # How much of a span's enclosing function its FIM prompt shows: ``dataflow`` (what the edit
+    # reads and writes) or ``function`` (all of it, the default before 2026-11-25); docs/llm_runtime.md
+    prompt_window: str = "dataflow"
 
     def __post_init__(self) -> None:
         if self.prompt_window not in WINDOWS:

@@ -42,7 +42,7 @@ class TransformersInfiller:
         quantization: str | None = None,
         fim_family: str | None = None,
         n_threads: int | None = None,
-        prompt_window: str = "function",
+        prompt_window: str = "dataflow",
     ):
         """``model``: a Hub id, a local directory, or a ``.gguf`` file (dequantized on load).
 

@@ -38,9 +38,9 @@ class LlamaCppInfiller:
     """The FIM infiller over a :class:`LlamaSession`, by default one in a worker process."""
 
     name = "llamacpp"
-    prompt_window = "function"  # how much of a span's function its FIM prompt shows (set per instance)
+    prompt_window = "dataflow"  # how much of a span's function its FIM prompt shows (set per instance)
 
-    def __init__(self, model_path: str, *, in_process: bool = False, prompt_window: str = "function", **options):
+    def __init__(self, model_path: str, *, in_process: bool = False, prompt_window: str = "dataflow", **options):
         """``options`` are :class:`LlamaSession`'s (``n_threads``, ``n_ctx``, ``seed``, ``state_bytes``);
         ``prompt_window``: how much of a span's function its prompt shows (``function`` or ``dataflow``)."""
         self.model = os.path.basename(model_path)

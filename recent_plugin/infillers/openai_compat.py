@@ -29,7 +29,7 @@ class OpenAICompatInfiller:
         *,
         api_key: str | None = None,
         timeout_s: float = 60.0,
-        prompt_window: str = "function",
+        prompt_window: str = "dataflow",
     ):
         self.base_url = base_url.rstrip("/")
         self.prompt_window = prompt_window  # how much of a span's function its FIM prompt shows
