@@ -104,9 +104,10 @@ def main() -> None:
 
     rows = []
     header = (
-        "| task | robot | spans | calls | prompt tok | evaluated tok | prompt s | gen s | IGT s | target (2 s/span) |"
+        "| task | robot | spans | calls | prompt tok | evaluated tok | prompt s | gen s | other s "
+        "| IGT first ever (s) | target (2 s/span) | IGT repeat (ms) |"
     )
-    print(header + "\n|" + "---|" * 10)
+    print(header + "\n|" + "---|" * 12)
     for task_id, robot in pairs:
         started = time.perf_counter()
         row = {"task": task_id, "robot": robot, **summarize(ground_cold(agent, task_id, robot))}

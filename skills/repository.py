@@ -6,6 +6,7 @@ primitive API, with no imports: the executor binds the primitives of the robot i
 
 from __future__ import annotations
 
+import functools
 import hashlib
 from dataclasses import dataclass
 from pathlib import Path
@@ -111,7 +112,14 @@ def derived_capabilities(skill: Skill) -> list[str]:
 
 def skill_calls(skill: Skill) -> CallCount:
     """The primitive calls (and position reads) the skill makes, counted as the paper counts them."""
-    return count_calls(skill.code, skill.entry, set(source_api(skill).names()))
+    return _counted_calls(skill.code, skill.entry, skill.source_embodiment)
+
+
+@functools.lru_cache(maxsize=256)
+def _counted_calls(code: str, entry: str, source_embodiment: str) -> CallCount:
+    """Counted once per code: every episode's LM budget asks again (~10 ms a skill: the API spec is read)."""
+    api = load_api_spec(api_spec_path(get_embodiment(source_embodiment).api))
+    return count_calls(code, entry, set(api.names()))
 
 
 def task_calls(plan_skills: list[str], library: Path = LIBRARY) -> CallCount:
