@@ -15,12 +15,13 @@ The worker is also where the model's prompt states live (the KV cache and the sa
 earlier prompts): one worker serves every episode of its process (and of its Ray actor), so an
 episode's LM calls start from what earlier episodes evaluated.
 
-``python -m lerobot_policy_recent.recent_plugin.infillers.llama_worker FD MODEL THREADS CTX SEED STATE_BYTES`` is the child's entry.
+``python -m lerobot_policy_recent.recent_plugin.infillers.llama_worker FD MODEL OPTIONS_JSON`` is the child's entry.
 """
 
 from __future__ import annotations
 
 import builtins
+import json
 import os
 import signal
 import socket
@@ -32,7 +33,6 @@ from multiprocessing.connection import Connection
 from typing import NoReturn
 
 from lerobot_policy_recent.recent_plugin.infillers.llama_runtime import VARIANT_ENV, cpu_description, wheel_description
-from lerobot_policy_recent.recent_plugin.infillers.prompt_states import STATE_BUDGET_BYTES
 
 START_TIMEOUT_S = 300.0  # loading a GGUF takes 1-3 s; this only bounds a child that hangs before answering
 
@@ -74,19 +74,13 @@ class LlamaWorker:
     """The parent's handle on the worker: the same calls as :class:`LlamaSession`, across a process."""
 
     def __init__(
-        self,
-        model_path: str,
-        *,
-        n_threads: int | None = None,
-        n_ctx: int = 2048,
-        seed: int = 0,
-        state_bytes: int = STATE_BUDGET_BYTES,
-        env: dict[str, str] | None = None,
-        site: str | None = None,
+        self, model_path: str, *, env: dict[str, str] | None = None, site: str | None = None, **session_options
     ):
-        """``env``: more environment for the child (e.g. a forced CPU variant); ``site``: a directory
-        whose ``llama_cpp`` the child imports first (the runtime benchmark compares builds this way)."""
-        self._args = [model_path, str(n_threads or 0), str(n_ctx), str(seed), str(state_bytes)]
+        """``session_options`` are :class:`LlamaSession`'s (``n_threads``, ``n_ctx``, ``seed``,
+        ``state_bytes``), handed to the child as they are. ``env``: more environment for the child
+        (e.g. a forced CPU variant); ``site``: a directory whose ``llama_cpp`` the child imports
+        first (the runtime benchmark compares builds this way)."""
+        self._args = [model_path, json.dumps(session_options)]
         self._env, self._site = dict(env or {}), site
         self._info: dict | None = None
         self._conn: Connection | None = None
@@ -206,12 +200,12 @@ def _stop(proc: subprocess.Popen, conn: Connection) -> None:
 CALLS = ("tokenize", "generate", "speed", "info", "forget_prompt_states", "prompt_state_stats")
 
 
-def serve(conn: Connection, model_path: str, n_threads: int, n_ctx: int, seed: int, state_bytes: int) -> None:
+def serve(conn: Connection, model_path: str, session_options: dict) -> None:
     """Load the model, say ready with its info, then answer calls until told to close (or the parent goes)."""
     from lerobot_policy_recent.recent_plugin.infillers.llama_session import LlamaSession
 
     try:
-        session = LlamaSession(model_path, n_threads=n_threads or None, n_ctx=n_ctx, seed=seed, state_bytes=state_bytes)
+        session = LlamaSession(model_path, **session_options)
         conn.send(("ok", session.info()))
     except Exception as exc:  # noqa: BLE001 - a load error travels to the parent as its own exception
         conn.send(("error", (type(exc).__name__, str(exc), traceback.format_exc())))
@@ -232,9 +226,9 @@ def serve(conn: Connection, model_path: str, n_threads: int, n_ctx: int, seed: i
 
 
 def main(argv: list[str]) -> None:
-    fd, model_path, n_threads, n_ctx, seed, state_bytes = argv
+    fd, model_path, session_options = argv
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the parent's to handle; it then closes us
-    serve(Connection(int(fd)), model_path, int(n_threads), int(n_ctx), int(seed), int(state_bytes))
+    serve(Connection(int(fd)), model_path, json.loads(session_options))
 
 
 if __name__ == "__main__":
