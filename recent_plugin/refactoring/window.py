@@ -21,6 +21,8 @@ import ast
 import textwrap
 from dataclasses import dataclass
 
+from lerobot_policy_recent.ontology import skill_code
+
 WINDOWS = ("function", "dataflow")
 SUFFIX_STATEMENTS = 3  # at most: the first readers of what the span assigns (an insertion: and its statement)
 
@@ -35,11 +37,7 @@ class _Statement:
 
 
 def _names(node: ast.AST) -> tuple[set[str], set[str]]:
-    loads, stores = set(), set()
-    for sub in ast.walk(node):
-        if isinstance(sub, ast.Name):
-            (stores if isinstance(sub.ctx, ast.Store) else loads).add(sub.id)
-    return loads, stores
+    return skill_code.loads(node), skill_code.stores(node)
 
 
 def _code_names(*texts: str | None) -> tuple[set[str], set[str]]:
