@@ -11,8 +11,9 @@ import re
 from dataclasses import dataclass, field
 
 from lerobot_policy_recent.ontology.builder import Ontology
+from lerobot_policy_recent.ontology.conversions import Conversion, conversion
 from lerobot_policy_recent.ontology.skill_code import CallSite, CodeSpan, call_sites, position_bindings
-from lerobot_policy_recent.ontology.specs import PrimitiveSpec
+from lerobot_policy_recent.ontology.specs import PATH_ROLE, PrimitiveSpec
 
 SPAN_TYPES = ("api_substitution", "parameter_binding", "interface_rewiring", "preparatory_step", "path_tracing")
 
@@ -23,6 +24,7 @@ class ParameterMapping:
     target: str  # parameter name of the substitute
     role: str
     values: tuple[tuple[object, object], ...] = ()  # literal translation when the vocabularies differ
+    conversion: Conversion | None = None  # other units, frame or rotation: how the value becomes the target's
 
     def translate(self, value: object) -> object:
         return dict(self.values).get(value, value)
@@ -34,6 +36,7 @@ class PathStep:
 
     source: str
     offset: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    conversion: Conversion | None = None  # the move's point takes other units, frame or a pose
 
     def render(self) -> str:
         """``start_pos + 0.1z``: how diagnoses show a step."""
@@ -96,6 +99,11 @@ class Diagnosis:
                     "dropped": list(c.dropped),
                     "unfilled": list(c.unfilled),
                     **({"preparatory": list(c.preparatory)} if c.preparatory else {}),
+                    **(
+                        {"conversions": {m.target: m.conversion.template for m in c.mapping if m.conversion}}
+                        if any(m.conversion for m in c.mapping)
+                        else {}
+                    ),
                     **({"path": [p.render() for p in c.path]} if c.path else {}),
                 }
                 for c in self.conflicts
@@ -155,19 +163,21 @@ def _conflict(onto: Ontology, site: CallSite, original: PrimitiveSpec, source: s
         if target is None:
             dropped.append(param.name)
         else:
-            mapping.append(
-                ParameterMapping(param.name, target.name, param.role, _value_map(param.choices, target.choices))
-            )
-    mapped = {m.target for m in mapping}
+            values, converted = _value_map(param.choices, target.choices), conversion(param, target)
+            mapping.append(ParameterMapping(param.name, target.name, param.role, values, converted))
+    given = dict(site.arguments)
+    # required and mapped from nothing, or from an argument that does not determine it (a position for a pose)
+    undetermined = {m.target for m in mapping if m.conversion and not m.conversion.determined and m.source in given}
+    mapped = {m.target for m in mapping} - undetermined
     unfilled = tuple(p.name for p in substitute.parameters if p.required and p.name not in mapped)
     preparatory = _preparatory_steps(onto, original, substitute, robot)
-    translated = any(m.values and m.source in dict(site.arguments) for m in mapping)
+    translated = any((m.values or m.conversion) and m.source in given for m in mapping)
     if unfilled:
         span_type = "interface_rewiring"  # the new interface needs an argument the old call never had
     elif preparatory:
         span_type = "preparatory_step"  # the substitute needs a state another primitive establishes first
     elif translated:
-        span_type = "parameter_binding"  # same role, other literal vocabulary ('z' -> 'down')
+        span_type = "parameter_binding"  # same role, other vocabulary ('z' -> 'down') or units, frame, rotation
     else:
         span_type = "api_substitution"
     return Conflict(
@@ -190,7 +200,13 @@ def _path_conflict(
     """No primitive does what the call does, but the robot can move its end effector along the
     call's path: one move per waypoint, after the steps that establish the call's other robot-state
     effects (a closed hand for a push) where those are decidable before execution."""
-    steps = tuple(PathStep(original.by_role(w.role).name, w.offset) for w in original.path)
+    point = move.by_role(PATH_ROLE)
+    steps = tuple(
+        PathStep(source.name, w.offset, conversion(source, point))
+        for w in original.path
+        if (source := original.by_role(w.role)) is not None
+    )
+    undetermined = any(s.conversion and not s.conversion.determined for s in steps)
     decidable = [
         p
         for p in onto.api(robot).primitives
@@ -210,6 +226,7 @@ def _path_conflict(
         dropped=tuple(p.name for p in original.parameters if p.name not in used),
         preparatory=preparatory,
         path=steps,
+        unfilled=(point.name,) if undetermined else (),
         reason=f"no primitive with the effects of {site.name}; trace its path with {move.name}"
         + (f", after {', '.join(preparatory)}" if preparatory else ""),
     )

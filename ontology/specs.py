@@ -8,9 +8,18 @@ from typing import Any
 
 import yaml
 
+from lerobot_policy_recent.robosuite_envs.primitives.frames import ARM_BASE, LENGTH_UNITS, WORLD
+
 _LOADER = getattr(yaml, "CSafeLoader", yaml.SafeLoader)  # libyaml when available: 10x faster
 PATH_CAPABILITY, PATH_ROLE = "cartesian_motion", "motion_target"  # a move to a point, and that point
-PARAM_TYPES = ("position", "quaternion", "float", "int", "str", "bool", "object_name")
+PARAM_TYPES = ("position", "quaternion", "rotvec", "euler", "pose", "float", "int", "str", "bool", "object_name")
+# what the vectors of a controller mean (ontology/conversions.py renders between them): lengths in
+# m, cm or mm; an axis-angle rotation vector in rad; Euler angles in deg or rad about a named axis
+# sequence (scipy's: "ZYX" intrinsic, "xyz" extrinsic); a pose is URScript's [x, y, z, rx, ry, rz]
+UNITS = {"position": tuple(LENGTH_UNITS), "pose": tuple(LENGTH_UNITS), "rotvec": ("rad",), "euler": ("deg", "rad")}
+DEFAULT_UNITS = {"position": "m", "pose": "m", "rotvec": "rad"}  # Euler angles must say deg or rad
+EULER_AXES = frozenset("xyzXYZ")
+WORLD_FRAME, FRAME_ORIGINS = WORLD, (WORLD, ARM_BASE)
 
 
 class SpecError(ValueError):
@@ -33,12 +42,20 @@ class ParameterSpec:
     frame: str | None = None
     range: tuple[float, float] | None = None
     choices: tuple[Any, ...] | None = None
+    sequence: str | None = None  # Euler angles: the axis sequence
 
     def render(self) -> str:
-        """``name: type [unit]`` or ``name: type = default`` — how hints show a parameter."""
-        unit = f" [{self.unit}]" if self.unit else ""
+        """``name: type [unit]``, ``name: type = default``, or with the facts a conversion needs:
+        ``pose: pose [m, frame base]``, ``abc: euler [deg, ZYX]`` — how hints show a parameter."""
+        facts = [f for f in (self.unit, *self.conversion_facts()) if f]
+        unit = f" [{', '.join(facts)}]" if facts else ""
         default = "" if self.required else f" = {self.default!r}"
         return f"{self.name}: {self.type}{unit}{default}"
+
+    def conversion_facts(self) -> tuple[str, ...]:
+        """What sets this value apart from a world-frame one: its frame, its Euler sequence."""
+        frame = (f"frame {self.frame}",) if self.frame and self.frame != WORLD_FRAME else ()
+        return frame + ((self.sequence,) if self.sequence else ())
 
 
 @dataclass(frozen=True)
@@ -76,11 +93,22 @@ class PrimitiveSpec:
 
 
 @dataclass(frozen=True)
+class FrameSpec:
+    """A frame a controller's values are given in: at the world origin or at the arm's base, turned
+    by fixed-axis roll, pitch, yaw in degrees (URScript's base frame faces the arm's back: yaw 180)."""
+
+    name: str
+    origin: str
+    rpy_deg: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+
+@dataclass(frozen=True)
 class ApiSpec:
     embodiment: str
     module: str
     path: Path
     primitives: tuple[PrimitiveSpec, ...] = field(default_factory=tuple)
+    frames: tuple[FrameSpec, ...] = ()  # besides the world
 
     def names(self) -> list[str]:
         return [p.name for p in self.primitives]
@@ -186,6 +214,7 @@ def load_api_spec(path: Path | str) -> ApiSpec:
     embodiment = _require(data, "embodiment", str, path, "top level")
     module = _require(data, "module", str, path, "top level")
     raw = _require(data, "primitives", list, path, "top level")
+    frames = _parse_frames(data.get("frames", {}), path)
     primitives = []
     seen: set[str] = set()
     for i, item in enumerate(raw):
@@ -194,7 +223,56 @@ def load_api_spec(path: Path | str) -> ApiSpec:
             raise SpecError(path, f"primitives[{i}].name", f"duplicate primitive {prim.name!r}")
         seen.add(prim.name)
         primitives.append(prim)
-    return ApiSpec(embodiment=embodiment, module=module, path=path, primitives=tuple(primitives))
+        _check_frames(prim, {f.name for f in frames}, path, f"primitives[{i}] ({prim.name})")
+    return ApiSpec(embodiment=embodiment, module=module, path=path, primitives=tuple(primitives), frames=frames)
+
+
+def _parse_frames(raw: Any, path: Path) -> tuple[FrameSpec, ...]:
+    """``frames: {base: {origin: arm_base, rpy_deg: [0, 0, 180]}}``."""
+    if not isinstance(raw, dict):
+        raise SpecError(path, "frames", "must be a mapping of frame name to {origin, rpy_deg}")
+    frames = []
+    for name, item in raw.items():
+        where = f"frames.{name}"
+        if name == WORLD_FRAME:
+            raise SpecError(path, where, "the world frame is built in; name yours otherwise")
+        if not isinstance(item, dict):
+            raise SpecError(path, where, "must be a mapping with 'origin' (and an optional 'rpy_deg')")
+        origin = _require(item, "origin", str, path, where)
+        if origin not in FRAME_ORIGINS:
+            raise SpecError(path, f"{where}.origin", f"must be one of {', '.join(FRAME_ORIGINS)}, got {origin!r}")
+        rpy = item.get("rpy_deg", [0.0, 0.0, 0.0])
+        if not (isinstance(rpy, list) and len(rpy) == 3 and all(_number(v) for v in rpy)):
+            raise SpecError(
+                path, f"{where}.rpy_deg", f"must be three numbers [roll, pitch, yaw] in degrees, got {rpy!r}"
+            )
+        frames.append(FrameSpec(str(name), origin, tuple(float(v) for v in rpy)))
+    return tuple(frames)
+
+
+def _check_frames(prim: PrimitiveSpec, declared: set[str], path: Path, where: str) -> None:
+    for j, param in enumerate(prim.parameters):
+        if param.frame is not None and param.frame != WORLD_FRAME and param.frame not in declared:
+            raise SpecError(
+                path,
+                f"{where}.parameters[{j}].frame",
+                f"unknown frame {param.frame!r}: declare it under 'frames:' (declared: {sorted(declared) or 'none'})",
+            )
+
+
+def _euler_sequence(value: Any) -> bool:
+    """scipy's rule: three of x, y, z, intrinsic (upper case) or extrinsic (lower), no axis twice in a row."""
+    return (
+        isinstance(value, str)
+        and len(value) == 3
+        and set(value) <= EULER_AXES
+        and (value.isupper() or value.islower())
+        and all(a != b for a, b in zip(value, value[1:], strict=False))
+    )
+
+
+def _number(value: Any) -> bool:
+    return isinstance(value, int | float) and not isinstance(value, bool)
 
 
 def _parse_primitive(item: Any, embodiment: str, path: Path, where: str) -> PrimitiveSpec:
@@ -219,7 +297,7 @@ def _parse_primitive(item: Any, embodiment: str, path: Path, where: str) -> Prim
 
 def _point(prim: PrimitiveSpec) -> ParameterSpec | None:
     point = prim.by_role(PATH_ROLE)
-    return point if point is not None and point.type == "position" else None
+    return point if point is not None and point.type in ("position", "pose") else None
 
 
 def _parse_path(item: dict, params: list[ParameterSpec], path: Path, where: str) -> tuple[Waypoint, ...]:
@@ -262,16 +340,27 @@ def _parse_parameter(raw: Any, path: Path, where: str) -> ParameterSpec:
     if rng is not None and (not isinstance(rng, list) or len(rng) != 2):
         raise SpecError(path, f"{where}.range", "must be [low, high]")
     choices = raw.get("choices")
+    unit = raw.get("unit", DEFAULT_UNITS.get(ptype))
+    if ptype in UNITS and unit not in UNITS[ptype]:
+        raise SpecError(path, f"{where}.unit", f"a {ptype} takes one of {', '.join(UNITS[ptype])}, got {unit!r}")
+    sequence = raw.get("sequence")
+    if (ptype == "euler") != (sequence is not None):
+        raise SpecError(path, f"{where}.sequence", "Euler angles (and only they) need their axis sequence, e.g. 'ZYX'")
+    if sequence is not None and not _euler_sequence(sequence):
+        raise SpecError(
+            path, f"{where}.sequence", f"three axes, all upper or all lower case, no two in a row, got {sequence!r}"
+        )
     return ParameterSpec(
         name=name,
         type=ptype,
         role=_require(raw, "role", str, path, f"{where} ({name})"),
         required=required,
         default=raw.get("default"),
-        unit=raw.get("unit"),
+        unit=unit,
         frame=raw.get("frame"),
         range=tuple(rng) if rng is not None else None,
         choices=tuple(choices) if choices is not None else None,
+        sequence=sequence,
     )
 
 

@@ -41,8 +41,9 @@ from lerobot_policy_recent.robosuite_envs.primitives import (
     available_apis,
 )
 from lerobot_policy_recent.robosuite_envs.primitives.control import servo_action
+from lerobot_policy_recent.robosuite_envs.primitives.frames import SKILL_HELPERS, frames_for
 
-_SAFE_BUILTINS = {name: getattr(builtins, name) for name in SAFE_HELPERS}
+_SAFE_BUILTINS = {name: SKILL_HELPERS.get(name) or getattr(builtins, name) for name in SAFE_HELPERS}
 
 
 @dataclass
@@ -299,7 +300,9 @@ class TaskExecutor:
         calibration: Calibration | None = None,
     ):
         """``calibration``: the embodiment's, for the controllers (None: nominal values, for made-up observations)."""
-        self.session = RobotSession(target.name, first_obs, calibration or Nominal())
+        calibration = calibration or Nominal()
+        self.session = RobotSession(target.name, first_obs, calibration)
+        self.session.frames = frames_for(target.api.frames, calibration.base_xyz)
         self.emit = emit
         self.adapter = adapter
         self.plan = plan

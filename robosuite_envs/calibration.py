@@ -98,6 +98,7 @@ class Nominal:
     grasp_point: tuple[float, float, float] = (0.0, 0.0, 0.0)
     tracking_error_m: float = 0.0
     unreached: tuple = ()
+    base_xyz: tuple[float, float, float] = (0.0, 0.0, 0.0)  # an API's base frame then sits at the world origin
 
 
 def _vec(values) -> str:

@@ -137,6 +137,26 @@ EMBODIMENTS: dict[str, Embodiment] = {
             gripper_mjcf="models/assets/grippers/robotiq_gripper_140.xml",
             description="KUKA LBR iiwa 14, 7-DoF, Robotiq 2F-140",
         ),
+        # Two controllers that take other units and frames (issue 28): the ontology renders the conversions.
+        Embodiment(
+            name="UR5eScript",
+            robot="UR5e",
+            gripper="LinkedRobotiq85Gripper",
+            api="urscript",
+            robot_mjcf="models/assets/robots/ur5e/robot.xml",
+            gripper_mjcf="models/assets/grippers/robotiq_gripper_85.xml",
+            description="UR5e + Robotiq 2F-85, URScript-style: base-frame poses [x, y, z, rx, ry, rz], axis-angle",
+            arm_dof=6,
+        ),
+        Embodiment(
+            name="IIWAKRL",
+            robot="IIWA",
+            gripper="LinkedRobotiq85Gripper",
+            api="krl",
+            robot_mjcf="models/assets/robots/iiwa/robot.xml",
+            gripper_mjcf="models/assets/grippers/robotiq_gripper_85.xml",
+            description="KUKA LBR iiwa 14 + Robotiq 2F-85, KRL-style: millimetres, Euler angles A, B, C (deg)",
+        ),
     )
 }
 

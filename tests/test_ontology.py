@@ -99,6 +99,8 @@ def test_gripper_mechanism_is_inferred_from_mjcf(ontology, tmp_path):
         "XArm7": "parallel_jaw",
         "XArm7Robotiq85": "parallel_jaw",
         "IIWA": "parallel_jaw",
+        "UR5eScript": "parallel_jaw",
+        "IIWAKRL": "parallel_jaw",
     }
     cup = tmp_path / "cup.xml"
     cup.write_text(
@@ -150,6 +152,7 @@ def _conflict_key(c) -> tuple:
         tuple(sorted(c["mapping"].items())),
         tuple(c["dropped"]),
         tuple(c["unfilled"]),
+        tuple(sorted(c.get("conversions", {}).items())),
     )
 
 

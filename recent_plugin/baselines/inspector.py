@@ -20,7 +20,7 @@ import ast
 from dataclasses import dataclass
 
 from lerobot_policy_recent.ontology.skill_code import entry_function, segment_statements
-from lerobot_policy_recent.ontology.specs import ApiSpec, ParameterSpec
+from lerobot_policy_recent.ontology.specs import WORLD_FRAME, ApiSpec, ParameterSpec
 from lerobot_policy_recent.recent_plugin.failures import FailureCategory
 from lerobot_policy_recent.recent_plugin.grounding.gate import SAFE_HELPERS, Verdict
 from lerobot_policy_recent.robosuite_envs.subtasks import TABLE_Z
@@ -79,7 +79,8 @@ def _literal_findings(primitive: str, spec: ParameterSpec, value: ast.expr) -> l
     literal = _literal(value)
     if literal is None:
         return []
-    if spec.type == "position" and isinstance(literal, list) and len(literal) == 3:
+    world_metres = spec.unit == "m" and spec.frame in (None, WORLD_FRAME)  # where the table's bounds apply
+    if spec.type == "position" and world_metres and isinstance(literal, list) and len(literal) == 3:
         x, y, z = literal
         half_x, half_y = TABLE_SIZE[0] / 2, TABLE_SIZE[1] / 2
         if not (-half_x <= x <= half_x and -half_y <= y <= half_y and TABLE_Z <= z <= TABLE_Z + REACH_ABOVE_TABLE):

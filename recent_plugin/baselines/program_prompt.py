@@ -14,6 +14,7 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass, replace
 
+from lerobot_policy_recent.ontology.conversions import api_notes
 from lerobot_policy_recent.ontology.skill_code import body_span
 from lerobot_policy_recent.ontology.target import Target
 from lerobot_policy_recent.recent_plugin.baselines.inspector import inspection_verdict
@@ -88,6 +89,7 @@ class ProgramPrompt:
             about = f"  -- {primitive.description}" if described and primitive.description else ""
             lines.append(f"#   {primitive.signature()}{about}")
         lines.append("# Scene queries: " + ", ".join(f"task.{q}(...)" for q in TaskContext.QUERIES))
+        lines += [f"# {note}" for note in api_notes(self.target.api)]
         if described:
             half_x, half_y = TABLE_SIZE[0] / 2, TABLE_SIZE[1] / 2
             lines.append("# Scene objects: " + ", ".join(self.context.objects))
@@ -138,6 +140,7 @@ class ProgramPrompt:
         module = f"{robot.lower()}_actions"
         lines = [f"from {module} import {p.name}  # {p.signature()}" for p in self.target.api.primitives]
         lines.append(f"from scene import task  # {', '.join(f'task.{q}(name)' for q in TaskContext.QUERIES)}")
+        lines += [f"# {note}" for note in api_notes(self.target.api)]
         lines += ["", f"objects = {[o.split(' ')[0] for o in self.context.objects]!r}", ""]
         lines += [f"# Reference program for the {source} robot:", self._example(), ""]
         lines.append(f"# Task: {self.context.instruction}")

@@ -27,9 +27,10 @@ from dataclasses import dataclass
 from lerobot_policy_recent.ontology.skill_code import name_variables, variable_kinds
 from lerobot_policy_recent.ontology.specs import ApiSpec, ParameterSpec
 from lerobot_policy_recent.recent_plugin.failures import FailureCategory
+from lerobot_policy_recent.robosuite_envs.primitives.frames import SKILL_HELPERS
 from lerobot_policy_recent.robosuite_envs.primitives.session import TaskContext
 
-SAFE_HELPERS = frozenset(
+SAFE_HELPERS = frozenset(SKILL_HELPERS) | frozenset(  # conversions between frames and rotations, then builtins
     {
         "abs",
         "min",
@@ -48,7 +49,7 @@ SAFE_HELPERS = frozenset(
         "sorted",
     }
 )
-TASK_QUERIES = frozenset(TaskContext.QUERIES)
+TASK_QUERIES = frozenset(TaskContext.QUERIES + TaskContext.FRAME_QUERIES)
 FORBIDDEN_CALLS = frozenset(
     {
         "exec",
@@ -269,14 +270,24 @@ class _Checker(ast.NodeVisitor):
         self.generic_visit(node)
 
     def _check_iterable(self, it: ast.expr, node: ast.AST) -> None:
-        bounded = isinstance(it, ast.List | ast.Tuple | ast.Name) or (
-            isinstance(it, ast.Call)
-            and isinstance(it.func, ast.Name)
-            and it.func.id in {"range", "enumerate", "zip", "sorted"}
+        """A loop runs over something of bounded size: a literal, a variable, range() and its kin, or
+        the fixed-size vector a frame query or a conversion helper returns (a frame's point, a rotation)."""
+        func = it.func if isinstance(it, ast.Call) else None
+        bounded = (
+            isinstance(it, ast.List | ast.Tuple | ast.Name)
+            or (isinstance(func, ast.Name) and func.id in {"range", "enumerate", "zip", "sorted", *SKILL_HELPERS})
+            or (
+                isinstance(func, ast.Attribute)
+                and isinstance(func.value, ast.Name)
+                and func.value.id == "task"
+                and func.attr in TaskContext.FRAME_QUERIES
+            )
         )
         if not bounded:
             self.fail(
-                FailureCategory.NON_EXECUTABLE, "for-loops must iterate over a literal, a variable or range()", node
+                FailureCategory.NON_EXECUTABLE,
+                "for-loops must iterate over a literal, a variable, range() or a frame query",
+                node,
             )
 
     def _check_range(self, node: ast.Call) -> None:

@@ -308,15 +308,35 @@ def changed_argument(
         given = {k.arg: k.value for k in got[name, nth].keywords} if (name, nth) in got else {}
         for keyword in call.keywords:
             value = given.get(keyword.arg)
-            if isinstance(keyword.value, ast.Name) and keyword.value.id == undecided:
-                continue
-            if value is not None and ast.dump(value) != ast.dump(keyword.value):
+            if value is not None and not _matches(value, keyword.value, undecided):
                 return Verdict.reject(
                     FailureCategory.HALLUCINATED_KWARG,
                     f"{name}({keyword.arg}={ast.unparse(value)}) changes the value {decided_by}: "
                     f"keep {keyword.arg}={ast.unparse(keyword.value)}",
                 )
     return None
+
+
+def _matches(node: ast.AST, pattern: ast.AST, hole: str) -> bool:
+    """``node`` is ``pattern`` with any expression where the pattern has the name ``hole``
+    (a conversion the ontology wrote around a value it left to the LM: ``to_frame(p) + <rotvec>``)."""
+    if isinstance(pattern, ast.Name) and pattern.id == hole:
+        return True
+    if type(node) is not type(pattern):
+        return False
+    for name in pattern._fields:
+        a, b = getattr(node, name, None), getattr(pattern, name, None)
+        if isinstance(b, list):
+            if not isinstance(a, list) or len(a) != len(b):
+                return False
+            if not all(_matches(x, y, hole) if isinstance(y, ast.AST) else x == y for x, y in zip(a, b, strict=True)):
+                return False
+        elif isinstance(b, ast.AST):
+            if not (isinstance(a, ast.AST) and _matches(a, b, hole)):
+                return False
+        elif a != b:
+            return False
+    return True
 
 
 def _ordered_calls(statements: list[ast.stmt]) -> dict[tuple[str, int], ast.Call]:

@@ -34,13 +34,20 @@ MAX_BYTES = 256 * 1024 * 1024
 SUFFIX = ".grounding"
 
 
-# What shapes a grounding besides its inputs: how units are cut and prompted, how each backend and
-# baseline asks, and how answers are validated (package folders, relative to recent_plugin/).
-GROUNDING_CODE = ("refactoring", "infillers", "baselines", "grounding")
+# What shapes a grounding besides its inputs: the diagnosis and the conversions it renders, how units
+# are cut and prompted, how each backend and baseline asks, and how answers are validated (package
+# folders, relative to the package root).
+GROUNDING_CODE = (
+    "ontology",
+    "recent_plugin/refactoring",
+    "recent_plugin/infillers",
+    "recent_plugin/baselines",
+    "recent_plugin/grounding",
+)
 
 
 @functools.cache
-def grounding_code_digest(root: Path = Path(__file__).parents[1]) -> str:
+def grounding_code_digest(root: Path = Path(__file__).parents[2]) -> str:
     """sha256 (16 hex digits) of the Python sources under ``GROUNDING_CODE`` of ``root``, in path order."""
     digest = hashlib.sha256()
     for folder in GROUNDING_CODE:

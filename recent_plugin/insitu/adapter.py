@@ -168,6 +168,7 @@ class InSituAdapter:
             ),
             scene=self.scene,
             api=self.target.api,
+            frames=executor.session.frames,
         )
         return CHECKS[warning.check](inp)
 

@@ -20,8 +20,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from lerobot_policy_recent.ontology.diagnosis import Warning
-from lerobot_policy_recent.ontology.specs import PATH_ROLE, ApiSpec, Waypoint
+from lerobot_policy_recent.ontology.specs import PATH_ROLE, WORLD_FRAME, ApiSpec, ParameterSpec, Waypoint
 from lerobot_policy_recent.robosuite_envs.observation import POSITION_SIGMA, Observation
+from lerobot_policy_recent.robosuite_envs.primitives.frames import WORLD_AT_ORIGIN, Frame, argument_for, world_point
 
 FALSE_MOVES = 0.006  # the share of checks on a still object that may call it moved (each a needless patch)
 
@@ -90,6 +91,7 @@ class CheckInput:
     scene: SceneFacts
     api: ApiSpec
     derived: tuple[Derivation, ...] = ()  # the statements between those reads and the call, in order
+    frames: dict[str, Frame] | None = None  # the robot's, where its API takes other frames than the world
 
 
 @dataclass(frozen=True)
@@ -107,14 +109,31 @@ Check = Callable[[CheckInput], Violation | None]
 
 
 def _by_role(inp: CheckInput, *roles: str) -> np.ndarray | None:
+    """The world point (metres) the guarded call's argument of one of ``roles`` names, whatever the
+    units and frame its API takes it in; None where it names none."""
+    spec = inp.api.get(inp.warning.primitive)
     for name, role in inp.roles.items():
         if role in roles and name in inp.arguments:
+            param = spec.parameter(name) if spec is not None else None
+            kind, unit = (param.type, param.unit) if param is not None else ("position", "m")
+            if kind not in ("position", "pose"):
+                return None
             try:
-                value = np.asarray(inp.arguments[name], dtype=float).reshape(-1)
+                return world_point(inp.arguments[name], kind, unit, _frame(inp, param))
             except (TypeError, ValueError):
                 return None
-            return value if value.shape == (3,) else None
     return None
+
+
+def _frame(inp: CheckInput, param: ParameterSpec | None) -> Frame:
+    name = param.frame if param is not None and param.frame else WORLD_FRAME
+    return (inp.frames or {}).get(name, WORLD_AT_ORIGIN)
+
+
+def _argument(inp: CheckInput, param: ParameterSpec, point: np.ndarray) -> str:
+    """A world point (metres) written as ``param`` takes it: its units, its frame, a pose's rotation the tool's."""
+    value = argument_for(point, param.type, param.unit, _frame(inp, param), inp.obs.eef_quat)
+    return "[" + ", ".join(f"{float(x):.{3 if param.unit in (None, 'm') else 1}f}" for x in value) + "]"
 
 
 def _fmt(v) -> str:
@@ -287,14 +306,17 @@ def _push_calls(inp: CheckInput, start: np.ndarray, goal: np.ndarray) -> tuple[s
     if push is not None:
         begin, end = push.by_role("push_start"), push.by_role("push_goal")
         if begin is not None and end is not None:
-            return (f"{push.name}(env, task, {begin.name}={_fmt(start)}, {end.name}={_fmt(goal)})",)
+            return (
+                f"{push.name}(env, task, {begin.name}={_argument(inp, begin, start)}, "
+                f"{end.name}={_argument(inp, end, goal)})",
+            )
     move = next(iter(inp.api.point_moves()), None)
     if move is None:
         return ()  # nothing to sweep with: the check reports what it saw, and the skill runs on
     at = {"push_start": start, "push_goal": goal}
-    point = move.by_role(PATH_ROLE).name
+    point = move.by_role(PATH_ROLE)
     return tuple(
-        f"{move.name}(env, task, {point}={_fmt(at[w.role] + np.asarray(w.offset))})"
+        f"{move.name}(env, task, {point.name}={_argument(inp, point, at[w.role] + np.asarray(w.offset))})"
         for w in inp.scene.push_path
         if w.role in at
     )

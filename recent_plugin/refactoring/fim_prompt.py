@@ -136,6 +136,7 @@ def hint_lines(span_type: str, hints: Hints) -> list[str]:
         lines.append("Arguments: " + "; ".join(edits))
     if hints.substitute_signature:
         lines.append(f"{hints.robot} API: {hints.substitute_signature}")
+        lines += hints.facts
         if hints.unfilled:
             lines.append("Replace each <...> with a variable or literal from the code above")
         lines.append(f"Call exactly: {_one_line(hints.substitute_call)}")

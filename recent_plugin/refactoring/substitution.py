@@ -31,7 +31,9 @@ def render_substitute_call(span: str, conflict: Conflict) -> str | None:
     for param in substitute.parameters:
         mapping = by_target.get(param.name)
         if mapping is not None and mapping.source in given:
-            arguments.append(f"{param.name}={ast.unparse(_translate(given[mapping.source], mapping))}")
+            value = _translate(given[mapping.source], mapping)
+            text = ast.unparse(value) if mapping.conversion is None else mapping.conversion.apply(_operand(value))
+            arguments.append(f"{param.name}={text}")
         elif param.required:
             arguments.append(f"{param.name}=<{param.type}>")
     # Preparatory primitives first (one per line), then the substitute itself.
@@ -50,6 +52,8 @@ def _traced(conflict: Conflict, given: dict[str, ast.expr], targets: str) -> lis
     for step in conflict.path:
         value = given.get(step.source)
         where = "<position>" if value is None else _offset(value, step.offset)
+        if value is not None and step.conversion is not None:
+            where = step.conversion.apply(where if any(step.offset) else _operand(value))  # _offset's: a list
         moves.append(f"{conflict.substitute.name}(env, task, {point.name}={where})")
     moves[-1] = targets + moves[-1]
     return moves
@@ -71,6 +75,13 @@ def _offset(value: ast.expr, offset: tuple[float, float, float]) -> str:
 
 def _plus(expression: str, delta: float) -> str:
     return expression if not delta else f"{expression} {'+' if delta > 0 else '-'} {abs(delta):g}"
+
+
+def _operand(value: ast.expr) -> str:
+    """``value`` as text that a conversion may index or iterate over (``(a + b)[:3]``, not ``a + b[:3]``)."""
+    text = ast.unparse(value)
+    atomic = ast.Name | ast.Attribute | ast.Subscript | ast.Call | ast.List | ast.Tuple | ast.Constant
+    return text if isinstance(value, atomic) else f"({text})"
 
 
 def has_placeholders(text: str) -> bool:

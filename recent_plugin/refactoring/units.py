@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from lerobot_policy_recent.ontology.conversions import undetermined_facts
 from lerobot_policy_recent.ontology.diagnosis import Conflict, ParameterMapping
 from lerobot_policy_recent.ontology.skill_code import enclosing_function
 from lerobot_policy_recent.ontology.target import Target
@@ -30,6 +31,7 @@ class Hints:
     feedback: str | None = None  # why the previous attempt was rejected, on a retry
     attempt: int = 0
     observation: str | None = None  # in-situ: what the run-time check saw
+    facts: tuple[str, ...] = ()  # what an undetermined conversion's value is (units, frame), not a call to copy
 
     @property
     def robot(self) -> str:
@@ -67,6 +69,7 @@ def unit_from_conflict(
         reason=conflict.reason,
         feedback=feedback,
         attempt=attempt,
+        facts=undetermined_facts(conflict),
     )
     return cut_unit(code, start, end, conflict.span_type, hints, substitute=sub.name if sub else None)
 

@@ -304,6 +304,19 @@ def align_to(
     )
 
 
+def align_if_turned(
+    session: RobotSession, quat_xyzw: Sequence[float], *, timeout_s: float = 4.0, tol_rad: float = 0.035
+) -> Steps:
+    """A pose's rotation: turn the tool only where it differs from the tool's by more than ``tol_rad``
+    (a controller sent to the orientation it has does not move; the held yaw stays free)."""
+    quat = np.asarray(quat_xyzw, dtype=np.float64).reshape(-1)
+    if quat.shape == (4,) and np.all(np.isfinite(quat)) and np.linalg.norm(quat) > 1e-6:
+        quat = quat / np.linalg.norm(quat)
+        if 2 * np.arccos(min(1.0, abs(float(np.dot(quat, session.obs.eef_quat))))) < tol_rad:
+            return
+    yield from align_to(session, quat_xyzw, timeout_s=timeout_s)
+
+
 def rotate_about_z(session: RobotSession, angle_rad: float, *, timeout_s: float = 4.0) -> Steps:
     """Turn the gripper by ``angle_rad`` about the world z axis."""
     turn = np.array([0.0, 0.0, np.sin(angle_rad / 2), np.cos(angle_rad / 2)])

@@ -12,6 +12,7 @@ import numpy as np
 
 from lerobot_policy_recent.robosuite_envs.calibration import Calibration, Nominal
 from lerobot_policy_recent.robosuite_envs.observation import Observation
+from lerobot_policy_recent.robosuite_envs.primitives.frames import WORLD, WORLD_AT_ORIGIN, Frame
 
 CONTROL_FREQ = 20  # Hz; one yielded action = one env step
 
@@ -47,6 +48,13 @@ class RobotSession:
     gripper_command: float = -1.0  # robosuite convention: -1 open, +1 closed
     hold_quat: np.ndarray = field(default=None)  # type: ignore[assignment]
     hold_yaw: bool = False  # set once a primitive aligns the gripper; until then only the tool axis is held
+    frames: dict[str, Frame] = field(default_factory=lambda: {WORLD: WORLD_AT_ORIGIN})  # those its API declares
+
+    def frame(self, name: str) -> Frame:
+        """A frame of this robot's API by name, or a ValueError that lists the frames it has."""
+        if name not in self.frames:
+            raise ValueError(f"{self.embodiment} has no frame {name!r}; its frames: {', '.join(sorted(self.frames))}")
+        return self.frames[name]
 
     def __post_init__(self) -> None:
         if self.hold_quat is None:
@@ -60,6 +68,8 @@ class TaskContext:
     """Read-only queries about the scene that skill code may call (``task.get_object_position``)."""
 
     QUERIES = ("get_object_position", "get_object_state", "get_object_names", "is_grasped")
+    # for robots whose API takes other frames or rotations (prompts list them for such a robot only)
+    FRAME_QUERIES = ("get_tool_orientation", "to_frame", "from_frame", "quat_to_frame", "quat_from_frame")
 
     def __init__(self, session: RobotSession):
         self._session = session
@@ -85,6 +95,28 @@ class TaskContext:
                 "object_not_found", f"object {name!r} not found in scene; objects: {self.get_object_names()}"
             )
         return state
+
+    def get_tool_orientation(self) -> list[float]:
+        """The tool's orientation in the world, quaternion ``[x, y, z, w]`` (the arm's forward kinematics)."""
+        return [float(v) for v in self._session.obs.eef_quat]
+
+    # A robot whose API takes another frame (its base, as URScript does) declares it in its YAML;
+    # the ontology renders these calls where a world value must become that frame's, and back.
+    def to_frame(self, position: list[float], frame: str) -> list[float]:
+        """A world position (metres), in this robot's frame ``frame`` (metres)."""
+        return self._session.frame(frame).to_frame(position)
+
+    def from_frame(self, position: list[float], frame: str) -> list[float]:
+        """A position in this robot's frame ``frame`` (metres), in the world."""
+        return self._session.frame(frame).from_frame(position)
+
+    def quat_to_frame(self, quat: list[float], frame: str) -> list[float]:
+        """A world orientation ``[x, y, z, w]``, relative to the axes of this robot's frame ``frame``."""
+        return self._session.frame(frame).quat_to_frame(quat)
+
+    def quat_from_frame(self, quat: list[float], frame: str) -> list[float]:
+        """An orientation given in this robot's frame ``frame``, in the world."""
+        return self._session.frame(frame).quat_from_frame(quat)
 
     def is_grasped(self, name: str) -> bool:
         """The gripper detects an object in its grip, and perception puts ``name`` there."""

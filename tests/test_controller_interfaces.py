@@ -1,0 +1,289 @@
+"""Real-controller interfaces, described by data alone: URScript-style base-frame poses with
+axis-angle rotation (``UR5eScript``) and KRL-style millimetres with Euler angles (``IIWAKRL``).
+
+The ontology renders each conversion where the Panda's call determines it (the `rule` backend
+grounds it, no LM), and leaves a placeholder where it does not (a position-only call becoming a
+pose: which rotation?), which an LM fills from the facts the hint gives. The conversions are
+checked numerically, and in simulation: a move reaches the world point the Panda's call named.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+
+import numpy as np
+import pytest
+from doubles import ScriptedInfiller
+
+from lerobot_policy_recent.ontology.conversions import FRAME_QUERIES, HELPERS, conversion
+from lerobot_policy_recent.ontology.diagnosis import diagnose
+from lerobot_policy_recent.ontology.specs import ParameterSpec, SpecError, load_api_spec
+from lerobot_policy_recent.recent_plugin.grounding.gate import SAFE_HELPERS, TASK_QUERIES
+from lerobot_policy_recent.recent_plugin.grounding.grounder import ground_skill
+from lerobot_policy_recent.recent_plugin.refactoring.units import unit_from_conflict
+from lerobot_policy_recent.robosuite_envs.primitives import frames
+from lerobot_policy_recent.robosuite_envs.primitives.frames import SKILL_HELPERS, Frame, frame_at
+
+WORLD_M = ParameterSpec("p", "position", "r", unit="m", frame="world")
+TOOL_ROTATION = "quat_to_rotvec(task.quat_to_frame(task.get_tool_orientation(), 'base'))"  # what an LM may write
+BASE = frame_at("base", "arm_base", (0, 0, 180), (-0.56, 0.0, 0.912))  # URScript's base frame on our table
+
+
+def _param(kind: str, unit: str | None = None, frame: str = "world", sequence: str | None = None) -> ParameterSpec:
+    return ParameterSpec("q", kind, "r", unit=unit, frame=frame, sequence=sequence)
+
+
+def test_the_renders_call_only_what_skill_code_may_call():
+    assert set(HELPERS) == set(SKILL_HELPERS) and set(SKILL_HELPERS) <= SAFE_HELPERS
+    assert set(FRAME_QUERIES) <= TASK_QUERIES
+
+
+@pytest.mark.parametrize(
+    ("source", "target", "template"),
+    [
+        (WORLD_M, _param("position", "mm"), "[1000 * v for v in {}]"),
+        (WORLD_M, _param("position", "m", "base"), "task.to_frame({}, 'base')"),
+        (WORLD_M, _param("position", "mm", "base"), "[1000 * v for v in task.to_frame({}, 'base')]"),
+        (_param("position", "cm"), _param("position", "mm"), "[10 * v for v in {}]"),
+        (WORLD_M, _param("pose", "m", "base"), "task.to_frame({}, 'base') + <rotvec>"),
+        (_param("quaternion"), _param("rotvec", "rad", "base"), "quat_to_rotvec(task.quat_to_frame({}, 'base'))"),
+        (_param("quaternion"), _param("euler", "deg", sequence="ZYX"), "quat_to_euler({}, 'ZYX', degrees=True)"),
+        (
+            _param("rotvec", "rad"),
+            _param("euler", "rad", sequence="xyz"),
+            "quat_to_euler(rotvec_to_quat({}), 'xyz', degrees=False)",
+        ),
+        (WORLD_M, _param("quaternion"), "<quaternion>"),  # nothing in a position determines an orientation
+    ],
+)
+def test_the_ontology_renders_each_conversion_or_leaves_what_it_cannot_decide(source, target, template):
+    rendered = conversion(source, target)
+    assert rendered is not None and rendered.template == template
+    assert rendered.determined == ("<" not in template)
+
+
+def test_the_same_representation_needs_no_conversion():
+    assert conversion(WORLD_M, ParameterSpec("x", "position", "other_role", unit="m", frame="world")) is None
+
+
+def test_frames_and_rotations_are_numerically_right():
+    """URScript's base frame faces the arm's back: world +x is base -x; a point 10 cm in front of the
+    base, 5 cm up, is (-0.1, 0, 0.05) there. A quarter turn about z is rotvec (0, 0, pi/2), A=90 deg."""
+    point = [-0.46, 0.0, 0.962]
+    assert BASE.to_frame(point) == pytest.approx([-0.1, 0.0, 0.05], abs=1e-9)
+    assert BASE.from_frame(BASE.to_frame(point)) == pytest.approx(point)
+    quarter = [0.0, 0.0, math.sin(math.pi / 4), math.cos(math.pi / 4)]
+    assert frames.quat_to_rotvec(quarter) == pytest.approx([0, 0, math.pi / 2])
+    assert frames.quat_to_euler(quarter, "ZYX", degrees=True) == pytest.approx([90, 0, 0])
+    assert frames.euler_to_quat([90, 0, 0], "ZYX") == pytest.approx(quarter)
+    down = [1.0, 0.0, 0.0, 0.0]  # a tool pointing down in the world: half a turn about x
+    in_base = frames.quat_to_rotvec(BASE.quat_to_frame(down))  # then turned back by half a turn about z: about y
+    assert np.allclose(np.abs(in_base), [0, math.pi, 0])
+    assert frames.scale([1, 2, 3], "m", "mm") == [1000, 2000, 3000]
+    with pytest.raises(TypeError, match="expected 3 numbers"):  # a wrong argument fails as Python would say it
+        BASE.to_frame([1.0, 2.0])
+
+
+def test_a_rendered_conversion_evaluates_to_the_value_the_controller_expects():
+    """The text the ontology writes, run as skill code runs it (the task's queries and the helpers)."""
+    from lerobot_policy_recent.robosuite_envs.observation import Observation
+    from lerobot_policy_recent.robosuite_envs.primitives.session import RobotSession, TaskContext
+
+    obs = Observation(eef_pos=np.zeros(3), eef_quat=np.array([1.0, 0, 0, 0]), gripper_opening=0.0, objects={})
+    session = RobotSession("UR5eScript", obs, frames={"world": Frame("world"), "base": BASE})
+    namespace = {"task": TaskContext(session), **SKILL_HELPERS}
+    pose_conversion = conversion(WORLD_M, _param("pose", "m", "base"))
+    text = pose_conversion.apply("p").replace("<rotvec>", TOOL_ROTATION)
+    pose = eval(text, namespace, {"p": [-0.46, 0.0, 0.962]})  # noqa: S307 -- the test's own text
+    assert pose[:3] == pytest.approx([-0.1, 0.0, 0.05], abs=1e-9) and len(pose) == 6
+    assert frames.world_point(pose, "pose", "m", BASE) == pytest.approx([-0.46, 0.0, 0.962])
+    assert frames.world_rotation(pose, "pose", BASE) == pytest.approx([1.0, 0, 0, 0], abs=1e-9) or (
+        frames.world_rotation(pose, "pose", BASE) == pytest.approx([-1.0, 0, 0, 0], abs=1e-9)
+    )
+
+
+def test_a_malformed_unit_frame_or_sequence_names_the_file_and_the_field(tmp_path):
+    head = "embodiment: X\nmodule: m\n"
+    prim = (
+        "primitives:\n  - name: go\n    description: d\n    parameters:\n      - {%s}\n"
+        "    capabilities: []\n    preconditions: []\n    effects: []\n"
+    )
+    cases = {
+        "name: p, type: position, unit: furlong, role: r, required: true": r"parameters\[0\]\.unit: a position takes",
+        "name: p, type: position, frame: base, role: r, required: true": r"parameters\[0\]\.frame: unknown frame 'base'",
+        "name: a, type: euler, unit: deg, role: r, required: true": r"parameters\[0\]\.sequence: Euler angles",
+        "name: a, type: euler, unit: deg, sequence: ZZX, role: r, required: true": r"\.sequence: three axes",
+    }
+    bad = tmp_path / "bad.yaml"
+    for param, message in cases.items():
+        bad.write_text(head + prim % param)
+        with pytest.raises(SpecError, match=message) as err:
+            load_api_spec(bad)
+        assert str(bad) in str(err.value)
+    bad.write_text(
+        head + "frames:\n  base: {origin: flange}\n" + prim % "name: p, type: position, role: r, required: true"
+    )
+    with pytest.raises(SpecError, match=r"frames\.base\.origin: must be one of world, arm_base"):
+        load_api_spec(bad)
+
+
+def test_krl_is_grounded_by_the_rule_backend_alone(ontology, put_in_bin, rule_infiller):
+    grounded = ground_skill(put_in_bin, ontology.target("IIWAKRL"), ontology, rule_infiller)
+    assert grounded.valid and grounded.generated_tokens == 0
+    assert "krl_grip(env, task, xyz_mm=[1000 * v for v in obj_pos])" in grounded.code
+    assert "krl_put(env, task, xyz_mm=[1000 * v for v in drop_pos])" in grounded.code
+    spans = {
+        c["original"]: c["span_type"]
+        for c in diagnose(ontology, put_in_bin.name, put_in_bin.code, "IIWAKRL").summary()["conflicts"]
+    }
+    assert spans == {"open_gripper": "api_substitution", "pick": "parameter_binding", "place": "parameter_binding"}
+
+
+def test_urscript_leaves_the_rotation_to_the_lm_with_the_facts_not_a_call_to_copy(ontology, put_in_bin, rule_infiller):
+    conflict = diagnose(ontology, put_in_bin.name, put_in_bin.code, "UR5eScript").conflicts[1]
+    assert conflict.span_type == "interface_rewiring" and conflict.unfilled == ("pose",)
+    unit = unit_from_conflict(put_in_bin.code, conflict, ontology.target("UR5eScript"))
+    assert unit.hints.substitute_call == "ur_pick(env, task, pose=task.to_frame(obj_pos, 'base') + <rotvec>)"
+    facts = " ".join(unit.hints.facts)
+    assert "axis-angle vector (rad) in frame 'base'" in facts and "task.get_tool_orientation()" in facts
+    assert TOOL_ROTATION not in facts  # the facts, not the finished expression
+    assert not ground_skill(put_in_bin, ontology.target("UR5eScript"), ontology, rule_infiller).valid
+
+
+def test_an_lm_that_fills_the_rotation_grounds_and_one_that_rewrites_the_position_is_rejected(ontology, put_in_bin):
+    place = f"ur_place(env, task, pose=task.to_frame(drop_pos, 'base') + {TOOL_ROTATION})"
+    rewritten = f"ur_place(env, task, pose=drop_pos + {TOOL_ROTATION})"  # the world point, unconverted
+    invented = "ur_place(env, task, pose=task.to_frame(drop_pos, 'base') + quat_to_axis_angle([1, 0, 0, 0]))"
+    infiller = ScriptedInfiller(
+        [
+            rewritten,
+            invented,
+            place,
+            f"ur_pick(env, task, pose=task.to_frame(obj_pos, 'base') + {TOOL_ROTATION})",
+            "rq_open(env, task)",
+        ]
+    )
+    grounded = ground_skill(put_in_bin, ontology.target("UR5eScript"), ontology, infiller, max_retries=3)
+    assert grounded.valid, grounded.verdict
+    assert [c.category for c in grounded.calls] == ["hallucinated_kwarg", "hallucinated_name", None, None, None]
+    assert "keep pose=task.to_frame(drop_pos, 'base') + _undecided" in grounded.calls[0].message
+
+
+PANDA_MOVE = 'def go(env, task):\n    """Move the hand to a point."""\n    p = [0.05, -0.08, 1.02]\n    move(env, task, target_pos=p)\n'
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    ("robot", "lm_writes"),
+    [
+        ("IIWAKRL", None),  # determined: the rule backend renders [1000 * v for v in p]
+        ("UR5eScript", f"movel(env, task, pose=task.to_frame(p, 'base') + {TOOL_ROTATION})"),
+    ],
+)
+def test_an_executed_move_reaches_the_world_point_the_panda_call_named(ontology, rule_infiller, robot, lm_writes):
+    """The rendered conversion, the robot's driver and the controller together: within its tolerance."""
+    from pathlib import Path
+
+    from lerobot_policy_recent.recent_plugin.executor import PlannedSkill, TaskExecutor
+    from lerobot_policy_recent.robosuite_envs.calibrate import calibration
+    from lerobot_policy_recent.robosuite_envs.gym_env import RecentEnv
+    from lerobot_policy_recent.robosuite_envs.observation import Observation
+    from lerobot_policy_recent.skills.repository import Skill
+
+    skill = Skill("go", "go", "move", "Panda", "move the hand to a point", PANDA_MOVE, Path("go.py"))
+    infiller = rule_infiller if lm_writes is None else ScriptedInfiller([lm_writes])
+    grounded = ground_skill(skill, ontology.target(robot), ontology, infiller)
+    assert grounded.valid, grounded.verdict
+    measured = calibration(robot)
+    env = RecentEnv(task="kinematic/lift_cube", robot=robot, render_mode="none")
+    try:
+        raw, _ = env.reset(seed=0)
+        names = env.spec_task.object_names()
+        obs = Observation.decode(raw["agent_pos"], raw["environment_state"], names)
+        executor = TaskExecutor([PlannedSkill(grounded)], ontology.target(robot), obs, calibration=measured)
+        for _ in range(200):
+            obs = Observation.decode(raw["agent_pos"], raw["environment_state"], names)
+            raw, *_ = env.step(executor.act(obs))
+            if executor.finished:
+                break
+        assert executor.finished and not executor.failures, executor.failures
+        assert np.linalg.norm(obs.eef_pos - [0.05, -0.08, 1.02]) < 1.2 * measured.settle_tol_m, obs.eef_pos
+    finally:
+        env.close()
+
+
+LAB_YAML = """\
+embodiment: LabBaseMM
+robot:
+  robosuite: IIWA
+  gripper: LinkedRobotiq85Gripper
+  robot_mjcf: models/assets/robots/iiwa/robot.xml
+  gripper_mjcf: models/assets/grippers/robotiq_gripper_85.xml
+  description: a lab's iiwa whose controller takes millimetres in its base frame
+module: lab_mm_prims
+frames:
+  base: {origin: arm_base}
+primitives:
+  - name: grab_mm
+    description: Grab what lies at a point and lift it.
+    parameters:
+      - {name: at_mm, type: position, unit: mm, frame: base, role: grasp_target, required: true}
+    capabilities: [grasp_object, lift_object, top_down_approach, parallel_jaw_grasp]
+    preconditions: [end_effector_free, object_at_target, target_reachable, object_fits_gripper, fingers_clear]
+    effects: [object_grasped, object_lifted, end_effector_engaged]
+  - name: move_mm
+    description: Move the tool centre point to a point.
+    parameters:
+      - {name: to_mm, type: position, unit: mm, frame: base, role: motion_target, required: true}
+    capabilities: [move_end_effector, cartesian_motion]
+    preconditions: [target_reachable, path_clear]
+    effects: [end_effector_at_target]
+  - name: open_mm
+    description: Open the gripper.
+    parameters: []
+    capabilities: [open_fingers]
+    preconditions: []
+    effects: [end_effector_free, object_released]
+"""
+
+LAB_MODULE = """\
+from lerobot_policy_recent.robosuite_envs.primitives import control, frames
+
+
+def grab_mm(env, task, at_mm):
+    yield from control.grasp_at(env, frames.world_point(at_mm, "position", "mm", env.frame("base")))
+
+
+def move_mm(env, task, to_mm):
+    yield from control.move_to(env, frames.world_point(to_mm, "position", "mm", env.frame("base")), settle=True)
+
+
+def open_mm(env, task):
+    yield from control.actuate_gripper(env, -1.0)
+"""
+
+
+@pytest.mark.slow
+def test_a_robot_of_ones_own_with_millimetres_in_its_base_frame_is_added_by_data_alone(tmp_path):
+    """The README's path (a YAML with a robot block and a module on RECENT_ROBOTS), nothing else:
+    the ontology renders the conversion, and the rule backend grounds and runs a canonical task."""
+    import json
+    import os
+    import subprocess
+
+    folder = tmp_path / "robots"
+    folder.mkdir()
+    (folder / "lab_mm.yaml").write_text(LAB_YAML)
+    (folder / "lab_mm_prims.py").write_text(LAB_MODULE)
+    env = {**os.environ, "RECENT_ROBOTS": str(folder), "RECENT_CACHE_DIR": str(tmp_path / "cache")}
+    cli = [sys.executable, "-m", "lerobot_policy_recent.scripts.cli"]
+    task = ["--task", "kinematic/lift_cube", "--robot", "LabBaseMM", "--infiller.type", "rule", "--no-log", "--json"]
+    ran = subprocess.run([*cli, "run", *task], env=env, capture_output=True, text=True)
+    assert ran.returncode == 0, ran.stderr[-2000:]
+    result = json.loads(ran.stdout)
+    assert result["success"] is True, result
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(pytest.main([__file__, "-q", "--runslow"]))
