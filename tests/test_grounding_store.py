@@ -86,15 +86,18 @@ def test_the_key_changes_with_the_code_that_prompts_the_lm(ontology, tmp_path):
 
     from lerobot_policy_recent.recent_plugin.grounding.store import GROUNDING_CODE, grounding_code_digest
 
-    package = Path(grounding_code_digest.__wrapped__.__code__.co_filename).parents[1]
-    same, edited = tmp_path / "same", tmp_path / "edited"
-    for copy in (same, edited):
+    package = Path(grounding_code_digest.__wrapped__.__code__.co_filename).parents[2]
+    same, edited, reworded = tmp_path / "same", tmp_path / "edited", tmp_path / "reworded"
+    for copy in (same, edited, reworded):
         for folder in GROUNDING_CODE:
             shutil.copytree(package / folder, copy / folder, ignore=shutil.ignore_patterns("__pycache__"))
-    prompt = edited / "refactoring" / "chat_prompt.py"
+    prompt = edited / "recent_plugin" / "refactoring" / "chat_prompt.py"
     prompt.write_text(prompt.read_text().replace("Answer with code only", "Answer with code"))
+    facts = reworded / "ontology" / "conversions.py"  # the ontology writes hints too (a conversion's facts)
+    facts.write_text(facts.read_text().replace("keeps the tool's orientation", "holds the tool's orientation"))
     assert grounding_code_digest(same) == grounding_code_digest()  # the same sources, the same digest
     assert grounding_code_digest(edited) != grounding_code_digest()
+    assert grounding_code_digest(reworded) != grounding_code_digest()
 
     agent = RecentAgent(RecentSettings(infiller=RuleConfig()), infiller=RuleInfiller(), ontology=ontology)
     assert grounding_code_digest() in agent.grounding_key(agent.skill("put_in_bin"), ontology.target("UR5e"))
