@@ -357,6 +357,8 @@ def _path_tracers(apis: dict[str, ApiSpec], sources: set[str]) -> list[tuple[str
             for target, api in apis.items():
                 if target == emb or any(p.effects == prim.effects for p in api.primitives):
                     continue
+                if not all(api.actuator(step.effect) for step in prim.path if step.actuation):
+                    continue  # it can move along the path but not close (or let go) where the path does
                 out += [(emb, prim, move) for move in api.point_moves()]
     return out
 

@@ -8,7 +8,7 @@ conflict carries everything the refactoring step needs — no LM is involved her
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 from lerobot_policy_recent.ontology.builder import Ontology
 from lerobot_policy_recent.ontology.conversions import Conversion, conversion
@@ -37,9 +37,12 @@ class PathStep:
     source: str
     offset: tuple[float, float, float] = (0.0, 0.0, 0.0)
     conversion: Conversion | None = None  # the move's point takes other units, frame or a pose
+    actuate: str = ""  # an actuation step instead of a move: the robot's parameterless primitive to call
 
     def render(self) -> str:
-        """``start_pos + 0.1z``: how diagnoses show a step."""
+        """``start_pos + 0.1z``, or ``close_gripper()``: how diagnoses show a step."""
+        if self.actuate:
+            return f"{self.actuate}()"
         return self.source + "".join(
             f" {'+' if v > 0 else '-'} {abs(v):g}{axis}" for axis, v in zip("xyz", self.offset, strict=True) if v
         )
@@ -73,6 +76,9 @@ class Warning:
     message: str
     phase: str = "before"  # "before" for preconditions, "after" for effects
     through: int | None = None  # a span rendered one statement per line: the check guards its first through+1
+    # a traced call's move stands for the original call: its point plays the original's role there
+    # (the descent of a traced pick is the grasp): (parameter, role) pairs the check reads it by
+    roles: tuple[tuple[str, str], ...] = ()
 
 
 @dataclass(frozen=True)
@@ -140,6 +146,8 @@ def diagnose(onto: Ontology, skill_name: str, code: str, robot: str, source: str
             warnings += _warnings(onto, site, original, target, source, robot, sites, bindings)
         if conflict is not None and conflict.path:
             warnings.append(_approach_warning(onto, site, conflict))
+            if any(step.actuate for step in conflict.path):
+                warnings += _traced_warnings(onto, site, original, conflict, source, robot, sites, bindings)
     return Diagnosis(skill=skill_name, robot=robot, conflicts=tuple(conflicts), warnings=tuple(warnings))
 
 
@@ -198,14 +206,18 @@ def _path_conflict(
     onto: Ontology, site: CallSite, original: PrimitiveSpec, move: PrimitiveSpec, robot: str
 ) -> Conflict:
     """No primitive does what the call does, but the robot can move its end effector along the
-    call's path: one move per waypoint, after the steps that establish the call's other robot-state
+    call's path: one move per waypoint and one call per actuation step (a pick closes the hand
+    between its descent and its lift), after the steps that establish the call's other robot-state
     effects (a closed hand for a push) where those are decidable before execution."""
-    point = move.by_role(PATH_ROLE)
+    api, point = onto.api(robot), move.by_role(PATH_ROLE)
     steps = tuple(
-        PathStep(source.name, w.offset, conversion(source, point))
+        PathStep("", actuate=api.actuator(w.effect).name)
+        if w.actuation
+        else PathStep(source.name, w.offset, conversion(source, point))
         for w in original.path
-        if (source := original.by_role(w.role)) is not None
+        if w.actuation or (source := original.by_role(w.role)) is not None
     )
+    actuated = set().union(*(api.actuator(w.effect).effects for w in original.path if w.actuation))
     undetermined = any(s.conversion and not s.conversion.determined for s in steps)
     decidable = [
         p
@@ -213,11 +225,11 @@ def _path_conflict(
         if not any(q.required for q in p.parameters)
         and all(onto.conditions[c].kind == "robot" for c in p.preconditions)
     ]
-    missing = sorted(c for c in original.effects - move.effects if onto.conditions[c].kind == "robot")
+    missing = sorted(c for c in original.effects - move.effects - actuated if onto.conditions[c].kind == "robot")
     preparatory = tuple(
         dict.fromkeys(p.name for c in missing if (p := next((q for q in decidable if c in q.effects), None)))
     )
-    used = {s.source for s in steps}
+    used = {s.source for s in steps if not s.actuate}
     return Conflict(
         span=site.span,
         span_type="path_tracing",
@@ -235,13 +247,29 @@ def _path_conflict(
 def _approach_warning(onto: Ontology, site: CallSite, conflict: Conflict) -> Warning:
     """A traced path is several statements: the object may move while the hand approaches it, and
     between those statements that can be checked — before each one up to the contact point."""
-    contact = next((i for i, step in enumerate(conflict.path) if not any(step.offset)), 0)
+    contact = next((i for i, step in enumerate(conflict.path) if not step.actuate and not any(step.offset)), 0)
     spec = onto.conditions["object_at_target"]
     message = "the object may move while the hand approaches it along the traced path"
     through = len(conflict.preparatory) + contact
     return Warning(
         "object_at_target", site.span, conflict.substitute.name, spec.check, spec.observation, message, through=through
     )
+
+
+def _traced_warnings(onto, site, original, conflict, source, robot, sites, bindings) -> list[Warning]:
+    """A pick or place traced as moves and gripper calls still has the original call's preconditions
+    to check (fingers clear of a neighbour, the target clear): before each move up to the contact
+    point, reading the move's point as the original's grasp or release target."""
+    contact = next(i for i, step in enumerate(conflict.path) if not step.actuate and not any(step.offset))
+    point, role = conflict.substitute.by_role(PATH_ROLE), original.parameter(conflict.path[contact].source).role
+    through = len(conflict.preparatory) + contact
+    kept = {"object_at_target"}  # the approach warning checks that one already
+    out = []
+    for w in _warnings(onto, site, original, original, source, robot, sites, bindings):
+        if w.phase == "before" and w.kind not in kept:
+            kept.add(w.kind)
+            out.append(replace(w, primitive=conflict.substitute.name, through=through, roles=((point.name, role),)))
+    return out
 
 
 def _preparatory_steps(

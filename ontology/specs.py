@@ -60,11 +60,18 @@ class ParameterSpec:
 
 @dataclass(frozen=True)
 class Waypoint:
-    """One point of the path a primitive moves the end effector along: a position parameter's value
-    (named by role) plus a fixed offset in metres, world frame."""
+    """One step of the path a primitive moves the end effector along: a position parameter's value
+    (named by role) plus a fixed offset in metres, world frame; or, with ``effect``, the robot state
+    the hand establishes at that point of the path (a pick closes its fingers between the descent
+    and the lift: ``end_effector_engaged``)."""
 
-    role: str
+    role: str = ""
     offset: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    effect: str = ""  # an actuation step: a parameterless primitive of the robot with this effect
+
+    @property
+    def actuation(self) -> bool:
+        return bool(self.effect)
 
 
 @dataclass(frozen=True)
@@ -115,6 +122,13 @@ class ApiSpec:
 
     def get(self, name: str) -> PrimitiveSpec | None:
         return next((p for p in self.primitives if p.name == name), None)
+
+    def actuator(self, effect: str) -> PrimitiveSpec | None:
+        """A primitive that takes no argument and establishes ``effect`` (a gripper's close or open):
+        what performs an actuation step of a traced path."""
+        return next(
+            (p for p in self.primitives if effect in p.effects and not any(q.required for q in p.parameters)), None
+        )
 
     def point_moves(self) -> list[PrimitiveSpec]:
         """Primitives that move the end effector to a given point: what can trace a declared path."""
@@ -180,6 +194,11 @@ def _flag(item: dict, key: str, path: Path, where: str) -> bool:
 def check_against_vocabulary(api: ApiSpec, conditions: dict[str, ConditionSpec]) -> None:
     """Every condition must be known, and no list may hold two conditions that exclude each other."""
     for i, prim in enumerate(api.primitives):
+        for k, step in enumerate(prim.path):
+            if step.actuation and step.effect not in conditions:
+                raise SpecError(
+                    api.path, f"primitives[{i}] ({prim.name}).path[{k}].effect", f"unknown condition {step.effect!r}"
+                )
         for field_name in ("preconditions", "effects"):
             values = getattr(prim, field_name)
             where = f"primitives[{i}] ({prim.name}).{field_name}"
@@ -309,7 +328,12 @@ def _parse_path(item: dict, params: list[ParameterSpec], path: Path, where: str)
     for k, raw in enumerate(_require(item, "path", list, path, where)):
         at = f"{where}.path[{k}]"
         if not isinstance(raw, dict):
-            raise SpecError(path, at, "must be a mapping with 'role' (and an optional 'offset')")
+            raise SpecError(path, at, "must be a mapping with 'role' (and an optional 'offset'), or with 'effect'")
+        if "effect" in raw:
+            if set(raw) != {"effect"}:
+                raise SpecError(path, at, "an actuation step has 'effect' alone (the state the hand establishes there)")
+            waypoints.append(Waypoint(effect=_require(raw, "effect", str, path, at)))
+            continue
         role = _require(raw, "role", str, path, at)
         if role not in positions:
             raise SpecError(

@@ -128,16 +128,67 @@ def test_a_malformed_unit_frame_or_sequence_names_the_file_and_the_field(tmp_pat
         load_api_spec(bad)
 
 
-def test_krl_is_grounded_by_the_rule_backend_alone(ontology, put_in_bin, rule_infiller):
+def test_krl_is_grounded_by_the_rule_backend_alone_its_picks_traced_as_moves_and_gripper_calls(
+    ontology, put_in_bin, rule_infiller
+):
+    """KRL has no pick: the Panda's pick becomes open, a LIN above the object, down to it, close, back
+    up (one source call, five target calls), each point converted to millimetres."""
     grounded = ground_skill(put_in_bin, ontology.target("IIWAKRL"), ontology, rule_infiller)
     assert grounded.valid and grounded.generated_tokens == 0
-    assert "krl_grip(env, task, xyz_mm=[1000 * v for v in obj_pos])" in grounded.code
-    assert "krl_put(env, task, xyz_mm=[1000 * v for v in drop_pos])" in grounded.code
-    spans = {
-        c["original"]: c["span_type"]
-        for c in diagnose(ontology, put_in_bin.name, put_in_bin.code, "IIWAKRL").summary()["conflicts"]
-    }
-    assert spans == {"open_gripper": "api_substitution", "pick": "parameter_binding", "place": "parameter_binding"}
+    pick = [
+        "krl_open(env, task)",
+        "krl_lin(env, task, xyz_mm=[1000 * v for v in [obj_pos[0], obj_pos[1], obj_pos[2] + 0.1]])",
+        "krl_lin(env, task, xyz_mm=[1000 * v for v in obj_pos])",
+        "krl_close(env, task)",
+        "krl_lin(env, task, xyz_mm=[1000 * v for v in [obj_pos[0], obj_pos[1], obj_pos[2] + 0.1]])",
+    ]
+    assert "\n".join(f"    {line}" for line in pick) in grounded.code
+    place = diagnose(ontology, put_in_bin.name, put_in_bin.code, "IIWAKRL").conflicts[-1]
+    assert place.span_type == "path_tracing" and place.preparatory == ()  # the hand opens on the target, not before
+    assert [s.render() for s in place.path] == ["target_pos + 0.05z", "target_pos", "krl_open()", "target_pos + 0.05z"]
+
+
+def test_a_traced_place_is_still_checked_for_a_clear_target_read_as_the_release_target(ontology, put_in_bin):
+    warnings = diagnose(ontology, put_in_bin.name, put_in_bin.code, "IIWAKRL").warnings
+    clear = next(w for w in warnings if w.kind == "target_clear")
+    assert clear.primitive == "krl_lin" and clear.roles == (("xyz_mm", "release_target"),)
+    assert clear.through == 1  # before the move above the target and before the descent onto it
+
+
+@pytest.mark.slow
+def test_a_check_on_a_traced_place_writes_its_sweep_in_the_robots_millimetres(ontology, rule_infiller):
+    """cube_on_plate, seed 0, variations on: a slab lies on the plate. The target_clear check reads the
+    descent's millimetres as the release target, and sweeps with krl_slide in millimetres."""
+    from lerobot_policy_recent.recent_plugin.agent import RecentAgent
+    from lerobot_policy_recent.recent_plugin.episode import run_episode
+    from lerobot_policy_recent.recent_plugin.infillers.configs import RuleConfig
+    from lerobot_policy_recent.recent_plugin.settings import RecentSettings
+
+    agent = RecentAgent(RecentSettings(infiller=RuleConfig()), infiller=rule_infiller, ontology=ontology)
+    result = run_episode(agent, "kinematic/cube_on_plate", "IIWAKRL", seed=0, variations="on")
+    assert result.success, result.failures
+    sweep = next(e for e in result.adaptations if "target_clear" in e.checks)
+    assert sweep.after is not None and sweep.after.startswith("krl_slide(env, task, from_mm=[")
+    start = [float(v) for v in sweep.after.split("from_mm=[")[1].split("]")[0].split(",")]
+    assert 700 < start[2] < 1000  # millimetres: the table top is at about 0.8 m
+
+
+def test_a_malformed_actuation_step_names_the_file_and_the_field(tmp_path):
+    from lerobot_policy_recent.ontology.specs import check_against_vocabulary, load_conditions
+
+    spec = (
+        "embodiment: X\nmodule: m\nprimitives:\n  - name: grab\n    description: d\n    parameters:\n"
+        "      - {name: p, type: position, role: r, required: true}\n"
+        "    capabilities: []\n    preconditions: []\n    effects: []\n    path:\n      - %s\n"
+    )
+    bad = tmp_path / "bad.yaml"
+    bad.write_text(spec % "{effect: end_effector_engaged, role: r}")
+    with pytest.raises(SpecError, match=r"primitives\[0\] \(grab\)\.path\[0\]: an actuation step has 'effect' alone"):
+        load_api_spec(bad)
+    bad.write_text(spec % "{effect: hand_waved}")
+    with pytest.raises(SpecError, match=r"path\[0\]\.effect: unknown condition 'hand_waved'") as err:
+        check_against_vocabulary(load_api_spec(bad), load_conditions())
+    assert str(bad) in str(err.value)
 
 
 def test_urscript_leaves_the_rotation_to_the_lm_with_the_facts_not_a_call_to_copy(ontology, put_in_bin, rule_infiller):

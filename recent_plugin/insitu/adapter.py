@@ -159,7 +159,7 @@ class InSituAdapter:
             warning=warning,
             obs=executor.session.obs,
             arguments={k: v for k, v in arguments.items() if v is not None},
-            roles={p.name: p.role for p in spec.parameters},
+            roles={p.name: p.role for p in spec.parameters} | dict(warning.roles),
             named=named,
             stale_reads=stale,
             derived=tuple(

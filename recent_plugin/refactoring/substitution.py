@@ -50,6 +50,9 @@ def _traced(conflict: Conflict, given: dict[str, ast.expr], targets: str) -> lis
     point = conflict.substitute.by_role(PATH_ROLE)
     moves = []
     for step in conflict.path:
+        if step.actuate:
+            moves.append(f"{step.actuate}(env, task)")
+            continue
         value = given.get(step.source)
         where = "<position>" if value is None else _offset(value, step.offset)
         if value is not None and step.conversion is not None:

@@ -1,6 +1,6 @@
 """Primitive API of a KUKA LBR iiwa 14 with a Robotiq 2F-85, driven the KRL way: millimetres and
-Euler angles A, B, C in degrees (``krl.yaml``). The driver turns them into the world-frame metres
-and quaternions of the shared controllers."""
+Euler angles A, B, C in degrees (``krl.yaml``), linear moves and gripper switches, no pick or place.
+The driver turns them into the world-frame metres and quaternions of the shared controllers."""
 
 from __future__ import annotations
 
@@ -12,16 +12,6 @@ from lerobot_policy_recent.robosuite_envs.primitives.session import RobotSession
 
 def _metres(xyz_mm: Sequence[float]) -> list[float]:
     return frames.scale(xyz_mm, "mm", "m")
-
-
-def krl_grip(env: RobotSession, task: TaskContext, xyz_mm: Sequence[float], timeout_s: float = 10.0) -> control.Steps:
-    """Approach ``xyz_mm`` from above, close on what lies there and lift it."""
-    yield from control.grasp_at(env, _metres(xyz_mm), timeout_s=timeout_s)
-
-
-def krl_put(env: RobotSession, task: TaskContext, xyz_mm: Sequence[float], timeout_s: float = 10.0) -> control.Steps:
-    """Set the held object down at ``xyz_mm`` and open."""
-    yield from control.release_at(env, _metres(xyz_mm), timeout_s=timeout_s)
 
 
 def krl_lin(env: RobotSession, task: TaskContext, xyz_mm: Sequence[float], timeout_s: float = 6.0) -> control.Steps:
