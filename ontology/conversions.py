@@ -102,8 +102,9 @@ def undetermined_facts(conflict) -> tuple[str, ...]:
     open_params = dict.fromkeys(name for name, c in conversions if c is not None and not c.determined)
     if not open_params:
         return ()
-    lines = [f"{name}: {facts(conflict.substitute.parameter(name))}" for name in open_params]
-    return (*lines, TOOL_ROTATION)
+    params = [conflict.substitute.parameter(name) for name in open_params]
+    rotation = any(p.type in ("pose", *ROTATIONS) for p in params)  # what the tool's orientation answers
+    return (*(f"{p.name}: {facts(p)}" for p in params), *((TOOL_ROTATION,) if rotation else ()))
 
 
 TOOL_ROTATION = (

@@ -260,7 +260,9 @@ def _traced_warnings(onto, site, original, conflict, source, robot, sites, bindi
     """A pick or place traced as moves and gripper calls still has the original call's preconditions
     to check (fingers clear of a neighbour, the target clear): before each move up to the contact
     point, reading the move's point as the original's grasp or release target."""
-    contact = next(i for i, step in enumerate(conflict.path) if not step.actuate and not any(step.offset))
+    contact = next((i for i, step in enumerate(conflict.path) if not step.actuate and not any(step.offset)), None)
+    if contact is None:
+        return []  # a path that never reaches its target point: nothing there to check
     point, role = conflict.substitute.by_role(PATH_ROLE), original.parameter(conflict.path[contact].source).role
     through = len(conflict.preparatory) + contact
     kept = {"object_at_target"}  # the approach warning checks that one already

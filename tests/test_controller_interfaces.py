@@ -224,6 +224,28 @@ def test_an_lm_that_fills_the_rotation_grounds_and_one_that_rewrites_the_positio
 PANDA_MOVE = 'def go(env, task):\n    """Move the hand to a point."""\n    p = [0.05, -0.08, 1.02]\n    move(env, task, target_pos=p)\n'
 
 
+def test_a_whole_program_prompt_names_the_frames_and_conversions_only_for_a_robot_that_needs_them(ontology):
+    """A baseline writes the whole program: it gets the same facts (frames, queries, helpers) in its header."""
+    from lerobot_policy_recent.recent_plugin.agent import RecentAgent
+    from lerobot_policy_recent.recent_plugin.infillers.configs import RuleConfig
+    from lerobot_policy_recent.recent_plugin.methods import method_named
+    from lerobot_policy_recent.recent_plugin.settings import RecentSettings
+    from lerobot_policy_recent.robosuite_envs.suites import get_task
+
+    headers = {}
+    for robot in ("UR5eScript", "UR5e"):
+        infiller = ScriptedInfiller(["pass"])
+        agent = RecentAgent(
+            RecentSettings(infiller=RuleConfig(), method=method_named("cap")), ontology=ontology, infiller=infiller
+        )
+        agent.ground("put_in_bin", robot, get_task("cube_in_bin"))
+        headers[robot] = infiller.units[0].prefix
+    assert "# Frames: base: at the arm base, turned [0.0, 0.0, 180.0] deg" in headers["UR5eScript"]
+    assert "task.to_frame(...)" in headers["UR5eScript"] and "quat_to_rotvec(...)" in headers["UR5eScript"]
+    assert "#   ur_pick(env, task, pose: pose [m, frame base]" in headers["UR5eScript"]
+    assert "Conversions" not in headers["UR5e"] and "Frames" not in headers["UR5e"]
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize(
     ("robot", "lm_writes"),

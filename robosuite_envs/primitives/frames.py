@@ -40,13 +40,19 @@ class Frame:
     def rotation(self) -> Rotation:
         return _rotation().from_quat(self.quat)
 
+    @property
+    def turned(self) -> bool:
+        return tuple(self.quat) != (0.0, 0.0, 0.0, 1.0)
+
     def to_frame(self, position: Sequence[float]) -> list[float]:
         """A world point, in this frame (metres)."""
-        return _floats(self.rotation.inv().apply(np.subtract(_vector(position, 3), self.origin)))
+        shifted = np.subtract(_vector(position, 3), self.origin)
+        return _floats(self.rotation.inv().apply(shifted) if self.turned else shifted)
 
     def from_frame(self, position: Sequence[float]) -> list[float]:
         """A point of this frame, in the world (metres)."""
-        return _floats(self.rotation.apply(_vector(position, 3)) + np.asarray(self.origin))
+        point = _vector(position, 3)
+        return _floats((self.rotation.apply(point) if self.turned else point) + np.asarray(self.origin))
 
     def quat_to_frame(self, quat: Sequence[float]) -> list[float]:
         """A world orientation, relative to this frame's axes."""
