@@ -78,6 +78,16 @@ def test_lm_necessity_says_when_a_suite_does_not_test_the_lm():
     assert any("**kinematic**: +0.0 pp SR" in line and "does not test the LM" in line for line in same)
     needed = lm_necessity_lines(episodes("recent", [True] * 20) + episodes("oracle-rule", [False] * 20))
     assert any("+100.0 pp SR [+100.0, +100.0]" in line and "the LM adds success" in line for line in needed)
+    # two targets, one the rendering decides and one it cannot: a tie means different things on each
+    decided = episodes("recent", [True] * 4) + episodes("oracle-rule", [True] * 4)
+    open_ = [
+        {**r, "target": "UR5eScript"} for r in episodes("recent", [False] * 4) + episodes("oracle-rule", [False] * 4)
+    ]
+    per_target = lm_necessity_lines(decided + open_)
+    assert "  - UR5e: RECENT 100 % SR, oracle-rule 100 %, GC +0.0 pp over 4 episodes; the rendering alone succeeds" in (
+        "\n".join(per_target)
+    )
+    assert any(line.startswith("  - UR5eScript: RECENT 0 % SR") and "neither succeeds" in line for line in per_target)
     covered = [{**r, "rule_coverage": 75.0} for r in episodes("recent", [True] * 3)]
     lines = lm_necessity_lines(covered)  # no oracle-rule row: coverage, and necessity not measured
     assert "- rule coverage, recent on kinematic: 75.0 % of spans and run-time patches decided without an LM" in lines

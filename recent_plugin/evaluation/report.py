@@ -12,7 +12,7 @@ import datetime as dt
 from collections import Counter
 from pathlib import Path
 
-from lerobot_policy_recent.recent_plugin.evaluation.confidence import episode_key, paired_comparisons
+from lerobot_policy_recent.recent_plugin.evaluation.confidence import episode_key, paired_comparisons, paired_difference
 from lerobot_policy_recent.recent_plugin.evaluation.methods import ABLATION_METHODS, EXPECTED, METHODS
 from lerobot_policy_recent.recent_plugin.evaluation.metrics import (
     LABELS,
@@ -454,7 +454,42 @@ def lm_necessity_lines(records: list[dict]) -> list[str]:
             f"- LM necessity on **{suite}**: {p['sr_diff']:+.1f} pp SR [{low:+.1f}, {high:+.1f}] over "
             f"{p['episodes']} shared episodes; {verdict}."
         )
+        lines += _lm_necessity_per_target(records, suite)
     return [*lines, ""]
+
+
+def _lm_necessity_per_target(records: list[dict], suite: str) -> list[str]:
+    """Where a suite's targets differ (one API the ontology decides, one it cannot), what the LM
+    adds on each: a tie can mean the rendering alone succeeds, or that neither does."""
+    by_target = group([r for r in records if r["suite"] == suite], lambda r: r["target"])
+    if len(by_target) < 2:
+        return []
+    lines = []
+    for target, rs in sorted(by_target.items()):
+        compared = paired_difference(
+            [r for r in rs if r["method"] == "recent"], [r for r in rs if r["method"] == "oracle-rule"]
+        )
+        if compared is None:
+            continue
+        shared = {episode_key(r) for r in rs if r["method"] == "recent"}
+        rule = [r for r in rs if r["method"] == "oracle-rule" and episode_key(r) in shared]
+        rule_sr = 100.0 * sum(bool(r["success"]) for r in rule) / len(rule)
+        recent_sr = rule_sr + compared["sr_diff"]
+        if compared["sr_diff"] > 0:
+            verdict = "the LM adds success"
+        elif compared["sr_diff"] < 0:
+            verdict = "the LM loses success the rendering alone had"
+        elif rule_sr == 100.0:
+            verdict = "the rendering alone succeeds on every episode: no test of the LM"
+        elif recent_sr == 0.0:
+            verdict = "neither succeeds: what the rendering leaves open, the LM did not get right"
+        else:
+            verdict = "the LM adds nothing over the rendering"
+        lines.append(
+            f"  - {target}: RECENT {recent_sr:.0f} % SR, oracle-rule {rule_sr:.0f} %, GC "
+            f"{compared['gc_diff']:+.1f} pp over {compared['episodes']} episodes; {verdict}"
+        )
+    return lines
 
 
 def _per_target(records: list[dict]) -> str:
