@@ -114,7 +114,9 @@ def register(sub) -> None:
         "pack",
         help="put a finished run's per-episode records into one compressed file (how results/ commits runs)",
         description=f"Write DIR/{PACKED} from DIR/episodes/ and remove the per-episode files; report, compare "
-        "and resume read either form. The logs (DIR/logs) are not touched: they belong in a dataset.",
+        "and resume read either form. Where the run kept logs, also write DIR/lm_calls.jsonl.gz: every prompt, "
+        "answer, verdict and patch with its episode, for review. The logs (DIR/logs) are not touched: they "
+        "belong in a dataset.",
     )
     pack.add_argument("dir", help="a `recent bench --out` directory")
     pack.set_defaults(handler=_pack)
@@ -275,13 +277,16 @@ def _report(args) -> int:
 
 
 def _pack(args) -> int:
-    from lerobot_policy_recent.recent_plugin.evaluation.runner import has_records, pack_records
+    from lerobot_policy_recent.recent_plugin.evaluation.runner import LM_CALLS, has_records, pack_lm_calls, pack_records
 
     out = Path(args.dir)
     if not has_records(out):
         raise FileNotFoundError(f"{out} holds no episode records: is it a `recent bench --out` directory?")
     count = pack_records(out)
     print(f"{count} episode records -> {out / PACKED}")
+    calls = pack_lm_calls(out)
+    if calls:
+        print(f"{calls} prompts, answers, verdicts and patches from its logs -> {out / LM_CALLS}")
     return 0
 
 

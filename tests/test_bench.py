@@ -222,6 +222,27 @@ def test_a_packed_run_reads_resumes_and_compares_as_the_files_did(bench_dir, tmp
     assert main(["bench", "pack", str(tmp_path / "nowhere")]) == 2
 
 
+def test_a_packed_run_keeps_what_each_lm_was_asked_and_answered(bench_dir, tmp_path, capsys):
+    """A reviewer reads why a program failed without the logs: prompts, answers and verdicts per episode."""
+    import gzip
+    import json
+    import shutil
+
+    from lerobot_policy_recent.recent_plugin.evaluation.runner import LM_CALLS, LM_EVENTS, load_records
+    from lerobot_policy_recent.scripts.cli import main
+
+    packed = tmp_path / "with_logs"
+    shutil.copytree(bench_dir, packed)
+    assert main(["bench", "pack", str(packed)]) == 0
+    with gzip.open(packed / LM_CALLS, "rt") as lines:
+        rows = [json.loads(line) for line in lines]
+    episodes = {(r["method"], r["task_id"], r["target"], r["seed"]) for r in load_records(packed)}
+    assert {(r["method"], r["task_id"], r["robot"], r["seed"]) for r in rows} <= episodes
+    assert {r["event"] for r in rows} <= set(LM_EVENTS) and any(r["event"] == "validation_verdict" for r in rows)
+    calls = [r for r in rows if r["event"] == "infill_call"]
+    assert calls and all("prompt" in r and "completion" in r for r in calls)
+
+
 def test_unknown_targets_are_refused_before_any_episode(tmp_path, capsys):
     assert main(["bench", "--target=Kuka", "--infiller.type=rule", f"--out={tmp_path / 'x'}"]) == 2
     assert "unknown target(s) Kuka; known robots: Panda" in capsys.readouterr().err

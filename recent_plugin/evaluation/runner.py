@@ -124,6 +124,36 @@ def has_records(out: Path) -> bool:
     return (out / "episodes").is_dir() or (out / PACKED).is_file()
 
 
+LM_CALLS = "lm_calls.jsonl.gz"  # what each LM was asked and answered, and what validation said, for review
+LM_EVENTS = ("infill_call", "validation_verdict", "patch_applied")
+
+
+def pack_lm_calls(out: Path) -> int:
+    """From a run's logs (``DIR/logs/grounding_events``), every prompt, answer, verdict and patch,
+    each with its episode (method, task, robot, seed), into one compressed file a reviewer can read
+    without the logs: why a method's program failed. How many rows (0 where the run kept no logs)."""
+    from lerobot_policy_recent.logs.layout import LogLayout, episode_number
+    from lerobot_policy_recent.logs.readers import read_table
+
+    episodes = {r["log_episode"]: r for r in load_records(out) if r.get("log_episode") is not None}
+    rows = []
+    for path in sorted(LogLayout(log_dir(out)).events_dir.glob("*.parquet")):
+        record = episodes.get(episode_number(path))
+        if record is None:
+            continue  # an episode whose record is gone (crashed and not run again)
+        episode = {k: record[f] for k, f in (("method", "method"), ("task_id", "task_id"), ("robot", "target"))}
+        for order, row in enumerate(read_table(path)):
+            if row["event"] in LM_EVENTS:
+                rows.append({**episode, "seed": record["seed"], "order": order, "event": row["event"]})
+                rows[-1].update(json.loads(row["payload"]))
+    if not rows:
+        return 0
+    rows.sort(key=lambda r: (r["method"], r["task_id"], r["robot"], str(r["seed"]), r["order"]))
+    with open(out / LM_CALLS, "wb") as raw, gzip.GzipFile(fileobj=raw, mode="wb", mtime=0) as packed:
+        packed.write("".join(json.dumps(r, sort_keys=True, default=str) + "\n" for r in rows).encode())
+    return len(rows)
+
+
 def pack_records(out: Path) -> int:
     """Move every episode record of ``out`` into its packed file (for committing a finished run); how many."""
     records = load_records(out)
