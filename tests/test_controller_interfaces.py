@@ -5,6 +5,8 @@ The ontology renders each conversion where the Panda's call determines it (the `
 grounds it, no LM), and leaves a placeholder where it does not (a position-only call becoming a
 pose: which rotation?), which an LM fills from the facts the hint gives. The conversions are
 checked numerically, and in simulation: a move reaches the world point the Panda's call named.
+KRL has no pick or place: the ontology traces the Panda's as moves and gripper calls (one source
+call, five target calls), and the run-time checks still guard them, in millimetres.
 """
 
 from __future__ import annotations
@@ -356,7 +358,3 @@ def test_a_robot_of_ones_own_with_millimetres_in_its_base_frame_is_added_by_data
     assert ran.returncode == 0, ran.stderr[-2000:]
     result = json.loads(ran.stdout)
     assert result["success"] is True, result
-
-
-if __name__ == "__main__":  # pragma: no cover
-    sys.exit(pytest.main([__file__, "-q", "--runslow"]))
