@@ -111,7 +111,7 @@ Check = Callable[[CheckInput], Violation | None]
 def _by_role(inp: CheckInput, *roles: str) -> np.ndarray | None:
     """The world point (metres) the guarded call's argument of one of ``roles`` names, whatever the
     units and frame its API takes it in; None where it names none."""
-    spec = inp.api.get(inp.warning.primitive)
+    spec = inp.api.get(inp.warning.primitive) if inp.warning is not None else None
     for name, role in inp.roles.items():
         if role in roles and name in inp.arguments:
             param = spec.parameter(name) if spec is not None else None
