@@ -23,6 +23,7 @@ from lerobot_policy_recent.recent_plugin.grounding.budget import BudgetedInfille
 from lerobot_policy_recent.recent_plugin.grounding.grounder import GroundedSkill
 from lerobot_policy_recent.recent_plugin.grounding.store import GroundingStore, default_store, grounding_code_digest
 from lerobot_policy_recent.recent_plugin.infillers import Infiller
+from lerobot_policy_recent.recent_plugin.infillers.base import samples
 from lerobot_policy_recent.recent_plugin.methods import Adaptation, Grounding
 from lerobot_policy_recent.recent_plugin.settings import RecentSettings
 from lerobot_policy_recent.robosuite_envs.calibrate import calibration
@@ -102,7 +103,7 @@ class RecentAgent:
         skill = self.skill(skill_name)
         method = self.settings.method
         key = self.grounding_key(skill, target, task)
-        if self.settings.temperature > 0:
+        if self.settings.temperature > 0 and samples(self.lm):
             key = (*key, f"episode seed {seed}")
         cached = self._cache.get(key) or (self.store.get(key) if self.store else None)
         if cached is not None and (budget is None or budget.affords(lm_calls(cached))):

@@ -31,7 +31,9 @@ class RecentSettings:
     # task gets TaskSpec.lm_calls_per_primitive calls per primitive call of its skills where that is more
     max_lm_calls: int = 24
     lm_seed: int = 0  # the LM's sampling seed (the episode seed is the env's)
-    temperature: float = 0.0  # 0: greedy; above 0: seeded sampling, each episode seeded by lm_seed and its own seed
+    # seeded sampling, each episode seeded by lm_seed and its own seed, so seeds are real repetitions (0.2: Codex's
+    # pass@1 temperature); 0: greedy, as the runs before 2026-11-26 were
+    temperature: float = 0.2
     max_skill_steps: int = 3000  # control steps a skill may take before it is stopped
     skill_library: str | None = None  # a directory of skills (+ validation/); None: the bundled Panda skills
 

@@ -381,14 +381,19 @@ def test_scot_writes_a_structured_plan_then_the_program_under_it(ontology):
 
 
 def test_seeded_sampling_makes_seeds_real_repetitions_and_replays_an_episode_exactly(ontology):
-    """temperature > 0: every LM call samples with a seed drawn from lm_seed, the episode seed and
-    the call's place; a grounding is cached per episode seed, so another seed grounds afresh."""
+    """temperature > 0 (the default, 0.2): every LM call samples with a seed drawn from lm_seed, the
+    episode seed and the call's place; a grounding is cached per episode seed, so another seed grounds
+    afresh. A backend that does not sample (the rule renderer, a double that does not say) is asked
+    plainly, and then a grounding serves every seed; temperature 0 is greedy."""
 
     class Recording(ScriptedInfiller):
+        samples = True
+
         def infill(self, unit, **sampling):
             self.sampling = [*getattr(self, "sampling", []), sampling]
             return super().infill(unit)
 
+    assert RecentSettings().temperature == 0.2
     infiller = Recording([UR5E_BODY] * 3)
     settings = RecentSettings(infiller=RuleConfig(), method=method_named("cap"), temperature=0.7)
     agent = RecentAgent(settings, ontology=ontology, infiller=infiller)
@@ -398,11 +403,23 @@ def test_seeded_sampling_makes_seeds_real_repetitions_and_replays_an_episode_exa
     assert first.success and not first.grounding.cached and again.grounding.cached and not other.grounding.cached
     (sampled_0, sampled_1) = infiller.sampling  # one grounding call per distinct seed
     assert sampled_0["temperature"] == sampled_1["temperature"] == 0.7 and sampled_0["seed"] != sampled_1["seed"]
-    greedy = Recording([UR5E_BODY])
-    RecentAgent(
-        RecentSettings(infiller=RuleConfig(), method=method_named("cap")), ontology=ontology, infiller=greedy
-    ).ground("put_in_bin", "UR5e", get_task("cube_in_bin"))
-    assert greedy.sampling == [{}]  # the default stays greedy: no sampling arguments at all
+
+    def grounding_calls(lm: ScriptedInfiller, **settings) -> list[dict]:
+        agent = RecentAgent(
+            RecentSettings(infiller=RuleConfig(), method=method_named("cap"), **settings),
+            ontology=ontology,
+            infiller=lm,
+        )
+        for seed in (0, 1):
+            agent.ground(
+                "put_in_bin", "UR5e", get_task("cube_in_bin"), budget=agent.budget(get_task("cube_in_bin")), seed=seed
+            )
+        return lm.sampling
+
+    assert grounding_calls(Recording([UR5E_BODY] * 2), temperature=0.0) == [{}]  # greedy: one grounding for both seeds
+    deterministic = Recording([UR5E_BODY] * 2)
+    deterministic.samples = False
+    assert grounding_calls(deterministic) == [{}]
 
 
 class _RecordingLM:

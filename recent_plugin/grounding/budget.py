@@ -12,7 +12,7 @@ from __future__ import annotations
 import zlib
 from dataclasses import dataclass
 
-from lerobot_policy_recent.recent_plugin.infillers.base import Completion, Infiller
+from lerobot_policy_recent.recent_plugin.infillers.base import Completion, Infiller, samples
 from lerobot_policy_recent.recent_plugin.refactoring.units import RefactoringUnit
 
 
@@ -43,7 +43,7 @@ class CallBudget:
 
 class BudgetedInfiller:
     """The LM behind a :class:`CallBudget`, for one episode: each call takes one, and none is made once
-    it is spent. With a ``temperature`` above 0 every call samples, seeded from the episode's ``seed``
+    it is spent. With a ``temperature`` above 0 every call of an LM that samples does, seeded from the episode's ``seed``
     and the call's place in the episode: seeds are real repetitions, and a call draws the same tokens
     again from the same model state (llama.cpp's batched and single-token evaluations differ in the
     last bits, so a replay on a cold cache may differ where the model is all but indifferent)."""
@@ -51,7 +51,8 @@ class BudgetedInfiller:
     def __init__(self, lm: Infiller, budget: CallBudget, *, temperature: float = 0.0, seed: int = 0):
         self.lm, self.budget = lm, budget
         self.name, self.model = lm.name, lm.model
-        self.temperature, self.seed = temperature, seed
+        self.temperature, self.seed = (temperature if samples(lm) else 0.0), seed
+        self.samples = samples(lm)
 
     def infill(self, unit: RefactoringUnit) -> Completion:
         self.budget.take()

@@ -24,14 +24,21 @@ class Completion:
 class Infiller(Protocol):
     name: str
     model: str
+    samples: bool  # decodes from a distribution, so a temperature and a seed apply (an LM; not the rule renderer)
 
     def infill(self, unit: RefactoringUnit) -> Completion:
         """Return a replacement for ``unit.span`` (one or more statements, without leading indent).
 
-        LM backends also take ``temperature`` and ``seed`` keywords (seeded sampling; the default,
-        0, is greedy); the per-episode wrapper passes them only when sampling."""
+        Backends that ``samples`` also take ``temperature`` and ``seed`` keywords (seeded sampling;
+        the default, 0, is greedy); the per-episode wrapper passes them only when sampling."""
         ...
 
     def count_tokens(self, text: str) -> int:
         """Tokens of ``text`` under this backend's tokenizer (the GO denominator)."""
         ...
+
+
+def samples(infiller: object) -> bool:
+    """Whether ``infiller`` decodes from a distribution (an infiller that does not say, a test
+    double or a user's own renderer, is taken as deterministic)."""
+    return bool(getattr(infiller, "samples", False))

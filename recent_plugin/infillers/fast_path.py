@@ -20,7 +20,7 @@ from __future__ import annotations
 
 from dataclasses import replace
 
-from lerobot_policy_recent.recent_plugin.infillers.base import Completion, Infiller
+from lerobot_policy_recent.recent_plugin.infillers.base import Completion, Infiller, samples
 from lerobot_policy_recent.recent_plugin.infillers.rule import RuleInfiller
 from lerobot_policy_recent.recent_plugin.refactoring.fim_prompt import decided_by_rule
 from lerobot_policy_recent.recent_plugin.refactoring.units import RefactoringUnit
@@ -36,6 +36,10 @@ class FastPathInfiller:
         if decided_by_rule(unit):
             return replace(self.rule.infill(unit), rendered=True)
         return self.lm.infill(unit)
+
+    @property
+    def samples(self) -> bool:
+        return samples(self.lm)
 
     def count_tokens(self, text: str) -> int:
         return self.lm.count_tokens(text)  # GO's denominator stays in the LM's tokens

@@ -32,6 +32,7 @@ QUANTIZATIONS = (None, "8bit", "4bit")  # bitsandbytes, CUDA only
 
 class TransformersInfiller:
     name = "transformers"
+    samples = True
 
     def __init__(
         self,

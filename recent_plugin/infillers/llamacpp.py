@@ -38,6 +38,7 @@ class LlamaCppInfiller:
     """The FIM infiller over a :class:`LlamaSession`, by default one in a worker process."""
 
     name = "llamacpp"
+    samples = True
     prompt_window = "dataflow"  # how much of a span's function its FIM prompt shows (set per instance)
 
     def __init__(self, model_path: str, *, in_process: bool = False, prompt_window: str = "dataflow", **options):

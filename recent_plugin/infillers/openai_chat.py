@@ -19,6 +19,7 @@ from lerobot_policy_recent.recent_plugin.refactoring.units import RefactoringUni
 
 class OpenAIChatInfiller:
     name = "openai-chat"
+    samples = True
 
     def __init__(self, base_url: str, model: str, *, api_key: str | None = None, timeout_s: float = 120.0):
         self.base_url, self.model, self.api_key, self.timeout_s = base_url.rstrip("/"), model, api_key, timeout_s

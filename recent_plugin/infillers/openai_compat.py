@@ -21,6 +21,7 @@ log = logging.getLogger(__name__)
 
 class OpenAICompatInfiller:
     name = "openai"
+    samples = True
 
     def __init__(
         self,

@@ -17,6 +17,7 @@ from lerobot_policy_recent.recent_plugin.refactoring.units import RefactoringUni
 
 class RuleInfiller:
     name = "rule"
+    samples = False
     model = "ontology-substitution"
 
     def infill(self, unit: RefactoringUnit) -> Completion:
