@@ -6,7 +6,8 @@ grounds it, no LM), and leaves a placeholder where it does not (a position-only 
 pose: which rotation?), which an LM fills from the facts the hint gives. The conversions are
 checked numerically, and in simulation: a move reaches the world point the Panda's call named.
 KRL has no pick or place: the ontology traces the Panda's as moves and gripper calls (one source
-call, five target calls), and the run-time checks still guard them, in millimetres.
+call, five target calls), and the run-time checks still guard them, in millimetres. A bare vacuum
+cup added by data (a move, suction on, suction off) gets its picks and places traced the same way.
 """
 
 from __future__ import annotations
@@ -358,3 +359,91 @@ def test_a_robot_of_ones_own_with_millimetres_in_its_base_frame_is_added_by_data
     assert ran.returncode == 0, ran.stderr[-2000:]
     result = json.loads(ran.stdout)
     assert result["success"] is True, result
+
+
+VACUUM_YAML = """\
+embodiment: LabVacuum
+robot:
+  robosuite: Panda
+  gripper: SuctionGripper
+  robot_mjcf: models/assets/robots/panda/robot.xml
+  gripper_mjcf: {cup}
+  description: a lab's Panda with a bare vacuum cup (move, suction on, suction off)
+module: lab_vacuum_prims
+primitives:
+  - name: cup_to
+    description: Move the cup to a point; lowered onto a surface, it stops on it and presses its rim down.
+    parameters:
+      - {{name: point, type: position, unit: m, frame: world, role: motion_target, required: true}}
+    capabilities: [move_end_effector, cartesian_motion]
+    preconditions: [target_reachable, path_clear]
+    effects: [end_effector_at_target]
+  - name: suction_on
+    description: Switch suction on; it holds what the cup is pressed on.
+    parameters: []
+    capabilities: [activate_suction]
+    preconditions: [end_effector_free]
+    effects: [end_effector_engaged]
+  - name: suction_off
+    description: Switch suction off.
+    parameters: []
+    capabilities: [deactivate_suction]
+    preconditions: []
+    effects: [end_effector_free, object_released]
+"""
+
+VACUUM_MODULE = """\
+from lerobot_policy_recent.robosuite_envs.primitives import control
+
+
+def cup_to(env, task, point):
+    yield from control.move_to(env, point, settle=True, stop_on_contact=True)
+    if env.obs.eef_contact:  # a seal needs the rim pressed down, not just touching
+        yield from control.descend_until_contact(env, point)
+
+
+def suction_on(env, task):
+    yield from control.actuate_gripper(env, 1.0, duration_s=0.3, max_duration_s=0.5)
+
+
+def suction_off(env, task):
+    yield from control.actuate_gripper(env, -1.0, duration_s=0.3, max_duration_s=0.5)
+"""
+
+
+@pytest.mark.slow
+def test_a_bare_vacuum_cup_added_by_data_picks_as_approach_suction_on_and_lift(tmp_path):
+    """One-to-many by data alone: a cup with only a move and suction on/off has nothing with the
+    effects of a pick or a place, so the ontology traces the Panda's (approach, down until the cup
+    rests, suction on, lift; above, down, suction off, up), the rule backend grounds it, and the
+    object ends up in the bin in simulation."""
+    import json
+    import os
+    import subprocess
+
+    from lerobot_policy_recent.robosuite_envs import embodiments
+
+    folder = tmp_path / "robots"
+    folder.mkdir()
+    cup = embodiments._ASSETS / "suction_gripper.xml"
+    (folder / "lab_vacuum.yaml").write_text(VACUUM_YAML.format(cup=cup))
+    (folder / "lab_vacuum_prims.py").write_text(VACUUM_MODULE)
+    env = {**os.environ, "RECENT_ROBOTS": str(folder), "RECENT_CACHE_DIR": str(tmp_path / "cache")}
+    cli = [sys.executable, "-m", "lerobot_policy_recent.scripts.cli"]
+    rule = ["--robot", "LabVacuum", "--infiller.type", "rule"]
+    grounded = subprocess.run([*cli, "ground", "--skill", "put_in_bin", *rule], env=env, capture_output=True, text=True)
+    assert grounded.returncode == 0, grounded.stderr[-2000:]
+    pick = [
+        "+    cup_to(env, task, point=[obj_pos[0], obj_pos[1], obj_pos[2] + 0.1])",
+        "+    cup_to(env, task, point=obj_pos)",
+        "+    suction_on(env, task)",
+        "+    cup_to(env, task, point=[obj_pos[0], obj_pos[1], obj_pos[2] + 0.1])",
+    ]
+    assert "\n".join(pick) in grounded.stdout
+    assert "line 6: pick -> cup_to (path_tracing)" in grounded.stdout
+    assert "line 8: place -> cup_to (path_tracing)" in grounded.stdout
+    ran = subprocess.run(
+        [*cli, "run", "--task", "cube_in_bin", *rule, "--no-log", "--json"], env=env, capture_output=True, text=True
+    )
+    assert ran.returncode == 0, ran.stderr[-2000:]
+    assert json.loads(ran.stdout)["success"] is True
