@@ -197,20 +197,19 @@ UR5E = load_api_spec(api_spec_path("ur5e"))
 
 
 def test_effect_and_reach_checks_read_the_observation():
-    def check_input(cube_at, arguments, roles):
+    def check_input(cube_at, arguments, params):
         scene = SceneFacts(frozenset({"cube"}), {"cube": (0.05, 0.05, 0.05)}, base_xy=(-0.56, 0.0), reach=0.9)
-        return CheckInput(None, observed(cube=cube_at), arguments, roles, frozenset({"cube"}), {}, scene, UR5E)
+        return CheckInput(observed(cube=cube_at), arguments, params, frozenset({"cube"}), {}, scene, UR5E)
 
-    push = {"contact_pos": "push_start", "goal_pos": "push_goal"}
+    push = UR5E.get("ur5_push_to").parameters
     pushed = {"contact_pos": [0.0, -0.1, 0.82], "goal_pos": [0.0, 0.1, 0.82]}
     assert pushed_to_goal(check_input([0.0, 0.135, 0.82], pushed, push)) is None  # just ahead of the hand
     short = pushed_to_goal(check_input([0.0, 0.02, 0.82], pushed, push))
     assert short.rerun and short.check == "pushed_to_goal"
-    far = within_reach(check_input([0, 0, 0], {"place_pos": [0.4, 0.3, 0.82]}, {"place_pos": "release_target"}))
+    release = UR5E.get("ur5_release_at").parameters
+    far = within_reach(check_input([0, 0, 0], {"place_pos": [0.4, 0.3, 0.82]}, release))
     assert far is not None and "beyond the arm's 0.90 m reach" in far.observation and not far.statements
-    assert (
-        within_reach(check_input([0, 0, 0], {"place_pos": [0.1, 0.0, 0.82]}, {"place_pos": "release_target"})) is None
-    )
+    assert within_reach(check_input([0, 0, 0], {"place_pos": [0.1, 0.0, 0.82]}, release)) is None
 
 
 def test_a_drift_within_sensing_noise_is_not_a_move():
@@ -219,9 +218,7 @@ def test_a_drift_within_sensing_noise_is_not_a_move():
     scene = SceneFacts(frozenset({"cube"}), {"cube": (0.05, 0.05, 0.05)})
 
     def now_at(pos):
-        return CheckInput(
-            None, observed(cube=pos), {}, {}, frozenset({"cube"}), {"obj_pos": ("cube", read)}, scene, UR5E
-        )
+        return CheckInput(observed(cube=pos), {}, (), frozenset({"cube"}), {"obj_pos": ("cube", read)}, scene, UR5E)
 
     assert object_unmoved(now_at([0.11, -0.04, 0.85])) is None  # 1.5 cm: within the noise
     # the threshold comes from the perception's stated accuracy and a false-alarm budget, not the perturbation
@@ -241,7 +238,7 @@ def test_the_lm_sees_only_the_sweeps_coordinates_the_log_keeps_the_slabs():
     scene = SceneFacts(frozenset({"obstacle"}), {"obstacle": (0.1, 0.1, 0.03)})
     target = {"place_pos": [0.173, -0.015, 0.846]}
     obs = observed(obstacle=[0.178, -0.024, 0.834])
-    blocked = target_clear(CheckInput(None, obs, target, {"place_pos": "release_target"}, frozenset(), {}, scene, UR5E))
+    blocked = target_clear(CheckInput(obs, target, UR5E.get("ur5_release_at").parameters, frozenset(), {}, scene, UR5E))
     (sweep,) = blocked.statements
     assert "[0.178, -0.024, 0.834]" in blocked.observation and "[" not in blocked.cue
     assert blocked.cue == "obstacle (slab, 0.10 m wide) lies on the release target"
@@ -254,15 +251,15 @@ def test_checks_decide_from_geometry_not_from_kind_names():
     scene = SceneFacts(frozenset({"cube"}), {"cube": (0.05, 0.05, 0.05)}, task_objects=frozenset({"cube"}))
     post = ObjectState(np.array([0.178, -0.024, 0.87]), np.array([0, 0, 0, 1.0]), size=np.array([0.06, 0.06, 0.09]))
     obs = Observation(np.zeros(3), np.array([0, 0, 0, 1.0]), 0.0, {"post": post})
-    args, roles = {"place_pos": [0.178, -0.024, 0.854]}, {"place_pos": "release_target"}
-    violation = target_clear(CheckInput(None, obs, args, roles, frozenset(), {}, scene, UR5E))
+    args, params = {"place_pos": [0.178, -0.024, 0.854]}, UR5E.get("ur5_release_at").parameters
+    violation = target_clear(CheckInput(obs, args, params, frozenset(), {}, scene, UR5E))
     assert violation.cue == "post (block, 0.06 m wide, 0.09 m high) lies on the release target"
     (sweep,) = violation.statements
     start, goal = (np.array(v) for v in _positions(sweep))
     # its centre moves its own half width past the clearance (a 10 cm slab's 2 cm farther), from 2 cm before it
     assert np.linalg.norm(goal[:2] - start[:2]) == pytest.approx(0.03 + CLEARANCE + SWEEP_MARGIN + 0.02, abs=1e-3)
     listed = SceneFacts(frozenset(), {"post": (0.06, 0.06, 0.09)})  # listed as fixed to the table: not clutter
-    assert target_clear(CheckInput(None, obs, args, roles, frozenset(), {}, listed, UR5E)) is None
+    assert target_clear(CheckInput(obs, args, params, frozenset(), {}, listed, UR5E)) is None
 
 
 def test_the_checks_name_no_object_kind_and_read_no_variation():
@@ -295,10 +292,10 @@ def test_an_obstacle_beside_the_grasp_is_swept_away_from_the_object_first():
         task_objects=frozenset({"cube", "block"}),
     )
     grasp = {"grasp_pos": [-0.060, -0.285, 0.821]}
-    roles = {"grasp_pos": "grasp_target"}
+    params = UR5E.get("ur5_grasp_at").parameters
 
     def check(**at):
-        return fingers_clear(CheckInput(None, observed(**at), grasp, roles, frozenset({"cube"}), {}, scene, UR5E))
+        return fingers_clear(CheckInput(observed(**at), grasp, params, frozenset({"cube"}), {}, scene, UR5E))
 
     beside = check(cube=[-0.060, -0.285, 0.821], obstacle=[-0.060, -0.364, 0.812])
     assert beside.check == "fingers_clear" and "2.9 cm from the grasp" in beside.observation
@@ -326,7 +323,7 @@ def test_a_robot_without_a_push_sweeps_along_the_ontologys_push_path(ontology):
     target = {"target_pos": [0.173, -0.015, 0.846]}
     obs = observed(obstacle=[0.178, -0.024, 0.834])
     robotiq = ontology.api("Robotiq85")
-    inp = CheckInput(None, obs, target, {"target_pos": "release_target"}, frozenset(), {}, scene, robotiq)
+    inp = CheckInput(obs, target, robotiq.get("place_robotiq85").parameters, frozenset(), {}, scene, robotiq)
     sweep = target_clear(inp).statements
     assert len(sweep) == 4 and all(s.startswith("move_to_position(env, task, pos=[") for s in sweep)
     heights = [float(s.rsplit(", ", 1)[1].rstrip("])")) for s in sweep]
@@ -376,10 +373,9 @@ def test_a_moved_object_is_read_again_with_everything_derived_from_it():
         Derivation("goal = [pen_pos[0], start[1], start[2]]", frozenset({"pen_pos", "start"}), frozenset({"goal"})),
     )
     inp = CheckInput(
-        None,
         observed(cube=[0.14, -0.05, 0.845]),
         {},
-        {},
+        (),
         frozenset({"cube"}),
         {"obj_pos": ("cube", read)},
         scene,
@@ -446,5 +442,5 @@ def test_an_object_the_hand_holds_has_not_moved_out_from_under_the_skill():
     obs = observed(red=[0.1, -0.05, 0.93])  # the gripper reports an object, and the grip site is inside the block
     obs.objects["red"] = replace(obs.objects["red"], size=np.array([0.05, 0.05, 0.05]))
     obs = replace(obs, eef_pos=np.array([0.1, -0.05, 0.935]), object_detected=True)
-    inp = CheckInput(None, obs, {}, {}, frozenset({"red"}), {"obj_pos": ("red", [0.1, -0.05, 0.83])}, scene, UR5E)
+    inp = CheckInput(obs, {}, (), frozenset({"red"}), {"obj_pos": ("red", [0.1, -0.05, 0.83])}, scene, UR5E)
     assert object_unmoved(inp) is None

@@ -19,7 +19,7 @@ import ast
 import logging
 import textwrap
 from collections import Counter
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 from lerobot_policy_recent.logs.events import CheckVerdict, Emit, PatchApplied, ignore
 from lerobot_policy_recent.ontology.diagnosis import Warning
@@ -152,14 +152,14 @@ class InSituAdapter:
         if call is None or spec is None:
             return None
         arguments = {k.arg: _value(k.value, executor) for k in call.keywords if k.arg}
+        read_as = dict(warning.roles)
         chain = dependencies(executor.segments[: segment.index], call, set(executor.primitives))
         stale = _position_reads(executor, loads(call).union(*(loads(s.node) for s in chain)))
         named = frozenset(v for v in executor.namespace.values() if isinstance(v, str) and v in self.scene.sizes)
         inp = CheckInput(
-            warning=warning,
             obs=executor.session.obs,
             arguments={k: v for k, v in arguments.items() if v is not None},
-            roles={p.name: p.role for p in spec.parameters} | dict(warning.roles),
+            params=tuple(replace(p, role=read_as.get(p.name, p.role)) for p in spec.parameters),
             named=named,
             stale_reads=stale,
             derived=tuple(

@@ -19,7 +19,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from lerobot_policy_recent.ontology.diagnosis import Warning
 from lerobot_policy_recent.ontology.specs import PATH_ROLE, WORLD_FRAME, ApiSpec, ParameterSpec, Waypoint
 from lerobot_policy_recent.robosuite_envs.observation import POSITION_SIGMA, Observation
 from lerobot_policy_recent.robosuite_envs.primitives.frames import WORLD_AT_ORIGIN, Frame, argument_for, world_point
@@ -82,10 +81,11 @@ class Derivation:
 
 @dataclass(frozen=True)
 class CheckInput:
-    warning: Warning
     obs: Observation
     arguments: dict[str, object]  # keyword values the guarded call will receive (evaluated now)
-    roles: dict[str, str]  # parameter name -> role, from the target API
+    # the guarded call's parameters (their units and frames), each with the role the warning reads it
+    # in (a traced move's point is the original pick's grasp target)
+    params: tuple[ParameterSpec, ...]
     named: frozenset[str]  # objects the skill's arguments name
     stale_reads: dict[str, tuple[str, list[float]]]  # variable -> (object, position read earlier)
     scene: SceneFacts
@@ -111,23 +111,19 @@ Check = Callable[[CheckInput], Violation | None]
 def _by_role(inp: CheckInput, *roles: str) -> np.ndarray | None:
     """The world point (metres) the guarded call's argument of one of ``roles`` names, whatever the
     units and frame its API takes it in; None where it names none."""
-    spec = inp.api.get(inp.warning.primitive) if inp.warning is not None else None
-    for name, role in inp.roles.items():
-        if role in roles and name in inp.arguments:
-            param = spec.parameter(name) if spec is not None else None
-            kind, unit = (param.type, param.unit) if param is not None else ("position", "m")
-            if kind not in ("position", "pose"):
+    for param in inp.params:
+        if param.role in roles and param.name in inp.arguments:
+            if param.type not in ("position", "pose"):
                 return None
             try:
-                return world_point(inp.arguments[name], kind, unit, _frame(inp, param))
+                return world_point(inp.arguments[param.name], param.type, param.unit, _frame(inp, param))
             except (TypeError, ValueError):
                 return None
     return None
 
 
-def _frame(inp: CheckInput, param: ParameterSpec | None) -> Frame:
-    name = param.frame if param is not None and param.frame else WORLD_FRAME
-    return (inp.frames or {}).get(name, WORLD_AT_ORIGIN)
+def _frame(inp: CheckInput, param: ParameterSpec) -> Frame:
+    return (inp.frames or {}).get(param.frame or WORLD_FRAME, WORLD_AT_ORIGIN)
 
 
 def _argument(inp: CheckInput, param: ParameterSpec, point: np.ndarray) -> str:
