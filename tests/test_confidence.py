@@ -92,3 +92,24 @@ def test_lm_necessity_says_when_a_suite_does_not_test_the_lm():
     lines = lm_necessity_lines(covered)  # no oracle-rule row: coverage, and necessity not measured
     assert "- rule coverage, recent on kinematic: 75.0 % of spans and run-time patches decided without an LM" in lines
     assert any("LM necessity on kinematic: not measured" in line for line in lines)
+
+
+def test_the_report_orders_the_methods_against_the_papers_table_and_names_each_inversion():
+    from lerobot_policy_recent.recent_plugin.evaluation.report import paper_ordering_lines
+
+    # the paper: repair (42 % SR) > progprompt (31.5 %) > cap (17 %), on kinematic
+    ran = (
+        episodes("cap", [True, True, False, False])
+        + episodes("progprompt", [True, False, False, False])
+        + episodes("repair", [False] * 4)
+        + episodes("oracle-rule", [True] * 4)  # no paper row: not ordered
+    )
+    lines = paper_ordering_lines(ran)
+    assert lines[0] == "## Against the paper's ordering (Table 1)"
+    assert "- **kinematic** (3 of the paper's rows ran):" in lines
+    sr = next(line for line in lines if line.startswith("  - SR (%)"))
+    assert sr.startswith("  - SR (%): 0 pairs ordered as in the paper, 3 inverted")
+    assert "repair > cap in the paper, cap > repair here" in sr and "0 tied here" in sr
+    tied = paper_ordering_lines(episodes("cap", [False] * 2) + episodes("repair", [False] * 2))
+    assert "1 tied here (repair > cap)" in "\n".join(tied)
+    assert paper_ordering_lines(episodes("recent", [True])) == []  # one row: nothing to order

@@ -32,12 +32,24 @@ MAIN_METRICS = ("sr", "gc", "go", "ei", "it")
 HEADLINE_METHODS = ("recent", "recent+fast-path")  # the rows the headline targets are checked on
 ABLATION_METRICS = ("sr", "go", "ei", "it")
 
-# The paper's Table "main" (Qwen2.5-Coder-7B / same-size sLM baselines): SR, GC, GO, EI, IT.
+# The paper's Table "main" (Qwen2.5-Coder-7B / same-size sLM baselines; CaP-Codex on GPT-5.2-Codex): SR, GC,
+# GO, EI, IT per setting, each a mean over its five seeds. Every comparison row it has, by our method name.
 PAPER_MAIN = {
     "cap": {"kinematic": (17.00, 41.11, 102.01, 4.72, 25.65), "end_effector": (21.97, 36.33, 79.31, 3.18, 55.62)},
+    "cap-distilled": {
+        "kinematic": (20.00, 36.10, 109.38, 4.13, 17.50),
+        "end_effector": (17.88, 41.03, 99.16, 2.77, 43.77),
+    },
+    "scot": {"kinematic": (14.50, 38.38, 107.08, 4.40, 28.86), "end_effector": (15.83, 54.19, 85.35, 1.80, 41.87)},
+    "progprompt": {"kinematic": (31.50, 53.89, 86.47, 3.28, 30.74), "end_effector": (33.33, 58.16, 65.34, 4.72, 39.32)},
+    "roboinspector": {
+        "kinematic": (41.00, 60.83, 179.40, 1.15, 59.98),
+        "end_effector": (39.17, 64.80, 52.20, 5.07, 31.65),
+    },
     "repair": {"kinematic": (42.00, 64.05, 54.17, 1.73, 50.53), "end_effector": (52.17, 73.82, 55.92, 1.12, 84.37)},
     "agentless": {"kinematic": (22.50, 42.70, 128.08, 2.19, 58.27), "end_effector": (26.34, 49.88, 74.96, 5.01, 42.44)},
     "recent": {"kinematic": (73.00, 81.76, 7.85, 0.72, 1.77), "end_effector": (82.50, 89.84, 2.51, 0.69, 2.34)},
+    "cap-llm": {"kinematic": (67.50, 80.45, 84.29, 1.23, 7.99), "end_effector": (74.85, 87.81, 41.69, 0.60, 10.29)},
 }
 # The paper's ablation tables (one setting, averaged): SR, GO, EI, IT.
 PAPER_ABLATION = {
@@ -69,7 +81,8 @@ def main_table(records: list[dict]) -> str:
     for method in methods:
         if method in PAPER_MAIN:
             cells = [f"{v:.2f}" for s in settings for v in PAPER_MAIN[method][s.removesuffix("-v1")]]
-            lines.append(f"| paper: {method} (7B) | " + " | ".join(cells) + " |")
+            model = "GPT-5.2-Codex" if method == "cap-llm" else "7B"
+            lines.append(f"| paper: {method} ({model}) | " + " | ".join(cells) + " |")
     return "\n".join(lines)
 
 
@@ -352,6 +365,7 @@ def render_report(dirs: list[Path], out: Path) -> Path:
         paired_table(records),
         "",
         *lm_necessity_lines(records),
+        *paper_ordering_lines(records),
         "## Headline targets",
         "",
         *(target_checks(records, crashes=len(broken)) or ["- (no RECENT episodes in these runs)"]),
@@ -419,6 +433,46 @@ def split_results_table(records: list[dict]) -> str:
     if not any(split == "test" for _, _, split in by):
         lines.append("\nNo held-out test episode in these runs: every number above is a dev number.")
     return "\n".join(lines)
+
+
+def paper_ordering_lines(records: list[dict]) -> list[str]:
+    """The methods ordered against each other as the paper's Table 1 orders them, per setting and per
+    SR and GC: every pair the two orderings rank the other way round (an inversion, to be explained),
+    and the pairs our episodes cannot tell apart (tied here, apart in the paper)."""
+    lines = []
+    for suite in [s for s in SUITE_ORDER if any(r["suite"] == s for r in records)]:
+        setting = suite.removesuffix("-v1")
+        ours = {
+            m: summarize(rs)
+            for (m, s), rs in group(records, lambda r: (r["method"], r["suite"])).items()
+            if s == suite and m in PAPER_MAIN
+        }
+        methods = _ordered(ours)
+        if len(methods) < 2:
+            continue
+        lines.append(f"- **{suite}** ({len(methods)} of the paper's rows ran):")
+        for index, metric in enumerate(("sr", "gc")):
+            inverted, tied, agree = [], [], 0
+            for i, a in enumerate(methods):
+                for b in methods[i + 1 :]:
+                    paper = PAPER_MAIN[a][setting][index] - PAPER_MAIN[b][setting][index]
+                    here = ours[a][metric]["mean"] - ours[b][metric]["mean"]
+                    hi, lo = (a, b) if paper > 0 else (b, a)
+                    if abs(here) < 1e-9:
+                        tied.append(f"{hi} > {lo}")
+                    elif (paper > 0) == (here > 0):
+                        agree += 1
+                    else:
+                        inverted.append(f"{hi} > {lo} in the paper, {lo} > {hi} here")
+            lines.append(
+                f"  - {LABELS[metric]}: {agree} pairs ordered as in the paper, {len(inverted)} inverted"
+                + (f" ({'; '.join(inverted)})" if inverted else "")
+                + f", {len(tied)} tied here"
+                + (f" ({', '.join(tied)})" if tied else "")
+            )
+    if not lines:
+        return []
+    return ["## Against the paper's ordering (Table 1)", "", *lines, ""]
 
 
 def lm_necessity_lines(records: list[dict]) -> list[str]:
