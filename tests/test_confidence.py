@@ -113,3 +113,14 @@ def test_the_report_orders_the_methods_against_the_papers_table_and_names_each_i
     tied = paper_ordering_lines(episodes("cap", [False] * 2) + episodes("repair", [False] * 2))
     assert "1 tied here (repair > cap)" in "\n".join(tied)
     assert paper_ordering_lines(episodes("recent", [True])) == []  # one row: nothing to order
+
+
+def test_rule_coverage_is_reported_for_the_methods_that_ground_through_the_ontology_only():
+    from lerobot_policy_recent.recent_plugin.evaluation.report import lm_necessity_lines
+
+    ran = [{**r, "rule_coverage": 0.0} for r in episodes("cap", [False] * 2)]
+    ran += [{**r, "rule_coverage": 90.0} for r in episodes("oracle-rule", [True] * 2)]
+    lines = lm_necessity_lines(ran)
+    assert any(line.startswith("- rule coverage, oracle-rule on kinematic: 90.0 %") for line in lines)
+    assert not any("rule coverage, cap " in line for line in lines)  # a baseline's program has no ontology span
+    assert lm_necessity_lines([{**r, "rule_coverage": 0.0} for r in episodes("cap", [False])]) == []

@@ -5,11 +5,15 @@ from __future__ import annotations
 from dataclasses import replace
 
 from lerobot_policy_recent.recent_plugin.methods import Method, method_named, methods_of
+from lerobot_policy_recent.recent_plugin.methods.baselines import Baseline
 from lerobot_policy_recent.recent_plugin.settings import RecentSettings
 
 _FAMILY_ORDER = ("recent", "variant", "baseline", "sanity", "ablation")  # how tables list them
 METHODS: tuple[str, ...] = tuple(name for family in _FAMILY_ORDER for name in methods_of(family))
 BASELINE_METHODS = methods_of("baseline")
+# the methods that ground through the ontology (RECENT, its variants and ablations, oracle-rule): rule
+# coverage means something for them only (a baseline's program has no span the ontology decides)
+ONTOLOGY_METHODS = tuple(n for n in METHODS if not issubclass(Method.get_choice_class(n), Baseline))
 ABLATION_METHODS = methods_of("ablation")
 # What each ablation is expected to do to RECENT's numbers (the paper's ablation tables).
 EXPECTED: dict[str, dict[str, int]] = {name: dict(Method.get_choice_class(name).expected) for name in ABLATION_METHODS}

@@ -13,7 +13,7 @@ from collections import Counter
 from pathlib import Path
 
 from lerobot_policy_recent.recent_plugin.evaluation.confidence import episode_key, paired_comparisons, paired_difference
-from lerobot_policy_recent.recent_plugin.evaluation.methods import ABLATION_METHODS, EXPECTED, METHODS
+from lerobot_policy_recent.recent_plugin.evaluation.methods import ABLATION_METHODS, EXPECTED, METHODS, ONTOLOGY_METHODS
 from lerobot_policy_recent.recent_plugin.evaluation.metrics import (
     LABELS,
     aggregate,
@@ -459,7 +459,7 @@ def paper_ordering_lines(records: list[dict]) -> list[str]:
                     here = ours[a][metric]["mean"] - ours[b][metric]["mean"]
                     hi, lo = (a, b) if paper > 0 else (b, a)
                     if abs(here) < 1e-9:
-                        tied.append(f"{hi} > {lo}")
+                        tied.append((hi, lo))
                     elif (paper > 0) == (here > 0):
                         agree += 1
                     else:
@@ -468,11 +468,18 @@ def paper_ordering_lines(records: list[dict]) -> list[str]:
                 f"  - {LABELS[metric]}: {agree} pairs ordered as in the paper, {len(inverted)} inverted"
                 + (f" ({'; '.join(inverted)})" if inverted else "")
                 + f", {len(tied)} tied here"
-                + (f" ({', '.join(tied)})" if tied else "")
+                + (f" ({_tied(tied)})" if tied else "")
             )
     if not lines:
         return []
     return ["## Against the paper's ordering (Table 1)", "", *lines, ""]
+
+
+def _tied(pairs: list[tuple[str, str]]) -> str:
+    """A few tied pairs one by one (as the paper orders them); many, as the methods they are among."""
+    if len(pairs) <= 4:
+        return ", ".join(f"{hi} > {lo}" for hi, lo in pairs)
+    return "among " + ", ".join(_ordered({m for pair in pairs for m in pair}))
 
 
 def lm_necessity_lines(records: list[dict]) -> list[str]:
@@ -480,7 +487,7 @@ def lm_necessity_lines(records: list[dict]) -> list[str]:
     run-time patches the ontology or a check decided completely) and **LM necessity** (RECENT's SR
     minus the no-LM ``oracle-rule`` SR on the same episodes, per suite; where it is zero, the suite
     does not test the LM, and the report says so)."""
-    coverage = rule_coverage(records)
+    coverage = {k: v for k, v in rule_coverage(records).items() if k.split("|")[0] in ONTOLOGY_METHODS}
     pairs = {
         k.split("|")[1]: p for k, p in paired_comparisons(records).items() if k.startswith("recent vs oracle-rule|")
     }
