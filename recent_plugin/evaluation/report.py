@@ -259,7 +259,7 @@ def plot_sr_vs_go(records: list[dict], path: Path) -> Path:
     suites = [s for s in SUITE_ORDER if any(r["suite"] == s for r in records)] or ["(none)"]
     fig, axes = _figure((4.2 * len(suites) + 2.8, 4.6), cols=len(suites), sharey=True)
     axes = axes if len(suites) > 1 else [axes]
-    cmap = plt.get_cmap("tab10")
+    cmap = plt.get_cmap("tab20")  # 20 colours, and the markers shifted each round: every method its own pair
     by = group(records, lambda r: (r["method"], r["suite"]))
     shown = {}
     for ax, suite in zip(axes, suites, strict=True):
@@ -271,10 +271,10 @@ def plot_sr_vs_go(records: list[dict], path: Path) -> Path:
                 s["sr"]["mean"],
                 xerr=s["go"]["std"],
                 yerr=s["sr"]["std"],
-                fmt=MARKERS[i % len(MARKERS)],
-                color=cmap(i % 10),
+                fmt=MARKERS[(i + i // len(MARKERS)) % len(MARKERS)],
+                color=cmap(i % 20),
                 markersize=8,
-                markerfacecolor="none" if method in ABLATION_METHODS else cmap(i % 10),  # ablations hollow
+                markerfacecolor="none" if method in ABLATION_METHODS else cmap(i % 20),  # ablations hollow
                 capsize=3,
                 alpha=0.9,
             )
