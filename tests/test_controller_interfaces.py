@@ -12,7 +12,10 @@ cup added by data (a move, suction on, suction off) gets its picks and places tr
 
 from __future__ import annotations
 
+import json
 import math
+import os
+import subprocess
 import sys
 
 import numpy as np
@@ -344,21 +347,24 @@ def open_mm(env, task):
 def test_a_robot_of_ones_own_with_millimetres_in_its_base_frame_is_added_by_data_alone(tmp_path):
     """The README's path (a YAML with a robot block and a module on RECENT_ROBOTS), nothing else:
     the ontology renders the conversion, and the rule backend grounds and runs a canonical task."""
-    import json
-    import os
-    import subprocess
-
-    folder = tmp_path / "robots"
-    folder.mkdir()
-    (folder / "lab_mm.yaml").write_text(LAB_YAML)
-    (folder / "lab_mm_prims.py").write_text(LAB_MODULE)
-    env = {**os.environ, "RECENT_ROBOTS": str(folder), "RECENT_CACHE_DIR": str(tmp_path / "cache")}
-    cli = [sys.executable, "-m", "lerobot_policy_recent.scripts.cli"]
-    task = ["--task", "kinematic/lift_cube", "--robot", "LabBaseMM", "--infiller.type", "rule", "--no-log", "--json"]
-    ran = subprocess.run([*cli, "run", *task], env=env, capture_output=True, text=True)
+    cli = _cli_with_robot(tmp_path, {"lab_mm.yaml": LAB_YAML, "lab_mm_prims.py": LAB_MODULE})
+    ran = cli(
+        "run", "--task", "kinematic/lift_cube", "--robot", "LabBaseMM", "--infiller.type", "rule", "--no-log", "--json"
+    )
     assert ran.returncode == 0, ran.stderr[-2000:]
     result = json.loads(ran.stdout)
     assert result["success"] is True, result
+
+
+def _cli_with_robot(tmp_path, files: dict[str, str]):
+    """``recent`` in a new process that finds a robot added from ``files`` alone (a folder on RECENT_ROBOTS)."""
+    folder = tmp_path / "robots"
+    folder.mkdir()
+    for name, text in files.items():
+        (folder / name).write_text(text)
+    env = {**os.environ, "RECENT_ROBOTS": str(folder), "RECENT_CACHE_DIR": str(tmp_path / "cache")}
+    command = [sys.executable, "-m", "lerobot_policy_recent.scripts.cli"]
+    return lambda *args: subprocess.run([*command, *args], env=env, capture_output=True, text=True)
 
 
 VACUUM_YAML = """\
@@ -417,21 +423,14 @@ def test_a_bare_vacuum_cup_added_by_data_picks_as_approach_suction_on_and_lift(t
     effects of a pick or a place, so the ontology traces the Panda's (approach, down until the cup
     rests, suction on, lift; above, down, suction off, up), the rule backend grounds it, and the
     object ends up in the bin in simulation."""
-    import json
-    import os
-    import subprocess
-
     from lerobot_policy_recent.robosuite_envs import embodiments
 
-    folder = tmp_path / "robots"
-    folder.mkdir()
     cup = embodiments._ASSETS / "suction_gripper.xml"
-    (folder / "lab_vacuum.yaml").write_text(VACUUM_YAML.format(cup=cup))
-    (folder / "lab_vacuum_prims.py").write_text(VACUUM_MODULE)
-    env = {**os.environ, "RECENT_ROBOTS": str(folder), "RECENT_CACHE_DIR": str(tmp_path / "cache")}
-    cli = [sys.executable, "-m", "lerobot_policy_recent.scripts.cli"]
+    cli = _cli_with_robot(
+        tmp_path, {"lab_vacuum.yaml": VACUUM_YAML.format(cup=cup), "lab_vacuum_prims.py": VACUUM_MODULE}
+    )
     rule = ["--robot", "LabVacuum", "--infiller.type", "rule"]
-    grounded = subprocess.run([*cli, "ground", "--skill", "put_in_bin", *rule], env=env, capture_output=True, text=True)
+    grounded = cli("ground", "--skill", "put_in_bin", *rule)
     assert grounded.returncode == 0, grounded.stderr[-2000:]
     pick = [
         "+    cup_to(env, task, point=[obj_pos[0], obj_pos[1], obj_pos[2] + 0.1])",
@@ -442,8 +441,6 @@ def test_a_bare_vacuum_cup_added_by_data_picks_as_approach_suction_on_and_lift(t
     assert "\n".join(pick) in grounded.stdout
     assert "line 6: pick -> cup_to (path_tracing)" in grounded.stdout
     assert "line 8: place -> cup_to (path_tracing)" in grounded.stdout
-    ran = subprocess.run(
-        [*cli, "run", "--task", "cube_in_bin", *rule, "--no-log", "--json"], env=env, capture_output=True, text=True
-    )
+    ran = cli("run", "--task", "cube_in_bin", *rule, "--no-log", "--json")
     assert ran.returncode == 0, ran.stderr[-2000:]
     assert json.loads(ran.stdout)["success"] is True
