@@ -94,7 +94,7 @@ def register(sub) -> None:
         help="whether RERUN reproduced REFERENCE, episode by episode (exit 1 if an outcome or the model differs, "
         "3 if it covers too little of REFERENCE)",
         description="Compare the episodes two run directories share: success, GC, steps, failure category, "
-        "GO and tokens must be identical (the simulation is seeded, decoding greedy); IT and IGT are reported "
+        "GO and tokens must be identical (the simulation and the LM's sampling are seeded); IT and IGT are reported "
         "as ratios (the host's speed). The reference's episodes the re-run lacks are listed, and the two "
         "results.json are compared: another model sha256 or backend is another experiment; another commit or "
         "settings tree is flagged. Exit status: 0 reproduced; 1 an outcome differs or the model differs; "

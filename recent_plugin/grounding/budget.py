@@ -43,16 +43,17 @@ class CallBudget:
 
 class BudgetedInfiller:
     """The LM behind a :class:`CallBudget`, for one episode: each call takes one, and none is made once
-    it is spent. With a ``temperature`` above 0 every call of an LM that samples does, seeded from the episode's ``seed``
-    and the call's place in the episode: seeds are real repetitions, and a call draws the same tokens
-    again from the same model state (llama.cpp's batched and single-token evaluations differ in the
-    last bits, so a replay on a cold cache may differ where the model is all but indifferent)."""
+    it is spent. With a ``temperature`` above 0 every call of an LM that samples does so, seeded from
+    the episode's ``seed`` and the call's place in the episode: seeds are real repetitions, and a call
+    draws the same tokens again from the same model state (llama.cpp's batched and single-token
+    evaluations differ in the last bits, so a replay on a cold cache may differ where the model is all
+    but indifferent)."""
 
     def __init__(self, lm: Infiller, budget: CallBudget, *, temperature: float = 0.0, seed: int = 0):
         self.lm, self.budget = lm, budget
         self.name, self.model = lm.name, lm.model
-        self.temperature, self.seed = (temperature if samples(lm) else 0.0), seed
         self.samples = samples(lm)
+        self.temperature, self.seed = (temperature if self.samples else 0.0), seed
 
     def infill(self, unit: RefactoringUnit) -> Completion:
         self.budget.take()
