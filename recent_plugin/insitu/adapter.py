@@ -152,14 +152,13 @@ class InSituAdapter:
         if call is None or spec is None:
             return None
         arguments = {k.arg: _value(k.value, executor) for k in call.keywords if k.arg}
-        read_as = dict(warning.roles)
         chain = dependencies(executor.segments[: segment.index], call, set(executor.primitives))
         stale = _position_reads(executor, loads(call).union(*(loads(s.node) for s in chain)))
         named = frozenset(v for v in executor.namespace.values() if isinstance(v, str) and v in self.scene.sizes)
         inp = CheckInput(
             obs=executor.session.obs,
             arguments={k: v for k, v in arguments.items() if v is not None},
-            params=tuple(replace(p, role=read_as.get(p.name, p.role)) for p in spec.parameters),
+            params=tuple(replace(p, role=dict(warning.roles).get(p.name, p.role)) for p in spec.parameters),
             named=named,
             stale_reads=stale,
             derived=tuple(
