@@ -485,3 +485,24 @@ def test_cap_with_the_targets_own_program_as_its_example_is_the_upper_bound_row(
     sawyer, _ = _agent(ontology, "cap-target-example", [UR5E_BODY])
     with pytest.raises(ValueError, match="no reference program of put_in_bin for Sawyer"):
         sawyer.ground("put_in_bin", "Sawyer", get_task("cube_in_bin"))
+
+
+def test_cap_with_examples_in_the_targets_api_shows_other_skills_never_the_tasks_own(ontology):
+    """cap-api-examples: before the Panda reference, other validated skills as the ontology renders
+    them for the target (the original CaP prompts' in-context examples), chosen to show its
+    primitives; none of the task's skills is among them, and the cache tells it from plain cap."""
+    agent, infiller = _agent(ontology, "cap-api-examples", [UR5E_BODY])
+    task = get_task("cube_in_bin")
+    grounded, _ = agent.ground("put_in_bin", "UR5e", task)
+    header = infiller.units[0].prefix
+    examples = header[: header.index("# Example: this skill written for the Panda robot")]
+    assert examples.startswith("# Examples of other skills written for the UR5e robot")
+    assert examples.count("\ndef ") == 2 and "_ur5e(env, task" in examples
+    assert "ur5_grasp_at(" in examples and "pick(" not in examples  # the target's own calls
+    assert "def put_in_bin" not in examples  # the task's skill is shown only as the Panda program
+    assert "def put_in_bin_panda(env, task" in header and grounded.valid
+
+    cap = RecentAgent(RecentSettings(infiller=RuleConfig(), method=method_named("cap")), ontology=ontology)
+    assert agent.grounding_key(agent.skill("put_in_bin"), ontology.target("UR5e"), task) != cap.grounding_key(
+        cap.skill("put_in_bin"), ontology.target("UR5e"), task
+    )

@@ -65,6 +65,9 @@ class ProgramContext:
     # (skill, its program on the target robot): the in-context example in place of the source skill
     # (the cap-target-example sanity row); a skill without one shows its source program
     target_examples: tuple[tuple[str, str], ...] = ()
+    # (skill, its program on the target robot) for *other* skills: examples of the target's own API,
+    # shown before the reference skill, as the original CaP prompts show theirs (``cap-api-examples``)
+    api_examples: tuple[tuple[str, str], ...] = ()
 
 
 @dataclass(frozen=True)
@@ -81,7 +84,8 @@ class ProgramPrompt:
         if self.style.pythonic:
             return self._pythonic_header()
         described = self.style.constraints
-        lines = [f"# Example: this skill written for the {self._example_robot()} robot", self._example(), ""]
+        lines = self._api_example_lines()
+        lines += [f"# Example: this skill written for the {self._example_robot()} robot", self._example(), ""]
         lines.append(
             f"# The {self.target.name} robot has other primitives (env and task are always the first two arguments):"
         )
@@ -121,11 +125,16 @@ class ProgramPrompt:
     def _example(self) -> str:
         """The reference skill, renamed for its robot (``put_in_bin_panda``), as the in-context example."""
         code = dict(self.context.target_examples).get(self.skill.name, self.skill.code)
-        return re.sub(
-            rf"\bdef {re.escape(self.skill.entry)}\(",
-            f"def {self.skill.entry}_{self._example_robot().lower()}(",
-            code,
-        ).rstrip("\n")
+        return renamed_for(code, self.skill.entry, self._example_robot())
+
+    def _api_example_lines(self) -> list[str]:
+        """Other skills' programs for the target robot, each renamed for it: how its API is used."""
+        if not self.context.api_examples:
+            return []
+        lines = [f"# Examples of other skills written for the {self.target.name} robot, using its primitives:"]
+        for _, code in self.context.api_examples:
+            lines += [renamed_for(code, None, self.target.name), ""]
+        return lines
 
     def _example_robot(self) -> str:
         """The robot the in-context example is written for: the target where the context has its program."""
@@ -142,6 +151,7 @@ class ProgramPrompt:
         lines.append(f"from scene import task  # {', '.join(f'task.{q}(name)' for q in TaskContext.QUERIES)}")
         lines += [f"# {note}" for note in api_notes(self.target.api)]
         lines += ["", f"objects = {[o.split(' ')[0] for o in self.context.objects]!r}", ""]
+        lines += self._api_example_lines()
         lines += [f"# Reference program for the {source} robot:", self._example(), ""]
         lines.append(f"# Task: {self.context.instruction}")
         lines.append(
@@ -179,3 +189,10 @@ class ProgramPrompt:
 
     def _headed(self, unit: RefactoringUnit) -> RefactoringUnit:
         return replace(unit, prefix=self.header() + unit.prefix)
+
+
+def renamed_for(code: str, entry: str | None, robot: str) -> str:
+    """``code`` with its function ``entry`` (every top-level function where None) renamed for
+    ``robot`` (``put_in_bin`` becomes ``put_in_bin_ur5e``), so that no example defines the entry."""
+    name = re.escape(entry) if entry else r"\w+"
+    return re.sub(rf"^def ({name})\(", lambda m: f"def {m.group(1)}_{robot.lower()}(", code, flags=re.M).rstrip("\n")

@@ -11,6 +11,7 @@ from dataclasses import dataclass, replace
 from typing import ClassVar
 
 from lerobot_policy_recent.ontology.builder import Ontology
+from lerobot_policy_recent.ontology.skill_code import call_sites
 from lerobot_policy_recent.ontology.target import Target
 from lerobot_policy_recent.recent_plugin.baselines.adapter import BaselineAdapter
 from lerobot_policy_recent.recent_plugin.baselines.generate import generate_skill
@@ -21,16 +22,20 @@ from lerobot_policy_recent.recent_plugin.infillers.base import Infiller
 from lerobot_policy_recent.recent_plugin.methods.base import Adaptation, Grounding, Method
 from lerobot_policy_recent.recent_plugin.refactoring.substitution import has_placeholders
 from lerobot_policy_recent.robosuite_envs.tasks import TaskSpec
-from lerobot_policy_recent.skills.repository import Skill
+from lerobot_policy_recent.skills.repository import Skill, SkillNotValidatedError, list_skills, serve_skill
 
 
 @dataclass
 class Baseline(Method):
     family: ClassVar[str] = "baseline"
     style: ClassVar[BaselineStyle]
+    # Other skills, as the ontology renders them for the target, shown as examples of its API before
+    # the reference skill (the original CaP prompts' in-context examples); 0 shows none.
+    api_examples: int = 0
 
     def grounding_key(self, task: TaskSpec | None) -> str:
-        return task.task_id if task is not None else ""  # the prompt shows the task
+        shown = task.task_id if task is not None else ""  # the prompt shows the task
+        return f"{shown} api_examples={self.api_examples}" if self.api_examples else shown
 
     def ground(self, g: Grounding) -> GroundedSkill:
         context = self.context(g.task, (g.skill,), g.target, g.ontology, g.max_retries)
@@ -49,7 +54,11 @@ class Baseline(Method):
         self, task: TaskSpec | None, skills: tuple[Skill, ...], target: Target, ontology: Ontology, max_retries: int
     ) -> ProgramContext:
         """What the prompt shows besides the skill (the same for every skill of ``skills``)."""
-        return program_context(task)
+        context = program_context(task)
+        if self.api_examples:
+            shown = api_examples(skills, task, target, ontology, max_retries, self.api_examples)
+            context = replace(context, api_examples=shown)
+        return context
 
 
 @Method.register_subclass("cap")
@@ -83,7 +92,20 @@ class CodeAsPoliciesTargetExample(CodeAsPolicies):
         self, task: TaskSpec | None, skills: tuple[Skill, ...], target: Target, ontology: Ontology, max_retries: int
     ) -> ProgramContext:
         examples = tuple((skill.name, target_program(skill, target, ontology, max_retries)) for skill in skills)
-        return replace(program_context(task), target_examples=examples)
+        return replace(super().context(task, skills, target, ontology, max_retries), target_examples=examples)
+
+
+@Method.register_subclass("cap-api-examples")
+@dataclass
+class CodeAsPoliciesApiExamples(CodeAsPolicies):
+    """CaP prompted as the original CaP prompts are: in-context examples written in the *target's*
+    API (other skills of the library, as the ontology renders them for the target with no LM),
+    then the skill's source program and the task. Nothing of the task's own skills is shown in the
+    target's API (that is cap-target-example). A target on which the ontology renders few skills
+    completely (Sawyer: only the skills without pick or place) gets what it renders."""
+
+    style: ClassVar[BaselineStyle] = BaselineStyle("cap-api-examples", statement_repairs=0)
+    api_examples: int = 2
 
 
 def target_program(skill: Skill, target: Target, ontology: Ontology, max_retries: int) -> str:
@@ -102,6 +124,39 @@ def target_program(skill: Skill, target: Target, ontology: Ontology, max_retries
             f"render it completely ({why}); the row needs targets whose skills it renders (UR5e, Robotiq85, …)"
         )
     return grounded.code
+
+
+def api_examples(
+    skills: tuple[Skill, ...], task: TaskSpec | None, target: Target, ontology: Ontology, max_retries: int, count: int
+) -> tuple[tuple[str, str], ...]:
+    """``count`` validated skills of the library that ``skills`` come from, neither among them nor in
+    ``task``'s plan, each as the ontology renders it completely for ``target``: chosen greedily to
+    show as many of the target's primitives as they can, the shorter program first on a tie."""
+    if not skills:
+        return ()
+    library, source = skills[0].path.parent, skills[0].source_embodiment
+    excluded = {s.name for s in skills} | ({step.skill for step in task.plan} if task is not None else set())
+    candidates: list[tuple[str, str, frozenset[str]]] = []
+    for name in list_skills(library):
+        if name in excluded:
+            continue
+        try:
+            skill = serve_skill(name, library)
+            if skill.source_embodiment != source:
+                continue
+            code = target_program(skill, target, ontology, max_retries)
+        except (SkillNotValidatedError, ValueError):
+            continue  # not a program a prompt could show as the target's own
+        uses = frozenset(site.name for site in call_sites(code) if site.name in target.api.names())
+        candidates.append((name, code, uses))
+    chosen: list[tuple[str, str]] = []
+    shown: set[str] = set()
+    while candidates and len(chosen) < count:
+        best = min(candidates, key=lambda c: (-len(c[2] - shown), len(c[1]), c[0]))
+        candidates.remove(best)
+        chosen.append((best[0], best[1]))
+        shown |= best[2]
+    return tuple(chosen)
 
 
 @Method.register_subclass("cap-distilled")
