@@ -10,7 +10,7 @@ import sys
 from collections import Counter
 from pathlib import Path
 
-from lerobot_policy_recent.recent_plugin.evaluation.methods import METHODS, parse_methods
+from lerobot_policy_recent.recent_plugin.evaluation.methods import METHODS, model_of, parse_methods
 from lerobot_policy_recent.recent_plugin.evaluation.runner import PACKED
 from lerobot_policy_recent.robosuite_envs.suites import SEEDS, SUITES
 
@@ -28,6 +28,13 @@ def register(sub) -> None:
     )
     parser.add_argument(
         "--method", default="recent", help=f"comma list, or all: {', '.join(METHODS)} (default: recent)"
+    )
+    parser.add_argument(
+        "--models",
+        default="",
+        help="comma list of models of the --infiller backend (known names or .gguf paths): every method runs on "
+        "each, as rows `method@model` of every table (the --infiller.model's rows keep their plain names); "
+        "default: --infiller.model alone. `--method=recent@MODEL` names one such row",
     )
     parser.add_argument("--seeds", default=",".join(map(str, SEEDS)), help="comma list (default: the paper's five)")
     parser.add_argument("--tasks", default="", help="comma list of task names within the suite (default: all)")
@@ -151,7 +158,7 @@ def _run(args) -> int:
         out=Path(args.out),
         suites=suites,
         targets=_csv(args.target),
-        methods=tuple(parse_methods(args.method)),
+        methods=tuple(parse_methods(args.method, _csv(args.models), getattr(settings.infiller, "model", None))),
         seeds=tuple(int(s) for s in _csv(args.seeds)),
         tasks=_csv(args.tasks),
         variations=args.variations,
@@ -196,6 +203,7 @@ def _run(args) -> int:
         "backend": settings.infiller.backend,
         "model": getattr(settings.infiller, "model", ""),
         "model_sha256": model_sha256(settings.infiller.model) if hasattr(settings.infiller, "model") else None,
+        **_row_models(config.methods),
         "max_retries": settings.max_retries,
         "machine": machine(),
         **run.plan,  # engine, address, workers and the resources each reserved
@@ -226,6 +234,18 @@ def _run(args) -> int:
         )
         return 1
     return 0
+
+
+def _row_models(rows) -> dict:
+    """``row_models``: the model and its sha256 of each ``method@model`` row (nothing where none names one)."""
+    from lerobot_policy_recent.recent_plugin.models import model_sha256
+
+    named = {row: model_of(row) for row in rows if model_of(row) is not None}
+    return (
+        {"row_models": {row: {"model": m, "model_sha256": model_sha256(m)} for row, m in named.items()}}
+        if named
+        else {}
+    )
 
 
 def git_commit() -> str | None:

@@ -299,3 +299,51 @@ def test_workers_share_the_cluster_and_never_wait_for_cpus_that_do_not_exist():
         plan(workers=3, cpus_per_worker=1)
     big = plan_workers(BenchConfig(out="/tmp/x"), cluster_cpus=64.0, cluster_gpus=0.0)
     assert big["workers"] == 32 and big["gpus_per_worker"] == 0.0
+
+
+def test_methods_on_several_models_are_rows_of_their_own(tmp_path, capsys):
+    """``--models``: every method on each model of the backend, as ``method@model`` rows that no table
+    pools; the run's own model keeps the plain name. Here a loopback completions server answers
+    only the 7B, so the rows must differ: recent on the 1.5B fails, recent@7B succeeds."""
+    from loopback import json_server
+    from test_openai_backend import ANSWERS
+
+    from lerobot_policy_recent.recent_plugin.evaluation.methods import settings_for
+    from lerobot_policy_recent.recent_plugin.infillers.configs import RuleConfig
+    from lerobot_policy_recent.recent_plugin.settings import RecentSettings
+
+    small, large = "Qwen/Qwen2.5-Coder-1.5B", "Qwen/Qwen2.5-Coder-7B"
+
+    def answer(path: str, body: dict) -> dict:
+        if path == "/tokenize":
+            return {"tokens": list(range(len(body["content"].split())))}
+        hint = next((k for k in ANSWERS if k in body["prompt"]), None)
+        text = ANSWERS[hint] if hint and body["model"] == large else ""
+        return {"choices": [{"text": text}], "usage": {"completion_tokens": len(text) // 4, "prompt_tokens": 100}}
+
+    requests: list[dict] = []
+    with json_server(answer, requests) as url:
+        run = ["bench", "--suite=kinematic-v1", "--tasks=cube_in_bin", "--target=UR5e", "--method=recent"]
+        run += ["--seeds=0", "--variations=off", "--workers=1", "--no-log", f"--out={tmp_path}"]
+        run += ["--infiller.type=openai", f"--infiller.base_url={url}", f"--infiller.model={small}"]
+        assert main([*run, f"--models={small},{large}"]) == 0
+    by_row = {r["method"]: r for r in load_records(tmp_path)}
+    assert set(by_row) == {"recent", f"recent@{large}"}
+    assert not by_row["recent"]["success"] and by_row[f"recent@{large}"]["success"]
+    assert by_row[f"recent@{large}"]["model"] == large and by_row["recent"]["model"] == small
+    assert {r["model"] for r in requests if r["path"] == "/v1/completions"} == {small, large}
+    assert (tmp_path / "episodes" / "recent@Qwen%2FQwen2.5-Coder-7B" / "UR5e").is_dir()  # one directory per row
+    results = json.loads((tmp_path / "results.json").read_text())
+    assert results["runs"][0]["row_models"] == {f"recent@{large}": {"model": large, "model_sha256": None}}
+    assert f"--method=recent,recent@{large}" in results["runs"][0]["command"]  # reproducible without --models
+    report = (tmp_path / "report.md").read_text()
+    assert "| **recent** | 0.0" in report and f"| **recent@{large}** | 100.0" in report
+    assert f"| {large} | 100.0" in report  # RECENT per model, on the episodes both ran
+
+    with pytest.raises(ValueError, match="cap-distilled runs on a model of its own"):
+        parse_methods("cap-distilled@qwen2.5-coder-1.5b")
+    with pytest.raises(ValueError, match="already names a model"):
+        parse_methods("recent@a", ("b",))
+    with pytest.raises(ValueError, match="needs an LM backend"):
+        settings_for("recent@qwen2.5-coder-0.5b", RecentSettings(infiller=RuleConfig()))
+    assert settings_for("recent@qwen2.5-coder-0.5b", RecentSettings()).infiller.model == "qwen2.5-coder-0.5b"

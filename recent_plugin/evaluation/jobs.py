@@ -1,7 +1,8 @@
 """What one benchmark episode is (a :class:`Job` of a :class:`BenchConfig`) and how a worker runs it.
 
 A worker process holds one :class:`EpisodeRunner`: it loads the LM once and shares it between the
-agents of all methods, so every method runs on the same backend and model. Its record of an
+agents of all methods, so every method runs on the same backend and model (a ``method@model`` row
+on the model it names, loaded once too). Its record of an
 episode is the episode's own record (``recent run --json``) plus the job; an error that breaks an
 episode off is a record too (a ``crash``). The episode's logs are captured in memory and handed
 back with the record (an :class:`Outcome`): the driver alone writes them, into one log directory
@@ -13,11 +14,13 @@ from __future__ import annotations
 import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
+from urllib.parse import quote
 
 from lerobot_policy_recent.logs.recorder import CapturedEpisode, Recorder
 from lerobot_policy_recent.recent_plugin.agent import RecentAgent
 from lerobot_policy_recent.recent_plugin.evaluation.methods import settings_for
 from lerobot_policy_recent.recent_plugin.failures import FailureCategory
+from lerobot_policy_recent.recent_plugin.infillers.base import Infiller
 from lerobot_policy_recent.recent_plugin.settings import RecentSettings
 from lerobot_policy_recent.robosuite_envs.embodiments import EMBODIMENTS
 from lerobot_policy_recent.robosuite_envs.splits import SPLITS, split_of
@@ -40,7 +43,8 @@ class Job:
 
     def record_path(self, out: Path) -> Path:
         task = self.task_id.split("/")[-1]
-        return out / "episodes" / self.method / self.target / f"{task}__s{self.seed}.json"
+        row = quote(self.method, safe="@+-._")  # a row on a GGUF path: one directory, not a path
+        return out / "episodes" / row / self.target / f"{task}__s{self.seed}.json"
 
 
 def log_dir(out: Path) -> Path:
@@ -102,21 +106,26 @@ class BenchConfig:
 
 # ---------------------------------------------------------------------------------------------- one worker
 class EpisodeRunner:
-    """Runs episodes of one bench config in one process: loads the LM once; agents of every method share it."""
+    """Runs episodes of one bench config in one process: loads each model once (the run's at the
+    start, a ``method@model`` row's at its first episode); the agents on one model share it."""
 
     def __init__(self, config: BenchConfig) -> None:
         self.config = config
         self.infiller = config.agent.infiller.build(config.agent.lm_seed)
+        self.infillers: dict[str, Infiller] = {repr(config.agent.infiller): self.infiller}  # by backend settings
         self.agents: dict[str, RecentAgent] = {}
 
-    def agent(self, method: str) -> RecentAgent:
-        if method not in self.agents:
+    def agent(self, row: str) -> RecentAgent:
+        if row not in self.agents:
             shared = next(iter(self.agents.values()), None)
-            settings = settings_for(method, self.config.agent)
-            self.agents[method] = RecentAgent(
-                settings, infiller=self.infiller, ontology=shared.ontology if shared else None
+            settings = settings_for(row, self.config.agent)
+            key = repr(settings.infiller)
+            if key not in self.infillers:
+                self.infillers[key] = settings.infiller.build(settings.lm_seed)
+            self.agents[row] = RecentAgent(
+                settings, infiller=self.infillers[key], ontology=shared.ontology if shared else None
             )
-        return self.agents[method]
+        return self.agents[row]
 
     def run(self, job: Job) -> Outcome:
         """One episode of ``job``: its record (a failure to run is a record too) and its captured logs."""

@@ -13,7 +13,14 @@ from collections import Counter
 from pathlib import Path
 
 from lerobot_policy_recent.recent_plugin.evaluation.confidence import episode_key, paired_comparisons, paired_difference
-from lerobot_policy_recent.recent_plugin.evaluation.methods import ABLATION_METHODS, EXPECTED, METHODS, ONTOLOGY_METHODS
+from lerobot_policy_recent.recent_plugin.evaluation.methods import (
+    ABLATION_METHODS,
+    EXPECTED,
+    METHODS,
+    ONTOLOGY_METHODS,
+    method_of,
+    model_of,
+)
 from lerobot_policy_recent.recent_plugin.evaluation.metrics import (
     LABELS,
     aggregate,
@@ -65,8 +72,13 @@ TARGETS = {"kinematic": {"sr": 73.0, "go": 5.0}, "end_effector": {"sr": 82.5, "g
 EI_CEILING, IT_CEILING, CAP_SR_MARGIN, CAP_GO_FACTOR = 0.7, 2.0, 40.0, 10.0
 
 
-def _ordered(methods) -> list[str]:
-    return [m for m in METHODS if m in set(methods)]
+def _rank(row: str) -> tuple[int, str]:
+    """Where a grid row sorts: its method's place in METHODS, then its model (the run's own first)."""
+    return METHODS.index(method_of(row)), model_of(row) or ""
+
+
+def _ordered(rows) -> list[str]:
+    return sorted({r for r in rows if method_of(r) in METHODS}, key=_rank)
 
 
 def main_table(records: list[dict]) -> str:
@@ -74,7 +86,7 @@ def main_table(records: list[dict]) -> str:
     by = {k: summarize(v) for k, v in group(records, lambda r: (r["method"], r["suite"])).items()}
     head = "| method | " + " | ".join(f"{s}: {LABELS[m]}" for s in settings for m in MAIN_METRICS) + " |"
     lines = [head, "|---|" + "---:|" * (len(settings) * len(MAIN_METRICS))]
-    methods = [m for m in _ordered({r["method"] for r in records}) if m not in ABLATION_METHODS]
+    methods = [m for m in _ordered({r["method"] for r in records}) if method_of(m) not in ABLATION_METHODS]
     for method in methods:
         cells = [fmt(by[(method, s)], m) if (method, s) in by else "–" for s in settings for m in MAIN_METRICS]
         lines.append(f"| **{method}** | " + " | ".join(cells) + " |")
@@ -185,7 +197,7 @@ def target_checks(records: list[dict], crashes: int = 0) -> list[str]:
 
 def model_table(records: list[dict]) -> str | None:
     """RECENT per model (the model-size ablation) on the episodes every model ran, when the runs used several."""
-    ours = [r for r in records if r["method"] == "recent" and r.get("model")]
+    ours = [r for r in records if method_of(r["method"]) == "recent" and r.get("model")]  # recent@model rows too
     models = sorted({r["model"] for r in ours})
     if len(models) < 2:
         return None
@@ -261,11 +273,13 @@ def plot_sr_vs_go(records: list[dict], path: Path) -> Path:
     axes = axes if len(suites) > 1 else [axes]
     cmap = plt.get_cmap("tab20")  # 20 colours, and the markers shifted each round: every method its own pair
     by = group(records, lambda r: (r["method"], r["suite"]))
+    models = ["", *sorted({model_of(m) for m, _ in by} - {None})]
     shown = {}
     for ax, suite in zip(axes, suites, strict=True):
         for method in _ordered({m for m, s in by if s == suite}):
             s = summarize(by[(method, suite)])
-            i = list(METHODS).index(method)
+            # the method's own pair in every report; a row on another model shifted by a round of METHODS
+            i = METHODS.index(method_of(method)) + len(METHODS) * models.index(model_of(method) or "")
             shown[method] = ax.errorbar(
                 s["go"]["mean"],
                 s["sr"]["mean"],
@@ -274,7 +288,7 @@ def plot_sr_vs_go(records: list[dict], path: Path) -> Path:
                 fmt=MARKERS[(i + i // len(MARKERS)) % len(MARKERS)],
                 color=cmap(i % 20),
                 markersize=8,
-                markerfacecolor="none" if method in ABLATION_METHODS else cmap(i % 20),  # ablations hollow
+                markerfacecolor="none" if method_of(method) in ABLATION_METHODS else cmap(i % 20),  # ablations hollow
                 capsize=3,
                 alpha=0.9,
             )
@@ -424,7 +438,7 @@ def split_results_table(records: list[dict]) -> str:
     by = {k: summarize(v) for k, v in group(records, lambda r: (r["method"], r["suite"], record_split(r))).items()}
     lines = ["| method | suite | test episodes | test SR | test GC | dev episodes | dev SR | dev GC |"]
     lines.append("|---|---|---:|---:|---:|---:|---:|---:|")
-    for method, suite in sorted({(m, s) for m, s, _ in by}, key=lambda k: (_ordered(METHODS).index(k[0]), k[1])):
+    for method, suite in sorted({(m, s) for m, s, _ in by}, key=lambda k: (_rank(k[0]), k[1])):
         cells = []
         for split in ("test", "dev"):
             summary = by.get((method, suite, split))
@@ -487,7 +501,7 @@ def lm_necessity_lines(records: list[dict]) -> list[str]:
     run-time patches the ontology or a check decided completely) and **LM necessity** (RECENT's SR
     minus the no-LM ``oracle-rule`` SR on the same episodes, per suite; where it is zero, the suite
     does not test the LM, and the report says so)."""
-    coverage = {k: v for k, v in rule_coverage(records).items() if k.split("|")[0] in ONTOLOGY_METHODS}
+    coverage = {k: v for k, v in rule_coverage(records).items() if method_of(k.split("|")[0]) in ONTOLOGY_METHODS}
     pairs = {
         k.split("|")[1]: p for k, p in paired_comparisons(records).items() if k.startswith("recent vs oracle-rule|")
     }
@@ -558,7 +572,7 @@ def _per_target(records: list[dict]) -> str:
     metrics = (*MAIN_METRICS, "patches", "go_pre", "igt")
     lines = ["| method | target | episodes | " + " | ".join(LABELS[m] for m in metrics) + " |"]
     lines.append("|---|---|---:|" + "---:|" * len(metrics))
-    for (method, target), s in sorted(by.items(), key=lambda kv: (_ordered(METHODS).index(kv[0][0]), kv[0][1])):
+    for (method, target), s in sorted(by.items(), key=lambda kv: (_rank(kv[0][0]), kv[0][1])):
         cells = " | ".join(fmt(s, m) for m in metrics)
         lines.append(f"| {method} | {target} | {s['episodes']} | {cells} |")
     return "\n".join(lines)
