@@ -38,8 +38,9 @@ def model_of(row: str) -> str | None:
 
 def parse_methods(text: str, models: tuple[str, ...] = (), run_model: str | None = None) -> list[str]:
     """``recent,cap``, ``all`` or ``recent@qwen2.5-coder-0.5b`` → grid rows, with a clear error for an
-    unknown method. ``models``: every method on each of them; the run's own model (``run_model``) keeps
-    the plain name, so a row is named the same whichever models a run compares."""
+    unknown method. ``models``: every method on each of them, except a method with a model of its
+    own (``cap-distilled``, ``oracle-rule``), which runs once; the run's own model (``run_model``)
+    keeps the plain name, so a row is named the same whichever models a run compares."""
     rows = list(METHODS) if text.strip() == "all" else [m.strip() for m in text.split(",") if m.strip()]
     unknown = [m for m in rows if method_of(m) not in METHODS]
     if unknown or not rows:
@@ -48,16 +49,25 @@ def parse_methods(text: str, models: tuple[str, ...] = (), run_model: str | None
         named = [r for r in rows if model_of(r) is not None]
         if named:
             raise ValueError(f"--models applies to plain method names; {', '.join(named)} already names a model")
-        rows = [r if model == run_model else f"{r}{ON_MODEL}{model}" for r in rows for model in models]
+        rows = [
+            r if model == run_model or not _on_the_runs_model(r) else f"{r}{ON_MODEL}{model}"
+            for r in rows
+            for model in models
+        ]
     for row in rows:
         model = model_of(row)
         if model is None:
             continue
         if not model:
             raise ValueError(f"{row}: no model after {ON_MODEL!r}")
-        if type(method_named(method_of(row))).model is not Method.model:
+        if not _on_the_runs_model(method_of(row)):
             raise ValueError(f"{row}: {method_of(row)} runs on a model of its own, so it takes no {ON_MODEL}model")
     return list(dict.fromkeys(rows))
+
+
+def _on_the_runs_model(method: str) -> bool:
+    """Whether ``method`` runs on the run's LM (not on a model of its own, nor on none)."""
+    return type(method_named(method)).model is Method.model
 
 
 def settings_for(row: str, base: RecentSettings) -> RecentSettings:
