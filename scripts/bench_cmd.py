@@ -33,8 +33,9 @@ def register(sub) -> None:
         "--models",
         default="",
         help="comma list of models of the --infiller backend (known names or .gguf paths): every method runs on "
-        "each, as rows `method@model` of every table (the --infiller.model's rows keep their plain names); "
-        "default: --infiller.model alone. `--method=recent@MODEL` names one such row",
+        "each, as rows `method@model` of every table (the --infiller.model's rows keep their plain names; a method "
+        "with a model of its own, such as cap-distilled, runs once); default: --infiller.model alone. "
+        "`--method=recent@MODEL` names one such row",
     )
     parser.add_argument("--seeds", default=",".join(map(str, SEEDS)), help="comma list (default: the paper's five)")
     parser.add_argument("--tasks", default="", help="comma list of task names within the suite (default: all)")
