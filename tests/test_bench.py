@@ -301,7 +301,7 @@ def test_workers_share_the_cluster_and_never_wait_for_cpus_that_do_not_exist():
     assert big["workers"] == 32 and big["gpus_per_worker"] == 0.0
 
 
-def test_methods_on_several_models_are_rows_of_their_own(tmp_path, capsys):
+def test_methods_on_several_models_are_rows_of_their_own(tmp_path):
     """``--models``: every method on each model of the backend, as ``method@model`` rows that no table
     pools; the run's own model keeps the plain name. Here a loopback completions server answers
     only the 7B, so the rows must differ: recent on the 1.5B fails, recent@7B succeeds."""
