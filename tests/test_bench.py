@@ -343,6 +343,7 @@ def test_methods_on_several_models_are_rows_of_their_own(tmp_path):
     with pytest.raises(ValueError, match="cap-distilled runs on a model of its own"):
         parse_methods("cap-distilled@qwen2.5-coder-1.5b")
     assert parse_methods("cap,oracle-rule", ("a", "b"), "a") == ["cap", "cap@b", "oracle-rule"]  # its own: once
+    assert parse_methods("recent@a,recent@b", (), "a") == ["recent", "recent@b"]  # the run's model: the plain row
     with pytest.raises(ValueError, match="already names a model"):
         parse_methods("recent@a", ("b",))
     with pytest.raises(ValueError, match="needs an LM backend"):

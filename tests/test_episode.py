@@ -28,9 +28,8 @@ def test_grounded_episode_on_ur5e_with_the_real_lm(ontology, llama_infiller):
     again = run_episode(agent, "cube_in_bin", "UR5e", seed=0)
     assert again.grounding.cached and again.grounding.skills[0] is result.grounding.skills[0]
     assert again.success, again.failures
-    other = run_episode(
-        agent, "cube_in_bin", "UR5e", seed=1
-    )  # the LM samples (the default): another seed, another draw
+    # the LM samples (the default): another seed is another draw, grounded afresh
+    other = run_episode(agent, "cube_in_bin", "UR5e", seed=1)
     assert not other.grounding.cached and other.success, other.failures
 
 

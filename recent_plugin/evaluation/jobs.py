@@ -111,8 +111,10 @@ class EpisodeRunner:
 
     def __init__(self, config: BenchConfig) -> None:
         self.config = config
-        self.infiller = config.agent.infiller.build(config.agent.lm_seed)
-        self.infillers: dict[str, Infiller] = {repr(config.agent.infiller): self.infiller}  # by backend settings
+        # by backend settings; the run's own LM is loaded now, so a worker that cannot load it says so at start
+        self.infillers: dict[str, Infiller] = {
+            repr(config.agent.infiller): config.agent.infiller.build(config.agent.lm_seed)
+        }
         self.agents: dict[str, RecentAgent] = {}
 
     def agent(self, row: str) -> RecentAgent:

@@ -45,6 +45,7 @@ def parse_methods(text: str, models: tuple[str, ...] = (), run_model: str | None
     unknown = [m for m in rows if method_of(m) not in METHODS]
     if unknown or not rows:
         raise ValueError(f"unknown method(s) {', '.join(unknown) or '(none)'}; choose from: all, {', '.join(METHODS)}")
+    rows = [method_of(r) if model_of(r) == run_model else r for r in rows]  # recent@<the run's model> is recent
     if models:
         named = [r for r in rows if model_of(r) is not None]
         if named:
