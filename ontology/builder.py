@@ -157,11 +157,13 @@ class Ontology:
 
 
 def default_embodiment_sources() -> list[EmbodimentSource]:
-    from lerobot_policy_recent.robosuite_envs.embodiments import EMBODIMENTS, SOURCE_EMBODIMENT
+    from lerobot_policy_recent.robosuite_envs.embodiments import EMBODIMENTS, SOURCE_EMBODIMENTS
     from lerobot_policy_recent.robosuite_envs.primitives import api_spec_path
 
     return [
-        EmbodimentSource(e.name, api_spec_path(e.api), e.robot_mjcf, e.gripper_mjcf, source=e.name == SOURCE_EMBODIMENT)
+        EmbodimentSource(
+            e.name, api_spec_path(e.api), e.robot_mjcf, e.gripper_mjcf, source=e.name in SOURCE_EMBODIMENTS
+        )
         for e in EMBODIMENTS.values()
     ]
 

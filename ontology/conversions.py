@@ -22,10 +22,18 @@ from lerobot_policy_recent.robosuite_envs.primitives.frames import LENGTH_UNITS
 
 ROTATIONS = ("quaternion", "rotvec", "euler")
 POINTS = ("position", "pose")
+OBJECT_NAME = "object_name"
+# A name-based API designates a point by the object there: the task query that turns a name into
+# that object's position (world frame, metres) determines a position completely. The way back, a
+# position into a name, has no such query: what is at a computed point is for the LM to name.
+NAME_LOOKUP = "task.get_object_position({})"
 # The names the renders call (a test checks each is a task query or a skill helper).
 FRAME_QUERIES = ("to_frame", "from_frame", "quat_to_frame", "quat_from_frame", "get_tool_orientation")
 HELPERS = ("quat_to_rotvec", "rotvec_to_quat", "quat_to_euler", "euler_to_quat")
 SOURCE = "{}"  # where the source expression goes in a template
+
+
+WORLD_POSITION = ParameterSpec(name="position", type="position", role="", unit="m", frame=WORLD_FRAME)
 
 
 @dataclass(frozen=True)
@@ -49,6 +57,9 @@ def conversion(source: ParameterSpec, target: ParameterSpec) -> Conversion | Non
     placeholder: nothing in the source determines the value."""
     if _same_representation(source, target):
         return None
+    if source.type == OBJECT_NAME and target.type in POINTS:
+        rest = conversion(WORLD_POSITION, target)
+        return Conversion(NAME_LOOKUP if rest is None else rest.apply(NAME_LOOKUP))
     if source.type in POINTS and target.type in POINTS:
         return Conversion(_point(source, target))
     if source.type in ROTATIONS and target.type in ROTATIONS:
@@ -97,7 +108,7 @@ def undetermined_facts(conflict) -> tuple[str, ...]:
     """For a conflict (``ontology.diagnosis.Conflict``) whose conversions leave a value open: what each
     such parameter's value is, and the queries and helpers that read and convert what it needs."""
     conversions = [(m.target, m.conversion) for m in conflict.mapping] + [
-        (conflict.substitute.by_role(PATH_ROLE).name, s.conversion) for s in conflict.path
+        (conflict.substitute.by_role(PATH_ROLE).name, s.conversion) for s in conflict.path if not s.actuate
     ]
     open_params = dict.fromkeys(name for name, c in conversions if c is not None and not c.determined)
     if not open_params:

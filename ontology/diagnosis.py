@@ -11,9 +11,21 @@ import re
 from dataclasses import dataclass, field, replace
 
 from lerobot_policy_recent.ontology.builder import Ontology
-from lerobot_policy_recent.ontology.conversions import Conversion, conversion
-from lerobot_policy_recent.ontology.skill_code import CallSite, CodeSpan, call_sites, position_bindings
-from lerobot_policy_recent.ontology.specs import PATH_ROLE, PrimitiveSpec
+from lerobot_policy_recent.ontology.conversions import (
+    NAME_LOOKUP,
+    OBJECT_NAME,
+    WORLD_POSITION,
+    Conversion,
+    conversion,
+)
+from lerobot_policy_recent.ontology.skill_code import (
+    CallSite,
+    CodeSpan,
+    call_sites,
+    named_positions,
+    position_bindings,
+)
+from lerobot_policy_recent.ontology.specs import PATH_ROLE, ParameterSpec, PrimitiveSpec
 
 SPAN_TYPES = ("api_substitution", "parameter_binding", "interface_rewiring", "preparatory_step", "path_tracing")
 
@@ -38,12 +50,17 @@ class PathStep:
     offset: tuple[float, float, float] = (0.0, 0.0, 0.0)
     conversion: Conversion | None = None  # the move's point takes other units, frame or a pose
     actuate: str = ""  # an actuation step instead of a move: the robot's parameterless primitive to call
+    lookup: str = ""  # the argument is an object's name: the query (a template) that gives its position
+
+    def point(self, argument: str) -> str:
+        """The world position the step starts from, given the original argument's text."""
+        return self.lookup.replace("{}", argument) if self.lookup else argument
 
     def render(self) -> str:
         """``start_pos + 0.1z``, or ``close_gripper()``: how diagnoses show a step."""
         if self.actuate:
             return f"{self.actuate}()"
-        return self.source + "".join(
+        return self.point(self.source) + "".join(
             f" {'+' if v > 0 else '-'} {abs(v):g}{axis}" for axis, v in zip("xyz", self.offset, strict=True) if v
         )
 
@@ -60,8 +77,20 @@ class Conflict:
     dropped: tuple[str, ...] = ()  # source parameters the substitute has no role for
     unfilled: tuple[str, ...] = ()  # required substitute parameters nothing maps to
     preparatory: tuple[str, ...] = ()  # target primitives to call first (they establish a missing state)
+    # per preparatory primitive, the original call's arguments it takes (a vacuum's detach needs the
+    # cup over the receptacle first: move_gripper_to(obj_name=<the place's receptacle>))
+    preparatory_arguments: tuple[tuple[ParameterMapping, ...], ...] = ()
     path: tuple[PathStep, ...] = ()  # path tracing: one call of the substitute (a move) per step
     reason: str = ""
+
+    def preparatory_calls(self) -> list[str]:
+        """``close_robotiq85``, or ``move_gripper_to(obj_name=obj_name)``: each preparatory call with
+        the original's parameters it takes (how diagnoses show them)."""
+        arguments = self.preparatory_arguments or ((),) * len(self.preparatory)
+        return [
+            name + (f"({', '.join(f'{m.target}={m.source}' for m in args)})" if args else "")
+            for name, args in zip(self.preparatory, arguments, strict=True)
+        ]
 
 
 @dataclass(frozen=True)
@@ -104,7 +133,7 @@ class Diagnosis:
                     "mapping": {m.source: m.target for m in c.mapping},
                     "dropped": list(c.dropped),
                     "unfilled": list(c.unfilled),
-                    **({"preparatory": list(c.preparatory)} if c.preparatory else {}),
+                    **({"preparatory": c.preparatory_calls()} if c.preparatory else {}),
                     **(
                         {"conversions": {m.target: m.conversion.template for m in c.mapping if m.conversion}}
                         if any(m.conversion for m in c.mapping)
@@ -133,25 +162,34 @@ def diagnose(onto: Ontology, skill_name: str, code: str, robot: str, source: str
     """D(skill, robot) = ⟨determined conflicts, undetermined warnings⟩ — no LM involved."""
     source_api, target_api = onto.api(source), onto.api(robot)
     sites = [s for s in call_sites(code, skill_name) if source_api.get(s.name) is not None]
-    bindings = position_bindings(code)
+    bindings, names = position_bindings(code), named_positions(code)
     conflicts, warnings = [], []
     for site in sites:
         original = source_api.get(site.name)
         target, conflict = target_api.get(site.name), None
+        if target is not None and not _same_signature(original, target):
+            target = None  # the same name, another interface (the two Panda APIs' picks: a position, a name)
         if target is None:
-            conflict = _conflict(onto, site, original, source, robot)
+            conflict = _conflict(onto, site, original, source, robot, names)
             conflicts.append(conflict)
             target = conflict.substitute
         if target is not None:
             warnings += _warnings(onto, site, original, target, source, robot, sites, bindings)
-        if conflict is not None and conflict.path:
+        if conflict is not None and any(not step.actuate for step in conflict.path):
             warnings.append(_approach_warning(onto, site, conflict))
             if any(step.actuate for step in conflict.path):
                 warnings += _traced_warnings(onto, site, original, conflict, source, robot, sites, bindings)
     return Diagnosis(skill=skill_name, robot=robot, conflicts=tuple(conflicts), warnings=tuple(warnings))
 
 
-def _conflict(onto: Ontology, site: CallSite, original: PrimitiveSpec, source: str, robot: str) -> Conflict:
+def _same_signature(original: PrimitiveSpec, target: PrimitiveSpec) -> bool:
+    """Whether a call of ``original`` runs unchanged as ``target``: the same parameters, as the same types."""
+    return [(p.name, p.type) for p in original.parameters] == [(p.name, p.type) for p in target.parameters]
+
+
+def _conflict(
+    onto: Ontology, site: CallSite, original: PrimitiveSpec, source: str, robot: str, names: dict[str, str]
+) -> Conflict:
     candidates = onto.substitutes(source, site.name, robot)
     tracers = onto.path_tracers(source, site.name, robot) if not candidates else []
     if tracers:
@@ -165,20 +203,24 @@ def _conflict(onto: Ontology, site: CallSite, original: PrimitiveSpec, source: s
             reason=f"{robot} has no primitive with the effects of {site.name} ({', '.join(sorted(original.effects))})",
         )
     substitute = min(candidates, key=lambda c: (len(c.preconditions - original.preconditions), c.name))
+    given = dict(site.arguments)
     mapping, dropped = [], []
     for param in original.parameters:
         target = substitute.by_role(param.role)
         if target is None:
             dropped.append(param.name)
         else:
-            values, converted = _value_map(param.choices, target.choices), conversion(param, target)
+            values, converted = _value_map(param.choices, target.choices), _converted(param, target, given, names)
             mapping.append(ParameterMapping(param.name, target.name, param.role, values, converted))
-    given = dict(site.arguments)
+    preparatory, arguments = _preparatory_steps(onto, original, substitute, robot, dropped, given, names)
+    taken = {m.source for args in arguments for m in args}
+    dropped = [name for name in dropped if name not in taken]
     # required and mapped from nothing, or from an argument that does not determine it (a position for a pose)
     undetermined = {m.target for m in mapping if m.conversion and not m.conversion.determined and m.source in given}
     mapped = {m.target for m in mapping} - undetermined
-    unfilled = tuple(p.name for p in substitute.parameters if p.required and p.name not in mapped)
-    preparatory = _preparatory_steps(onto, original, substitute, robot)
+    unfilled = tuple(p.name for p in substitute.parameters if p.required and p.name not in mapped) + tuple(
+        m.target for args in arguments for m in args if m.conversion and not m.conversion.determined
+    )
     translated = any((m.values or m.conversion) and m.source in given for m in mapping)
     if unfilled:
         span_type = "interface_rewiring"  # the new interface needs an argument the old call never had
@@ -197,6 +239,7 @@ def _conflict(onto: Ontology, site: CallSite, original: PrimitiveSpec, source: s
         dropped=tuple(dropped),
         unfilled=unfilled,
         preparatory=preparatory,
+        preparatory_arguments=arguments if any(arguments) else (),
         reason=f"no {site.name}; use {substitute.name} (same effects)"
         + (f", after {', '.join(preparatory)}" if preparatory else ""),
     )
@@ -211,9 +254,7 @@ def _path_conflict(
     effects (a closed hand for a push) where those are decidable before execution."""
     api, point = onto.api(robot), move.by_role(PATH_ROLE)
     steps = tuple(
-        PathStep("", actuate=api.actuator(w.effect).name)
-        if w.actuation
-        else PathStep(source.name, w.offset, conversion(source, point))
+        PathStep("", actuate=api.actuator(w.effect).name) if w.actuation else _path_step(source, w.offset, point)
         for w in original.path
         if w.actuation or (source := original.by_role(w.role)) is not None
     )
@@ -230,18 +271,28 @@ def _path_conflict(
         dict.fromkeys(p.name for c in missing if (p := next((q for q in decidable if c in q.effects), None)))
     )
     used = {s.source for s in steps if not s.actuate}
+    # a path that only actuates (a handle let go where the hand is) is that actuator's call
+    substitute = move if used or not steps else api.get(steps[-1].actuate)
     return Conflict(
         span=site.span,
         span_type="path_tracing",
         original=site.name,
-        substitute=move,
+        substitute=substitute,
         dropped=tuple(p.name for p in original.parameters if p.name not in used),
         preparatory=preparatory,
         path=steps,
         unfilled=(point.name,) if undetermined else (),
-        reason=f"no primitive with the effects of {site.name}; trace its path with {move.name}"
+        reason=f"no primitive with the effects of {site.name}; trace its path with {substitute.name}"
         + (f", after {', '.join(preparatory)}" if preparatory else ""),
     )
+
+
+def _path_step(source: ParameterSpec, offset: tuple[float, float, float], point: ParameterSpec) -> PathStep:
+    """A move to the source argument's point plus ``offset``: a name is looked up first (the offset is
+    in the world), then the point converted to what the move takes."""
+    if source.type == OBJECT_NAME:
+        return PathStep(source.name, offset, conversion(WORLD_POSITION, point), lookup=NAME_LOOKUP)
+    return PathStep(source.name, offset, conversion(source, point))
 
 
 def _approach_warning(onto: Ontology, site: CallSite, conflict: Conflict) -> Warning:
@@ -275,17 +326,58 @@ def _traced_warnings(onto, site, original, conflict, source, robot, sites, bindi
 
 
 def _preparatory_steps(
-    onto: Ontology, original: PrimitiveSpec, substitute: PrimitiveSpec, robot: str
-) -> tuple[str, ...]:
-    """Robot-state preconditions the substitute adds, each with a target primitive whose effects establish it."""
-    steps = []
+    onto: Ontology,
+    original: PrimitiveSpec,
+    substitute: PrimitiveSpec,
+    robot: str,
+    dropped: list[str],
+    given: dict[str, str],
+    names: dict[str, str],
+) -> tuple[tuple[str, ...], tuple[tuple[ParameterMapping, ...], ...]]:
+    """Robot-state preconditions the substitute adds, each with a target primitive whose effects
+    establish it, and the original call's arguments that primitive takes: each required parameter
+    from an argument the substitute dropped, of a type that becomes it (a receptacle's name for a
+    move over it). One that nothing gives stays open, for the LM."""
+    steps, arguments = [], []
     for cond in sorted(substitute.preconditions - original.preconditions):
         if onto.conditions[cond].kind != "robot":
             continue  # runtime conditions become warnings instead
         provider = next((p for p in onto.api(robot).primitives if cond in p.effects and p is not substitute), None)
-        if provider is not None:
-            steps.append(provider.name)
-    return tuple(steps)
+        if provider is None:
+            continue
+        mapping = []
+        for param in (q for q in provider.parameters if q.required):
+            source = next(
+                (
+                    s
+                    for s in (original.parameter(n) for n in dropped)
+                    if s is not None and s.name in given and {s.type, param.type} <= _POINTS_OR_NAMES
+                ),
+                None,
+            )
+            if source is None:
+                mapping.append(ParameterMapping("", param.name, param.role, (), Conversion(f"<{param.type}>")))
+            else:
+                converted = _converted(source, param, given, names)
+                mapping.append(ParameterMapping(source.name, param.name, param.role, (), converted))
+        steps.append(provider.name)
+        arguments.append(tuple(mapping))
+    return tuple(steps), tuple(arguments)
+
+
+_POINTS_OR_NAMES = {OBJECT_NAME, "position", "pose"}  # what designates where something is
+
+
+def _converted(
+    source: ParameterSpec, target: ParameterSpec, given: dict[str, str], names: dict[str, str]
+) -> Conversion | None:
+    """How the argument becomes the target's value: as the two parameters convert, except that a
+    position read straight from the task (``obj_pos = task.get_object_position(obj)``) names its
+    object, where the target takes a name."""
+    converted = conversion(source, target)
+    if target.type == OBJECT_NAME and source.type == "position" and given.get(source.name) in names:
+        return Conversion(names[given[source.name]])
+    return converted
 
 
 def _warnings(onto, site, original, target, source, robot, sites, bindings) -> list[Warning]:

@@ -129,18 +129,55 @@ def position_bindings(code: str) -> dict[str, PositionBinding]:
     starts = line_starts(code)
     found = {}
     for node in ast.walk(tree):
-        if (
-            isinstance(node, ast.Assign)
-            and len(node.targets) == 1
-            and isinstance(node.targets[0], ast.Name)
-            and isinstance(node.value, ast.Call)
-            and isinstance(node.value.func, ast.Attribute)
-            and node.value.func.attr == "get_object_position"
-        ):
-            found[node.targets[0].id] = PositionBinding(
-                node.targets[0].id, node.lineno, span_of(node, code, starts).start
-            )
+        if (read := _position_read(node)) is not None:
+            found[read[0]] = PositionBinding(read[0], node.lineno, span_of(node, code, starts).start)
     return found
+
+
+def _position_read(node: ast.AST) -> tuple[str, ast.Call] | None:
+    """``var = task.get_object_position(...)``: the variable and the call."""
+    if (
+        isinstance(node, ast.Assign)
+        and len(node.targets) == 1
+        and isinstance(node.targets[0], ast.Name)
+        and isinstance(node.value, ast.Call)
+        and isinstance(node.value.func, ast.Attribute)
+        and node.value.func.attr == "get_object_position"
+    ):
+        return node.targets[0].id, node.value
+    return None
+
+
+def named_positions(code: str) -> dict[str, str]:
+    """Variables that hold exactly the position of a named object: ``var = task.get_object_position(E)``,
+    the only write to ``var`` (no other assignment, no item or augmented assignment), with ``E`` a
+    string or a variable that only a function argument or a loop binds. A position argument that is
+    such a variable determines the object's name, ``E``: what a name-based API asks for instead."""
+    tree = parse_skill(code)
+    writes: dict[str, int] = {}
+    assigned: set[str] = set()  # written by an assignment (a loop or a parameter binds the others)
+    found: dict[str, str] = {}
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Assign | ast.AugAssign | ast.AnnAssign):
+            for target in node.targets if isinstance(node, ast.Assign) else [node.target]:
+                for leaf in ast.walk(target):
+                    if isinstance(leaf, ast.Name):
+                        writes[leaf.id] = writes.get(leaf.id, 0) + 1
+                        assigned.add(leaf.id)
+                if isinstance(target, ast.Subscript) and isinstance(target.value, ast.Name):
+                    writes[target.value.id] = writes.get(target.value.id, 0) + 2  # mutated in place
+        elif isinstance(node, ast.For | ast.comprehension):
+            for leaf in ast.walk(node.target):
+                if isinstance(leaf, ast.Name):
+                    writes[leaf.id] = writes.get(leaf.id, 0) + 1
+    for node in ast.walk(tree):
+        read = _position_read(node)
+        if read is not None and len(read[1].args) == 1 and not read[1].keywords:
+            name = read[1].args[0]
+            literal = isinstance(name, ast.Constant) and isinstance(name.value, str)
+            if literal or (isinstance(name, ast.Name) and name.id not in assigned):
+                found[read[0]] = ast.unparse(name)
+    return {var: name for var, name in found.items() if writes.get(var) == 1}
 
 
 def variable_kinds(func: ast.FunctionDef) -> dict[str, str]:

@@ -125,10 +125,10 @@ class ApiSpec:
 
     def actuator(self, effect: str) -> PrimitiveSpec | None:
         """A primitive that takes no argument and establishes ``effect`` (a gripper's close or open):
-        what performs an actuation step of a traced path."""
-        return next(
-            (p for p in self.primitives if effect in p.effects and not any(q.required for q in p.parameters)), None
-        )
+        what performs an actuation step of a traced path. The one with the fewest preconditions: a
+        vacuum's switch, not its detach (which needs the cup over a receptacle and lowers the load)."""
+        actuators = [p for p in self.primitives if effect in p.effects and not any(q.required for q in p.parameters)]
+        return min(actuators, key=lambda p: len(p.preconditions), default=None)
 
     def point_moves(self) -> list[PrimitiveSpec]:
         """Primitives that move the end effector to a given point: what can trace a declared path."""
@@ -320,10 +320,11 @@ def _point(prim: PrimitiveSpec) -> ParameterSpec | None:
 
 
 def _parse_path(item: dict, params: list[ParameterSpec], path: Path, where: str) -> tuple[Waypoint, ...]:
-    """``path: [{role: push_start, offset: [0, 0, 0.1]}, ...]``: each role a position parameter of this primitive."""
+    """``path: [{role: push_start, offset: [0, 0, 0.1]}, ...]``: each role a position parameter of this
+    primitive, or an object-name parameter (the point is where that object is)."""
     if "path" not in item:
         return ()
-    positions = {p.role for p in params if p.type == "position"}
+    positions = {p.role for p in params if p.type in ("position", "object_name")}
     waypoints = []
     for k, raw in enumerate(_require(item, "path", list, path, where)):
         at = f"{where}.path[{k}]"
@@ -337,7 +338,9 @@ def _parse_path(item: dict, params: list[ParameterSpec], path: Path, where: str)
         role = _require(raw, "role", str, path, at)
         if role not in positions:
             raise SpecError(
-                path, f"{at}.role", f"{role!r} is not the role of a position parameter (those are: {sorted(positions)})"
+                path,
+                f"{at}.role",
+                f"{role!r} is not the role of a position or object-name parameter (those are: {sorted(positions)})",
             )
         offset = raw.get("offset", [0.0, 0.0, 0.0])
         if not (

@@ -81,6 +81,15 @@ EMBODIMENTS: dict[str, Embodiment] = {
             gripper_mjcf=str(_ASSETS / "suction_gripper.xml"),
             description="Franka Panda with a vacuum gripper (end-effector variation)",
         ),
+        Embodiment(
+            name="FrankaHand",
+            robot="Panda",
+            gripper="PandaGripper",
+            api="franka_hand",
+            robot_mjcf="models/assets/robots/panda/robot.xml",
+            gripper_mjcf="models/assets/grippers/panda_gripper.xml",
+            description="Franka Panda + Franka Hand, name-based API (end-effector setting's source robot)",
+        ),
         # Arms added by the data path alone (a row, a YAML, a module of thin wrappers), each with
         # robosuite's own gripper for it and with a Robotiq 2F-85 (docs/add_a_robot.md).
         Embodiment(
@@ -242,7 +251,10 @@ def _top_keys(path: Path) -> set[str]:
 
 EMBODIMENTS.update(_robots_from_files())
 
-SOURCE_EMBODIMENT = "Panda"
+SOURCE_EMBODIMENT = "Panda"  # the kinematic setting's source: the reference arm the arm checks compare with
+# Where the bundled skills are written and validated: the paper's two settings, each with its own source
+# API on the same Panda (positions for the kinematic setting, object names for the end-effector one).
+SOURCE_EMBODIMENTS = (SOURCE_EMBODIMENT, "FrankaHand")
 
 
 def arm_dof(name: str, default: int = 7) -> int:

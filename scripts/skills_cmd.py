@@ -21,7 +21,7 @@ from lerobot_policy_recent.skills.repository import (
 
 
 def register(sub) -> None:
-    parser = sub.add_parser("skills", help="list, show and validate the Panda reference skills")
+    parser = sub.add_parser("skills", help="list, show and validate the reference skills (each on its source robot)")
     actions = parser.add_subparsers(dest="action", metavar="ACTION", required=True)
     listing = actions.add_parser("list", help="skills in the repository and whether they are validated")
     listing.add_argument("--json", action="store_true")
@@ -29,7 +29,9 @@ def register(sub) -> None:
     show = actions.add_parser("show", help="code, metadata and last validation of one skill")
     show.add_argument("name")
     show.set_defaults(handler=_show)
-    check = actions.add_parser("validate", help="run skills on Panda over five seeds and record the outcome")
+    check = actions.add_parser(
+        "validate", help="run skills on their source robot over five seeds and record the outcome"
+    )
     check.add_argument("--skill", action="append", help="a skill to validate (repeatable; default: all)")
     check.add_argument(
         "--seeds",
@@ -59,6 +61,7 @@ def _row(skill: Skill) -> dict:
     return {
         "name": skill.name,
         "subtask": skill.subtask,
+        "source": skill.source_embodiment,
         "validated": bool(record and record.matches(skill.code_sha256)),
         "code_sha256": skill.code_sha256,
         "seeds_passed": sorted(record.passed) if record and record.code_sha256 == skill.code_sha256 else [],
@@ -78,7 +81,8 @@ def _list(args) -> int:
             continue
         state = "validated" if row["validated"] else "NOT validated"
         print(
-            f"{row['name']:<18} {row['subtask']:<18} {row['code_sha256'][:12]}  {state} ({len(row['seeds_passed'])}/5 seeds)"
+            f"{row['name']:<18} {row['subtask']:<18} {row['source']:<11} {row['code_sha256'][:12]}  {state} "
+            f"({len(row['seeds_passed'])}/5 seeds)"
         )
     return 0
 

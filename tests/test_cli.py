@@ -39,12 +39,12 @@ def test_ground_json_has_the_documented_keys(capsys):
 
 
 def test_a_skill_that_cannot_be_grounded_says_so_not_that_it_is_compatible(capsys, monkeypatch):
-    """Robotiq85 has no push (the paper's API moves and grips only); without tracing its path, closing a
-    drawer does not ground."""
+    """Robotiq85 has no push (the paper's API moves and grips only); without tracing its path, a Panda
+    skill that pushes does not ground."""
     from lerobot_policy_recent.ontology.builder import Ontology
 
     monkeypatch.setattr(Ontology, "path_tracers", lambda self, source, primitive, target: [])
-    assert main(["ground", "--skill", "close_drawer", "--robot", "Robotiq85", "--infiller.type", "rule"]) == 1
+    assert main(["ground", "--skill", "push_to_region", "--robot", "Robotiq85", "--infiller.type", "rule"]) == 1
     out = capsys.readouterr().out
     assert "no grounding of its conflicts passed validation" in out and "directly compatible" not in out
     assert "push -> (no primitive of Robotiq85 has its effects)" in out and "REJECTED" in out

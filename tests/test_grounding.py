@@ -100,7 +100,7 @@ def test_a_traced_push_is_one_move_per_waypoint_and_its_retry_is_held_to_all_of_
 
     from lerobot_policy_recent.skills.repository import load_skill
 
-    wipe, close = load_skill("wipe_area"), load_skill("close_drawer")
+    wipe, close = load_skill("wipe_area"), load_skill("push_to_region")
     grounded = ground_skill(
         wipe, ontology.target("Suction"), ontology, rule_infiller
     )  # the push's positions are list literals
@@ -179,11 +179,14 @@ def test_interface_rewiring_leaves_the_undecided_argument_to_the_lm(ontology, pu
     assert not grounded.valid and grounded.calls[-1].category == "empty_continuation"
 
 
-def test_same_role_literals_are_translated(ontology, put_in_bin, rule_infiller):
-    """approach_axis='z' (Panda) and pointing_to='down' (Robotiq85) share a role; the value is mapped too."""
-    grounded = ground_skill(put_in_bin, ontology.target("Robotiq85"), ontology, rule_infiller)
+def test_same_role_literals_are_translated(ontology, rule_infiller):
+    """approach_axis='z' (Panda) and pointing_to='down' (Robotiq85) share a role; the value is mapped too.
+    The 2F-85 picks by name: ``obj_pos`` holds exactly the position read for ``obj``, so that name is it."""
+    from lerobot_policy_recent.skills.repository import load_skill
+
+    grounded = ground_skill(load_skill("pick_and_lift"), ontology.target("Robotiq85"), ontology, rule_infiller)
     assert grounded.valid
-    assert "pick_robotiq85(env, task, target_pos=obj_pos, pointing_to='down')" in grounded.code
+    assert "pick_robotiq85(env, task, obj_name=obj, pointing_to='down')" in grounded.code
 
 
 def test_unrecoverable_after_retry_limit(ontology, put_in_bin):
@@ -279,7 +282,7 @@ def test_a_traced_path_that_drops_a_waypoints_offset_is_rejected(ontology):
     from lerobot_policy_recent.recent_plugin.grounding.grounder import _check_span
     from lerobot_policy_recent.skills.repository import load_skill
 
-    close = load_skill("close_drawer")
+    close = load_skill("push_to_region")
     conflict = diagnose(ontology, close.name, close.code, "Suction").conflicts[0]
     unit = unit_from_conflict(close.code, conflict, ontology.target("Suction"))
     right = unit.hints.substitute_call.replace("\n", "\n" + unit.indent)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import re
 import time
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -72,15 +73,15 @@ def test_a_moved_object_is_read_again_before_the_grasp(panda_agent):
     assert event.after.splitlines() == ["obj_pos = task.get_object_position('cube')", event.before]
 
 
-def test_a_moved_tower_base_is_read_again_before_the_block_is_placed_on_it(panda_agent):
-    """``support_unmoved`` guards a place whose target was computed from a position read before the
-    robot moved: the perturbed base block is read again, and the place goes where it is now."""
+def test_a_place_by_name_looks_the_moved_tower_base_up_when_it_runs(panda_agent):
+    """With a position API a place computed from a base read before the robot moved needs the base read
+    again (``support_unmoved``); the 2F-85 places by name, and the name is looked up when the place
+    runs: the perturbed base needs no re-read, and the block still goes where the base is now."""
     result = run_episode(panda_agent, "end_effector/build_tower", "Robotiq85", seed=0, variations="pose_perturbation")
-    assert result.success
-    (event,) = result.adaptations
-    assert event.kind == "revise" and event.checks == ("object_unmoved",) and "red moved" in event.observation
-    assert event.after.splitlines() == ["base_pos = task.get_object_position('red')", event.before]
-    assert event.before.startswith("place_robotiq85(env, task, target_pos=[base_pos[0]")
+    assert result.success, result.failures
+    assert not [e for e in result.adaptations if "red moved" in e.observation]
+    (stack,) = result.grounding.skills
+    assert "place_robotiq85(env, task, obj_name=base)" in stack.code
 
 
 def test_without_insitu_the_moved_object_is_repaired_after_the_grasp_fails(ontology):
@@ -316,14 +317,16 @@ def test_the_slab_a_push_shoved_beside_the_cube_is_swept_away_before_the_grasp(o
 
 
 def test_a_robot_without_a_push_sweeps_along_the_ontologys_push_path(ontology):
-    """The 2F-85's API only moves and grips: the sweep is the Panda push's declared path, traced with its moves."""
+    """The 2F-85's API only moves and grips: the sweep is the Panda push's declared path, traced with its
+    moves. (The guarded call: a traced place's descent, its move's point read as the release target.)"""
     scene = SceneFacts(
         frozenset({"obstacle"}), {"obstacle": (0.1, 0.1, 0.03)}, push_path=ontology.path_of("push_object")
     )
-    target = {"target_pos": [0.173, -0.015, 0.846]}
+    target = {"pos": [0.173, -0.015, 0.846]}
     obs = observed(obstacle=[0.178, -0.024, 0.834])
     robotiq = ontology.api("Robotiq85")
-    inp = CheckInput(obs, target, robotiq.get("place_robotiq85").parameters, frozenset(), {}, scene, robotiq)
+    descent = tuple(replace(p, role="release_target") for p in robotiq.get("move_to_position").parameters[:1])
+    inp = CheckInput(obs, target, descent, frozenset(), {}, scene, robotiq)
     sweep = target_clear(inp).statements
     assert len(sweep) == 4 and all(s.startswith("move_to_position(env, task, pos=[") for s in sweep)
     heights = [float(s.rsplit(", ", 1)[1].rstrip("])")) for s in sweep]
@@ -425,18 +428,18 @@ def test_a_traced_push_checks_the_object_before_each_move_up_to_the_contact(onto
     """On the 2F-85 the push becomes close + four moves: the object may move while the hand approaches,
     so its position is checked before the close and the two approach moves, not before the slide."""
     agent = RecentAgent(RecentSettings(infiller=RuleConfig()), ontology=ontology)
-    result = run_episode(agent, "end_effector/sweep_blocks", "Robotiq85", seed=2024, variations="on")
+    result = run_episode(agent, "kinematic/push_cube", "Robotiq85", seed=0, variations="pose_perturbation")
     assert result.success
+    assert result.grounding.skills[0].diagnosis.conflicts[0].span_type == "path_tracing"
     revise = [e for e in result.adaptations if e.checks == ("object_unmoved",)]
-    assert revise and "red moved" in revise[0].observation
+    assert revise and "cube moved" in revise[0].observation
     recomputed = revise[0].after.splitlines()
-    assert recomputed[0] == "obj_pos = task.get_object_position('red')"
-    assert any(line.startswith("goal = ") for line in recomputed)  # the slide's goal too, not only the start
+    assert recomputed[0] == "obj_pos = task.get_object_position('cube')"
+    assert any(line.strip().startswith("goal = ") for line in recomputed)  # the slide's goal too, not only the start
 
 
 def test_an_object_the_hand_holds_has_not_moved_out_from_under_the_skill():
     """A place computed from the picked block's read height: the block rose with the hand, by design."""
-    from dataclasses import replace
 
     scene = SceneFacts(frozenset({"red"}), {"red": (0.05, 0.05, 0.05)})
     obs = observed(red=[0.1, -0.05, 0.93])  # the gripper reports an object, and the grip site is inside the block

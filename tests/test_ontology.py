@@ -70,7 +70,7 @@ def test_a_push_on_a_robot_without_one_is_traced_with_its_cartesian_moves(ontolo
     """The end-effector APIs only move and grip: a push becomes the Panda push's path, one move per waypoint."""
     from lerobot_policy_recent.skills.repository import load_skill
 
-    close = load_skill("close_drawer")
+    close = load_skill("push_to_region")
     assert [p.name for p in ontology.path_tracers("Panda", "push", "Robotiq85")] == ["move_to_position"]
     assert ontology.path_tracers("Panda", "push", "UR5e") == []  # it has a push of its own
     robotiq = diagnose(ontology, close.name, close.code, "Robotiq85").conflicts[0]
@@ -93,6 +93,7 @@ def test_gripper_mechanism_is_inferred_from_mjcf(ontology, tmp_path):
         "Sawyer": "parallel_jaw",
         "Robotiq85": "parallel_jaw",
         "Suction": "suction",
+        "FrankaHand": "parallel_jaw",
         "Jaco": "multi_finger",  # three fingers, three actuators
         "JacoRobotiq85": "parallel_jaw",
         "Kinova3": "parallel_jaw",
@@ -166,7 +167,7 @@ def test_every_skill_and_target_pair_matches_the_committed_table(ontology):
         skill = load_skill(name)
         assert set(per_robot) == set(ontology.robot_names()) - {skill.source_embodiment}
         for robot, expected in per_robot.items():
-            summary = diagnose(ontology, skill.name, skill.code, robot).summary()
+            summary = diagnose(ontology, skill.name, skill.code, robot, source=skill.source_embodiment).summary()
             got = {_conflict_key(c) for c in summary["conflicts"]}
             want = {_conflict_key(c) for c in expected["conflicts"]}
             true_positive = len(got & want)

@@ -8,6 +8,7 @@ import shutil
 import pytest
 
 from lerobot_policy_recent.recent_plugin.authoring.sim_validation import validate
+from lerobot_policy_recent.robosuite_envs.embodiments import SOURCE_EMBODIMENTS
 from lerobot_policy_recent.robosuite_envs.splits import DEV_SEEDS
 from lerobot_policy_recent.robosuite_envs.suites import SEEDS
 from lerobot_policy_recent.skills.records import load_record
@@ -27,10 +28,22 @@ def test_every_stored_skill_passed_validate_on_all_five_seeds_with_its_current_c
         skill, record = load_skill(name), load_record(name)
         assert record is not None, f"{name}: no validation record"
         assert record.code_sha256 == skill.code_sha256, f"{name}: edited since validation"
-        assert record.robot == "Panda" and sorted(record.passed) == sorted(record.seeds), name
+        assert record.robot == skill.source_embodiment and sorted(record.passed) == sorted(record.seeds), name
+        assert skill.source_embodiment in SOURCE_EMBODIMENTS, name
         # the -v1 suites' skills on the paper's seeds; those of the paper-length suites' subtasks on the dev seeds
         assert sorted(record.seeds) in (sorted(SEEDS), sorted(DEV_SEEDS)), name
         assert serve_skill(name).code == skill.code
+
+
+def test_each_setting_has_its_skills_written_for_its_own_source_api():
+    """The paper's two settings, as it defines them: kinematic skills call the Panda's position-based
+    API, end-effector skills the Franka Hand's name-based one (``pick(obj_name=...)``)."""
+    from lerobot_policy_recent.robosuite_envs.suites import SUITES
+
+    for suite, source in (("kinematic", "Panda"), ("end_effector", "FrankaHand")):
+        for name in {step.skill for task in SUITES[suite] for step in task.plan}:
+            assert load_skill(name).source_embodiment == source, (suite, name)
+    assert "pick(env, task, obj_name=" in load_skill("fill_box").code
 
 
 def test_metadata_declares_the_capabilities_its_call_sites_need():

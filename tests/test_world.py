@@ -12,7 +12,7 @@ from lerobot_policy_recent.robosuite_envs.splits import DEV_SEEDS, TEST_SEEDS, T
 from lerobot_policy_recent.robosuite_envs.subtasks import SUBTASKS
 from lerobot_policy_recent.robosuite_envs.suites import SUITES, all_tasks, get_suite, get_task, validation_task
 from lerobot_policy_recent.robosuite_envs.variations import FAR_TARGET_XY, VARIATIONS, parse_variations
-from lerobot_policy_recent.skills.repository import list_skills
+from lerobot_policy_recent.skills.repository import list_skills, load_skill
 
 PANDA_REACH = 0.855  # metres, Franka's published reach (UR5e: 0.85)
 FAST = {"press_button", "open_drawer", "insert_peg", "sweep_into_pen"}  # a representative subset for CI
@@ -79,9 +79,18 @@ HELD_OUT = ["kinematic/panel_peg_lid_zone", "end_effector/drawer_then_box"]  # o
     [pytest.param(t, marks=() if t in HELD_OUT else pytest.mark.slow) for ts in TEST_TASKS.values() for t in ts],
 )
 def test_the_panda_reference_can_do_every_held_out_task_on_a_dev_seed(task_id, panda_agent):
-    """Feasibility only, and only on a dev seed: no test episode is run to tune anything."""
-    result = run_episode(panda_agent, task_id, "Panda", seed=DEV_SEEDS[0])
+    """Feasibility only, and only on a dev seed: no test episode is run to tune anything. The Panda
+    runs each setting's skills through that setting's source API (the Franka Hand's, by name, for
+    the end-effector tasks)."""
+    result = run_episode(panda_agent, task_id, _source_robot(task_id), seed=DEV_SEEDS[0])
     assert result.success, result.failures
+    assert all(skill.diagnosis.compatible for skill in result.grounding.skills)
+
+
+def _source_robot(task_id: str) -> str:
+    """The embodiment whose API the task's skills are written against: one for all of them."""
+    (source,) = {load_skill(step.skill).source_embodiment for step in get_task(task_id).plan}
+    return source
 
 
 def test_every_subtask_has_a_reference_skill_and_a_single_subtask_task():
@@ -96,7 +105,8 @@ def test_every_subtask_has_a_reference_skill_and_a_single_subtask_task():
 def test_panda_reference_skill_achieves_the_subtask(subtask, panda_agent):
     from lerobot_policy_recent.recent_plugin.episode import run_episode
 
-    result = run_episode(panda_agent, validation_task(subtask).task_id, "Panda", seed=0)
+    task_id = validation_task(subtask).task_id
+    result = run_episode(panda_agent, task_id, _source_robot(task_id), seed=0)
     assert result.success, result.failures
 
 
@@ -294,17 +304,19 @@ def test_a_seal_that_fails_mid_carry_drops_the_object_and_never_holds_it_again(p
     without it then fails (RECENT has no check for it: the release runs empty, as reported)."""
     from lerobot_policy_recent.robosuite_envs.tabletop import LEAK_AFTER_STEPS
 
-    env = RecentEnv(task="kinematic/cube_in_bin", robot="Suction", render_mode="none", variations="seal_failure")
-    result = run_episode(panda_agent, "kinematic/cube_in_bin", "Suction", seed=DEV_SEEDS[0], env=env)
+    task = "end_effector/cube_into_drawer"  # a Franka Hand skill: the rule path grounds it on the cup
+    env = RecentEnv(task=task, robot="Suction", render_mode="none", variations="seal_failure")
+    result = run_episode(panda_agent, task, "Suction", seed=DEV_SEEDS[0], env=env)
     assert env._env._leaked == {"cube"} and env._env.plan.leak_object == "cube" and LEAK_AFTER_STEPS == 30
     assert not result.success and "cube" not in env._env.observe().truth.held
     env.close()
-    assert run_episode(panda_agent, "kinematic/cube_in_bin", "Suction", seed=DEV_SEEDS[0]).success
+    assert run_episode(panda_agent, task, "Suction", seed=DEV_SEEDS[0]).success
 
 
 def test_suction_stacks_a_tower_the_held_block_going_where_the_skill_places_it(panda_agent):
-    """``detach_vacuum_handle(release_pos)`` puts the object, not the cup, at ``release_pos``: the
-    cup stops above by how far the block hangs below it, once the block hangs still."""
+    """``place(obj_name=base)`` becomes ``move_gripper_to(obj_name=base)`` and ``detach_vacuum_handle()``:
+    the move centres the block the cup carries over the base, lifted by as much as it hangs below
+    the cup, and the detach lowers it until it rests there before the suction goes off."""
     from lerobot_policy_recent.recent_plugin.episode import run_episode
 
     result = run_episode(panda_agent, "end_effector/build_tower", "Suction", seed=0)
@@ -313,7 +325,7 @@ def test_suction_stacks_a_tower_the_held_block_going_where_the_skill_places_it(p
 
 def test_suction_cup_lowered_onto_a_knob_stops_on_it_and_pulls_the_drawer(panda_agent):
     """``move_to_position`` to a knob's centre stops where the cup rests on the knob (it cannot go
-    inside), so the Panda skill's move-then-grip grounds to move-then-suck."""
+    inside), so the Franka Hand's handle grasp, traced as moves, grounds to move-then-suck."""
     from lerobot_policy_recent.recent_plugin.episode import run_episode
 
     result = run_episode(panda_agent, "end_effector/open_drawer", "Suction", seed=0)

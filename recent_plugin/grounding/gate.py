@@ -158,7 +158,10 @@ class _Checker(ast.NodeVisitor):
         self.api = api
         self.interface = api is not None
         robot = api.embodiment if api is not None else None
-        self.other = {name: r for r, spec in other_apis.items() if r != robot for name in spec.names()}
+        self.other: dict[str, str] = {}  # a name several robots share is named after the first (the Panda's)
+        for other, spec in other_apis.items():
+            for name in spec.names() if other != robot else ():
+                self.other.setdefault(name, other)
         self.primitives = primitives
         self.functions = functions
         self.defined: set[str] = set()

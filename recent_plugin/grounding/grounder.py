@@ -49,6 +49,7 @@ class GroundedSkill:
     verdict: Verdict | None = None
     seconds: float = 0.0  # wall time from diagnosis to validated code (IGT for this skill)
     edits: list[tuple[int, int, int]] = field(default_factory=list)  # (start, end, new length), original offsets
+    source: str = "Panda"  # the embodiment whose API the original code calls
 
     def warnings(self) -> list[Warning]:
         """The diagnosis' run-time warnings with their spans moved onto the grounded code."""
@@ -83,6 +84,7 @@ class GroundedSkill:
             skill_tokens=infiller.count_tokens(strip_imports(skill.code)),
             backend=infiller.name,
             model=infiller.model,
+            source=skill.source_embodiment,
         )
 
     @property
@@ -134,7 +136,7 @@ class GroundedSkill:
             difflib.unified_diff(
                 self.original.splitlines(keepends=True),
                 self.code.splitlines(keepends=True),
-                fromfile=f"{self.skill}.py (Panda)",
+                fromfile=f"{self.skill}.py ({self.source})",
                 tofile=f"{self.skill}.py ({self.robot})",
             )
         )

@@ -29,7 +29,7 @@ from lerobot_policy_recent.recent_plugin.grounding.grounder import GroundedSkill
 log = logging.getLogger(__name__)
 
 ENV = "RECENT_GROUNDING_CACHE"
-FORMAT = 1  # bump when GroundedSkill's shape changes: old files then simply never match
+FORMAT = 2  # bump when GroundedSkill's shape changes: old files then simply never match
 MAX_BYTES = 256 * 1024 * 1024
 SUFFIX = ".grounding"
 

@@ -110,9 +110,13 @@ Check = Callable[[CheckInput], Violation | None]
 
 def _by_role(inp: CheckInput, *roles: str) -> np.ndarray | None:
     """The world point (metres) the guarded call's argument of one of ``roles`` names, whatever the
-    units and frame its API takes it in; None where it names none."""
+    units and frame its API takes it in, or the observed position of the object it names by name;
+    None where it names none."""
     for param in inp.params:
         if param.role in roles and param.name in inp.arguments:
+            if param.type == "object_name":
+                state = inp.obs.objects.get(str(inp.arguments[param.name]))
+                return None if state is None else np.asarray(state.pos, dtype=float)
             if param.type not in ("position", "pose"):
                 return None
             try:

@@ -24,25 +24,36 @@ def render_substitute_call(span: str, conflict: Conflict) -> str | None:
     call = statement.value  # the diagnosis flags only `f(...)` and `x = f(...)` statements
     given = {k.arg: k.value for k in call.keywords if k.arg}
     targets = "".join(f"{ast.unparse(t)} = " for t in getattr(statement, "targets", []))
+    # Preparatory primitives first (one per line), then the substitute itself.
+    first = [_preparatory_call(conflict, k, given) for k in range(len(conflict.preparatory))]
     if conflict.path:
-        return "\n".join([*(f"{name}(env, task)" for name in conflict.preparatory), *_traced(conflict, given, targets)])
+        return "\n".join([*first, *_traced(conflict, given, targets)])
     by_target = {m.target: m for m in conflict.mapping}
     arguments = ["env", "task"]
     for param in substitute.parameters:
         mapping = by_target.get(param.name)
         if mapping is not None and mapping.source in given:
-            value = _translate(given[mapping.source], mapping)
-            text = ast.unparse(value) if mapping.conversion is None else mapping.conversion.apply(_operand(value))
-            arguments.append(f"{param.name}={text}")
+            arguments.append(f"{param.name}={_bound(given[mapping.source], mapping)}")
         elif param.required:
             arguments.append(f"{param.name}=<{param.type}>")
-    # Preparatory primitives first (one per line), then the substitute itself.
-    return "\n".join(
-        [
-            *(f"{name}(env, task)" for name in conflict.preparatory),
-            f"{targets}{substitute.name}({', '.join(arguments)})",
-        ]
-    )
+    return "\n".join([*first, f"{targets}{substitute.name}({', '.join(arguments)})"])
+
+
+def _preparatory_call(conflict: Conflict, k: int, given: dict[str, ast.expr]) -> str:
+    """``close_robotiq85(env, task)``, or a move that takes the original's argument: ``move_gripper_to(env,
+    task, obj_name=box)``; ``<type>`` where nothing given determines it."""
+    arguments = ["env", "task"]
+    for mapping in conflict.preparatory_arguments[k] if conflict.preparatory_arguments else ():
+        value = given.get(mapping.source)
+        text = mapping.conversion.template if value is None else _bound(value, mapping)  # None: a placeholder
+        arguments.append(f"{mapping.target}={text}")
+    return f"{conflict.preparatory[k]}({', '.join(arguments)})"
+
+
+def _bound(value: ast.expr, mapping: ParameterMapping) -> str:
+    """The original argument as the substitute takes it: translated, then converted."""
+    value = _translate(value, mapping)
+    return ast.unparse(value) if mapping.conversion is None else mapping.conversion.apply(_operand(value))
 
 
 def _traced(conflict: Conflict, given: dict[str, ast.expr], targets: str) -> list[str]:
@@ -54,6 +65,8 @@ def _traced(conflict: Conflict, given: dict[str, ast.expr], targets: str) -> lis
             moves.append(f"{step.actuate}(env, task)")
             continue
         value = given.get(step.source)
+        if value is not None and step.lookup:
+            value = ast.parse(step.point(ast.unparse(value)), mode="eval").body  # a name: where that object is
         where = "<position>" if value is None else _offset(value, step.offset)
         if value is not None and step.conversion is not None:
             where = step.conversion.apply(where if any(step.offset) else _operand(value))  # _offset's: a list

@@ -68,7 +68,8 @@ def move_to(
     """Servo the grip site to ``target`` (world frame, metres); fail with ``timeout`` if it does not settle.
 
     ``stop_on_contact``: a compliant tool (a vacuum cup) arrives once it rests on a surface right
-    above the target — it cannot go through what it would seal on.
+    above the target — it cannot go through what it would seal on — or once what it carries rests
+    on something on the way down.
     ``settle``: for an arm whose tracking stops short of the target, ``tol`` is where it may stop,
     not where it stops trying: the move ends within ``POS_TOL``, or within ``tol`` once the grip
     site no longer moves (a press that returned on entering ``tol`` stopped 2 cm above the button).
@@ -94,12 +95,14 @@ def move_to(
             trail.append(session.obs.eef_pos.copy())
             if load_rests(session, goal, trail, tol):
                 return
+        still = last is not None and float(np.linalg.norm(session.obs.eef_pos - last)) < SETTLED
         if settle:
-            still = last is not None and float(np.linalg.norm(session.obs.eef_pos - last)) < SETTLED
             arrived = err < POS_TOL or (err < tol and still)
         else:
             arrived = err < tol
-        if arrived or (stop_on_contact and resting_above(session, goal, tol)):
+        if arrived or (
+            stop_on_contact and (resting_above(session, goal, tol) or (still and carried_rests(session, goal)))
+        ):
             return
         last = session.obs.eef_pos.copy()
         yield servo_action(session, towards(session.obs.eef_pos))
@@ -156,6 +159,12 @@ def load_rests(session: RobotSession, goal: np.ndarray, trail: Sequence[np.ndarr
     error = goal - session.obs.eef_pos
     stalled = float(np.linalg.norm(trail[-1] - trail[0])) < SETTLED
     return stalled and -SET_DOWN_GAP < error[2] < 0 and float(np.linalg.norm(error[:2])) < tol
+
+
+def carried_rests(session: RobotSession, goal: np.ndarray) -> bool:
+    """What the tool holds has come down on something on the way to a point below: a load a cup
+    holds by its top face hangs lower than one held between fingers, and rests sooner."""
+    return held_position(session) is not None and (goal - session.obs.eef_pos)[2] < 0
 
 
 def resting_above(session: RobotSession, goal: np.ndarray, tol: float = POS_TOL) -> bool:
@@ -393,3 +402,72 @@ def release_at(
     yield from move_to(session, target, timeout_s=timeout_s / 2, set_down=True)
     yield from actuate_gripper(session, -1.0)
     yield from move_to(session, above, timeout_s=timeout_s / 2, tol=0.02)
+
+
+def release_onto(session: RobotSession, position: Sequence[float], *, timeout_s: float = 10.0) -> Steps:
+    """Carry the held object above what is at ``position`` (a block, a box, a plate) and lower it
+    until it rests there, however tall that is; then open and retreat upwards.
+
+    Unlike :func:`release_at`, ``position`` is the support's, not where the grip site stops: a
+    place by name knows what to put the object on, not at which height it will rest.
+    """
+    support = as_position(position, "receptacle position")
+    goal = np.array([support[0], support[1], max(support[2], TABLE_CLEARANCE + 0.001)])
+    above = goal + np.array([0.0, 0.0, APPROACH_HEIGHT])
+    lift = np.array([session.obs.eef_pos[0], session.obs.eef_pos[1], max(session.obs.eef_pos[2], above[2])])
+    yield from move_to(session, lift, timeout_s=timeout_s / 2, tol=0.02)
+    yield from move_to(session, above, timeout_s=timeout_s, settle=True)
+    yield from lower_until_resting(session, goal, timeout_s=timeout_s / 2)
+    yield from actuate_gripper(session, -1.0)
+    yield from move_to(session, above, timeout_s=timeout_s / 2, tol=0.02)
+
+
+def release_below(session: RobotSession, *, depth: float = 1.5 * APPROACH_HEIGHT, timeout_s: float = 6.0) -> Steps:
+    """Lower a load held by a cup straight down until it rests on what is below (at most ``depth``),
+    switch suction off and back away: a vacuum lets go where it is (the paper's detach)."""
+    if held_position(session) is None:
+        raise PrimitiveFailure("grasp_lost", "nothing is attached to let go of")
+    here = np.array(session.obs.eef_pos, dtype=np.float64)
+    yield from hold_until_still(session, here)
+    goal = here - np.array([0.0, 0.0, depth])
+    goal[2] = max(goal[2], TABLE_CLEARANCE + 0.001)
+    yield from lower_until_resting(session, goal, timeout_s=timeout_s)
+    yield from actuate_gripper(session, -1.0, duration_s=0.3, max_duration_s=0.5)
+    yield from move_to(session, session.obs.eef_pos + [0.0, 0.0, APPROACH_HEIGHT / 2], tol=0.02)
+
+
+LOWERING_STEP = 0.01  # metres ahead of the grip site a load is lowered towards, where it rests is unknown
+
+
+def lower_until_resting(session: RobotSession, goal: np.ndarray, *, timeout_s: float = 5.0) -> Steps:
+    """Lower slowly towards ``goal`` until the grip site stops coming down (by ``SETTLED`` in
+    ``STALL_STEPS`` steps) above it: what it carries, or the hand itself, rests on something. Slowly: a load that
+    lands fast on an edge slides off it. Reaching ``goal`` ends it too."""
+    trail: deque[np.ndarray] = deque(maxlen=STALL_STEPS + 1)
+    for _ in range(max(1, int(timeout_s * CONTROL_FREQ))):
+        here = session.obs.eef_pos
+        trail.append(here.copy())
+        error = goal - here
+        if float(np.linalg.norm(error)) < POS_TOL:
+            return
+        if len(trail) > STALL_STEPS and trail[0][2] - trail[-1][2] < SETTLED and error[2] < 0:
+            return  # no longer coming down (a cup's compliance may still sway it sideways)
+        yield servo_action(session, here + np.clip(error, -LOWERING_STEP, LOWERING_STEP))
+    raise PrimitiveFailure(
+        "timeout", f"still lowering towards {np.round(goal, 3).tolist()} after {timeout_s:.1f} s: nothing held it up"
+    )
+
+
+def grasp_handle_at(session: RobotSession, position: Sequence[float], *, timeout_s: float = 10.0) -> Steps:
+    """Open, come down on the handle at ``position`` from above, and close on it (no lift: it stays in hand)."""
+    handle = as_position(position, "handle position")
+    yield from actuate_gripper(session, -1.0)
+    yield from move_to(session, handle + np.array([0.0, 0.0, APPROACH_HEIGHT]), timeout_s=timeout_s, settle=True)
+    yield from move_to(session, handle, timeout_s=timeout_s / 2, tol=0.006)
+    yield from actuate_gripper(session, 1.0)
+
+
+def release_handle(session: RobotSession) -> Steps:
+    """Open on the handle held and back off upwards."""
+    yield from actuate_gripper(session, -1.0)
+    yield from move_to(session, session.obs.eef_pos + [0.0, 0.0, APPROACH_HEIGHT / 2], tol=0.02)

@@ -22,15 +22,20 @@ _DIRECTIONS = {"x": (1, 0, 0), "-x": (-1, 0, 0), "y": (0, 1, 0), "-y": (0, -1, 0
 def move_to_position(
     env: RobotSession, task: TaskContext, pos: Sequence[float], pointing_to: str = "down"
 ) -> control.Steps:
-    """Move the end effector to ``pos`` pointing ``pointing_to`` (only 'down' is supported)."""
+    """Move the end effector to ``pos`` along a straight line, pointing ``pointing_to`` (only 'down' is
+    supported): a move that pushes something slides it along that line."""
     check_pointing(pointing_to)
-    yield from control.move_to(env, pos, tol=DRAG_TOL, settle=True)
+    yield from control.move_to(env, pos, tol=DRAG_TOL, settle=True, straight=True)
 
 
 def move_gripper_to(env: RobotSession, task: TaskContext, obj_name: str, pointing_to: str = "down") -> control.Steps:
-    """Move the end effector above the object called ``obj_name``."""
+    """Move the end effector above the object called ``obj_name``, and what it carries with it: a load
+    off the grip site's axis (a cup seals where it touched the top face) is centred over the object,
+    and one that hangs below the grip site is lifted by as much."""
     check_pointing(pointing_to)
-    above = np.array(task.get_object_position(obj_name)) + np.array([0.0, 0.0, control.APPROACH_HEIGHT])
+    load = control.held_offset(env)
+    load[2] = min(0.0, float(load[2]))
+    above = np.array(task.get_object_position(obj_name)) + np.array([0.0, 0.0, control.APPROACH_HEIGHT]) - load
     yield from control.move_to(env, above)
 
 

@@ -29,25 +29,23 @@ __all__ = [
 def move_to_position(
     env: RobotSession, task: TaskContext, pos: Sequence[float], pointing_to: str = "down"
 ) -> control.Steps:
-    """Move the cup to ``pos``; lowered onto a surface, it stops where the cup rests on it (it cannot
+    """Move the cup to ``pos`` (each axis closing its own error: a cup pulling on a knob keeps its seal
+    better than on a straight line); lowered onto a surface, it stops where the cup rests on it (it cannot
     reach a point inside what it would seal on, e.g. a knob's centre). A drag that stalls within
     ``DRAG_TOL`` has arrived, as for the other end-effector moves."""
     check_pointing(pointing_to)
     yield from control.move_to(env, pos, tol=DRAG_TOL, settle=True, stop_on_contact=True)
 
 
-def attach_vacuum_handle(env: RobotSession, task: TaskContext, handle_pos: Sequence[float]) -> control.Steps:
-    """Seal the cup on the flat top face at ``handle_pos``, switch suction on and lift."""
-    yield from control.suction_grasp_at(env, handle_pos)
+def attach_vacuum_handle(env: RobotSession, task: TaskContext, handle_name: str) -> control.Steps:
+    """Seal the cup on the flat top face of the object called ``handle_name``, switch suction on and lift."""
+    yield from control.suction_grasp_at(env, task.get_object_position(handle_name))
 
 
-def detach_vacuum_handle(env: RobotSession, task: TaskContext, release_pos: Sequence[float]) -> control.Steps:
-    """Carry the attached object to ``release_pos``, switch suction off and back away.
-
-    ``release_pos`` is where the object goes, as for a parallel gripper: the cup holds it by its
-    top face and it hangs below, so the cup stops that far above and beside.
-    """
-    yield from control.release_at(env, release_pos, hanging_load=True)
+def detach_vacuum_handle(env: RobotSession, task: TaskContext) -> control.Steps:
+    """Lower the attached object straight down until it rests on what is below, switch suction off
+    and back away: the object goes where the cup is (bring the cup over the receptacle first)."""
+    yield from control.release_below(env)
 
 
 def activate_vacuum(env: RobotSession, task: TaskContext) -> control.Steps:

@@ -1,0 +1,118 @@
+"""The end-effector setting as the paper defines it: the Franka Hand's name-based source API, targets
+that take names (the 2F-85's picks and places, the vacuum's attach and detach), and the rewiring
+between names and positions, one source call for several target calls where a target needs them."""
+
+from __future__ import annotations
+
+import pytest
+
+from lerobot_policy_recent.ontology.diagnosis import diagnose
+from lerobot_policy_recent.ontology.skill_code import named_positions
+from lerobot_policy_recent.recent_plugin.grounding.grounder import ground_skill
+from lerobot_policy_recent.skills.repository import load_skill
+
+
+def _conflict(ontology, skill, robot: str, original: str):
+    diagnosis = diagnose(ontology, skill.name, skill.code, robot, source=skill.source_embodiment)
+    return next(c for c in diagnosis.conflicts if c.original == original)
+
+
+def _lines(code: str) -> list[str]:
+    return [line.strip() for line in code.splitlines()]
+
+
+def test_a_place_on_the_vacuum_is_a_move_over_the_receptacle_then_a_detach(ontology, rule_infiller):
+    """The cup lets go where it is (the paper's ``detach_vacuum_handle(env)``): the ontology puts it
+    over the place's receptacle first, with the receptacle's name the place was given."""
+    fill = load_skill("fill_box")
+    place = _conflict(ontology, fill, "Suction", "place")
+    assert place.span_type == "preparatory_step" and place.substitute.name == "detach_vacuum_handle"
+    assert place.preparatory_calls() == ["move_gripper_to(obj_name=obj_name)"] and place.dropped == ("pointing_to",)
+    grounded = ground_skill(fill, ontology.target("Suction"), ontology, rule_infiller)
+    assert grounded.valid and grounded.generated_tokens == 0
+    lines = _lines(grounded.code)
+    at = lines.index("move_gripper_to(env, task, obj_name=box)")
+    assert lines[at + 1] == "detach_vacuum_handle(env, task)"
+    assert "attach_vacuum_handle(env, task, handle_name=obj)" in lines
+
+
+def test_a_handle_grasp_the_cup_has_no_primitive_for_is_traced_on_the_named_handle(ontology, rule_infiller):
+    opening = load_skill("open_drawer")
+    grounded = ground_skill(opening, ontology.target("Suction"), ontology, rule_infiller)
+    assert grounded.valid
+    grasp, release = grounded.diagnosis.conflicts
+    assert grasp.span_type == release.span_type == "path_tracing"
+    assert [step.render() for step in grasp.path] == [
+        "deactivate_vacuum()",
+        "task.get_object_position(handle_name) + 0.1z",
+        "task.get_object_position(handle_name)",
+        "activate_vacuum()",
+    ]
+    assert "move_to_position(env, task, pos=task.get_object_position(drawer))" in _lines(grounded.code)
+    # letting go of a handle is only an actuation: that one call, not a move
+    assert release.substitute.name == "deactivate_vacuum" and [s.render() for s in release.path] == [
+        "deactivate_vacuum()"
+    ]
+
+
+def test_the_2f85_takes_the_franka_hands_calls_by_name_as_renames(ontology, rule_infiller):
+    for name in ("fill_box", "open_drawer", "stack_tower", "put_in_drawer"):
+        skill = load_skill(name)
+        conflicts = diagnose(ontology, skill.name, skill.code, "Robotiq85", source="FrankaHand").conflicts
+        assert conflicts and all(c.span_type == "api_substitution" for c in conflicts), name
+    grounded = ground_skill(load_skill("stack_tower"), ontology.target("Robotiq85"), ontology, rule_infiller)
+    assert grounded.valid and "place_robotiq85(env, task, obj_name=base)" in _lines(grounded.code)
+
+
+def test_a_name_becomes_a_position_by_the_task_query_in_the_targets_units_and_frame(ontology):
+    """A name determines where the object is; a receptacle's name does not determine where a
+    position API lets go over it: that is left for the LM, with the facts."""
+    fill = load_skill("fill_box")
+    pick = _conflict(ontology, fill, "UR5e", "pick")
+    assert pick.span_type == "parameter_binding" and pick.mapping[0].conversion.apply("obj") == (
+        "task.get_object_position(obj)"
+    )
+    krl = _conflict(ontology, fill, "IIWAKRL", "pick")  # no pick there: moves and gripper calls, in millimetres
+    assert krl.span_type == "path_tracing" and krl.path[1].render() == "task.get_object_position(obj_name) + 0.1z"
+    assert krl.path[1].conversion.template == "[1000 * v for v in {}]"
+    place = _conflict(ontology, fill, "UR5e", "place")
+    assert place.span_type == "interface_rewiring" and place.unfilled == ("place_pos",)
+
+
+def test_a_panda_call_on_the_franka_hands_api_of_the_same_name_is_a_conflict(ontology, put_in_bin):
+    """Both source APIs have a ``pick``: one takes a position, the other a name. The same name is not
+    the same interface; the position read from ``obj`` names ``obj``, the drop point names nothing."""
+    conflicts = diagnose(ontology, put_in_bin.name, put_in_bin.code, "FrankaHand").conflicts
+    pick, place = (next(c for c in conflicts if c.original == name) for name in ("pick", "place"))
+    assert pick.substitute.name == "pick" and pick.span_type == "parameter_binding"
+    assert pick.mapping[0].conversion.apply("obj_pos") == "obj"
+    assert place.substitute.name == "place" and place.span_type == "interface_rewiring"
+    assert place.unfilled == ("obj_name",)
+
+
+def test_a_position_names_its_object_only_where_the_code_read_it_from_one():
+    code = """def skill(env, task, obj="cube", other="block"):
+    obj_pos = task.get_object_position(obj)
+    lid = task.get_object_position("lid")
+    raised = task.get_object_position(other)
+    raised[2] = raised[2] + 0.1
+    again = task.get_object_position(obj)
+    again = [0.0, 0.0, 0.9]
+    target = other
+    moved = task.get_object_position(target)
+    for name in [obj, other]:
+        each = task.get_object_position(name)
+"""
+    assert named_positions(code) == {"obj_pos": "obj", "lid": "'lid'", "each": "name"}
+
+
+@pytest.mark.parametrize("robot", ["Suction", pytest.param("Robotiq85", marks=pytest.mark.slow)])
+def test_a_franka_hand_skill_grounded_by_the_ontology_alone_fills_the_box(panda_agent, robot):
+    """The one-to-many rewiring executes: on the cup the place is a move over the box and a detach."""
+    from lerobot_policy_recent.recent_plugin.episode import run_episode
+    from lerobot_policy_recent.robosuite_envs.splits import DEV_SEEDS
+
+    result = run_episode(panda_agent, "end_effector/fill_open_box", robot, seed=DEV_SEEDS[0])
+    assert result.success, result.failures
+    (fill,) = result.grounding.skills
+    assert fill.valid and fill.generated_tokens == 0
