@@ -88,7 +88,7 @@ class Conflict:
         the original's parameters it takes (how diagnoses show them)."""
         arguments = self.preparatory_arguments or ((),) * len(self.preparatory)
         return [
-            name + (f"({', '.join(f'{m.target}={m.source}' for m in args)})" if args else "")
+            name + (f"({', '.join(f'{m.target}={m.source or m.conversion.template}' for m in args)})" if args else "")
             for name, args in zip(self.preparatory, arguments, strict=True)
         ]
 
