@@ -230,7 +230,7 @@ def _conflict(
         span_type = "parameter_binding"  # same role, other vocabulary ('z' -> 'down') or units, frame, rotation
     else:
         span_type = "api_substitution"
-    return Conflict(
+    conflict = Conflict(
         span=site.span,
         span_type=span_type,
         original=site.name,
@@ -240,9 +240,9 @@ def _conflict(
         unfilled=unfilled,
         preparatory=preparatory,
         preparatory_arguments=arguments if any(arguments) else (),
-        reason=f"no {site.name}; use {substitute.name} (same effects)"
-        + (f", after {', '.join(preparatory)}" if preparatory else ""),
     )
+    after = f", after {', '.join(conflict.preparatory_calls())}" if preparatory else ""
+    return replace(conflict, reason=f"no {site.name}; use {substitute.name} (same effects){after}")
 
 
 def _path_conflict(

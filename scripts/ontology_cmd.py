@@ -101,7 +101,7 @@ def _diagnose(args) -> int:
             "substitute": c.substitute.signature() if c.substitute else None,
             "mapping": {m.source: m.target for m in c.mapping},
             "dropped": list(c.dropped),
-            "preparatory": list(c.preparatory),
+            "preparatory": c.preparatory_calls(),
             "path": [step.render() for step in c.path],
             "reason": c.reason,
         }
