@@ -92,7 +92,8 @@ def test_skills_list_json_has_the_documented_fields(capsys):
     rows = json.loads(capsys.readouterr().out)
     assert {r["name"] for r in rows} == set(list_skills())
     for row in rows:
-        assert set(row) == {"name", "subtask", "validated", "code_sha256", "seeds_passed"}
+        assert set(row) == {"name", "subtask", "source", "validated", "code_sha256", "seeds_passed"}
+        assert row["source"] in SOURCE_EMBODIMENTS
         assert row["validated"] and row["seeds_passed"] in (sorted(SEEDS), sorted(DEV_SEEDS))
 
 
