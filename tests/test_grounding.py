@@ -100,7 +100,7 @@ def test_a_traced_push_is_one_move_per_waypoint_and_its_retry_is_held_to_all_of_
 
     from lerobot_policy_recent.skills.repository import load_skill
 
-    wipe, close = load_skill("wipe_area"), load_skill("push_to_region")
+    wipe, pushing = load_skill("wipe_area"), load_skill("push_to_region")
     grounded = ground_skill(
         wipe, ontology.target("Suction"), ontology, rule_infiller
     )  # the push's positions are list literals
@@ -112,8 +112,8 @@ def test_a_traced_push_is_one_move_per_waypoint_and_its_retry_is_held_to_all_of_
         "move_to_position(env, task, pos=[area_pos[0] + 0.09, area_pos[1] + dy, area_pos[2] + 0.02])",
         "move_to_position(env, task, pos=[area_pos[0] + 0.09, area_pos[1] + dy, area_pos[2] + 0.02 + 0.1])",
     ]
-    conflict = diagnose(ontology, close.name, close.code, "Robotiq85").conflicts[0]
-    unit = unit_from_conflict(close.code, conflict, ontology.target("Robotiq85"))  # names: indexed, closed hand first
+    conflict = diagnose(ontology, pushing.name, pushing.code, "Robotiq85").conflicts[0]
+    unit = unit_from_conflict(pushing.code, conflict, ontology.target("Robotiq85"))  # names: indexed, closed hand first
     assert unit.hints.substitute_call.splitlines() == [
         "close_robotiq85(env, task)",
         "move_to_position(env, task, pos=[start[0], start[1], start[2] + 0.1])",
@@ -126,7 +126,7 @@ def test_a_traced_push_is_one_move_per_waypoint_and_its_retry_is_held_to_all_of_
         first.stop == ("\n\n",) and "# Call exactly: close_robotiq85(env, task); then move_to_position(" in first.prefix
     )
     retry = build_prompt(
-        unit_from_conflict(close.code, conflict, ontology.target("Robotiq85"), feedback="no", attempt=1), 30
+        unit_from_conflict(pushing.code, conflict, ontology.target("Robotiq85"), feedback="no", attempt=1), 30
     )
     assert retry.grammar.splitlines()[0].startswith('root ::= "close_robotiq85(env, task)\\nmove_to_position(')
     LlamaGrammar.from_string(retry.grammar, verbose=False)
@@ -282,9 +282,9 @@ def test_a_traced_path_that_drops_a_waypoints_offset_is_rejected(ontology):
     from lerobot_policy_recent.recent_plugin.grounding.grounder import _check_span
     from lerobot_policy_recent.skills.repository import load_skill
 
-    close = load_skill("push_to_region")
-    conflict = diagnose(ontology, close.name, close.code, "Suction").conflicts[0]
-    unit = unit_from_conflict(close.code, conflict, ontology.target("Suction"))
+    pushing = load_skill("push_to_region")
+    conflict = diagnose(ontology, pushing.name, pushing.code, "Suction").conflicts[0]
+    unit = unit_from_conflict(pushing.code, conflict, ontology.target("Suction"))
     right = unit.hints.substitute_call.replace("\n", "\n" + unit.indent)
     assert _check_span(right, unit) is None
     wrong = right.replace("pos=[start[0], start[1], start[2] + 0.1]", "pos=start, pointing_to='down'", 1)

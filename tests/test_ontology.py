@@ -70,10 +70,10 @@ def test_a_push_on_a_robot_without_one_is_traced_with_its_cartesian_moves(ontolo
     """The end-effector APIs only move and grip: a push becomes the Panda push's path, one move per waypoint."""
     from lerobot_policy_recent.skills.repository import load_skill
 
-    close = load_skill("push_to_region")
+    pushing = load_skill("push_to_region")
     assert [p.name for p in ontology.path_tracers("Panda", "push", "Robotiq85")] == ["move_to_position"]
     assert ontology.path_tracers("Panda", "push", "UR5e") == []  # it has a push of its own
-    robotiq = diagnose(ontology, close.name, close.code, "Robotiq85").conflicts[0]
+    robotiq = diagnose(ontology, pushing.name, pushing.code, "Robotiq85").conflicts[0]
     assert robotiq.span_type == "path_tracing" and robotiq.substitute.name == "move_to_position"
     assert [(s.source, s.offset) for s in robotiq.path] == [
         ("start_pos", (0.0, 0.0, 0.1)),
@@ -82,7 +82,7 @@ def test_a_push_on_a_robot_without_one_is_traced_with_its_cartesian_moves(ontolo
         ("target_pos", (0.0, 0.0, 0.1)),
     ]
     assert robotiq.preparatory == ("close_robotiq85",)  # the push's closed hand, decidable before execution
-    suction = diagnose(ontology, close.name, close.code, "Suction").conflicts[0]
+    suction = diagnose(ontology, pushing.name, pushing.code, "Suction").conflicts[0]
     assert suction.span_type == "path_tracing" and suction.preparatory == ()  # a vacuum needs a flat face to engage
 
 
