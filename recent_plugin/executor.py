@@ -173,6 +173,11 @@ class SkillExecutor:
         """Swap a segment that has not started for one or more statements (never rewrites the past)."""
         self._splice(index, index + 1, source)
 
+    def replace_rest(self, index: int, source: str) -> None:
+        """Swap segment ``index`` and every segment after it for ``source``: a regenerated program
+        goes on from where the old one failed, and nothing of the old one runs after it."""
+        self._splice(index, len(self.segments), source)
+
     def insert_segments(self, index: int, source: str) -> None:
         """Put new statements before segment ``index`` (or after the last one); nothing that ran is touched."""
         self._splice(index, index, source)

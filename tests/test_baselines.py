@@ -87,6 +87,20 @@ def test_cap_runs_a_wrong_program_until_it_fails_then_regenerates_it_with_python
     assert result.rule_coverage == 0.0  # a whole program is nothing the ontology decided
 
 
+def test_a_regenerated_program_replaces_everything_the_failed_one_had_left_to_run(ontology):
+    """The regenerated program goes on from where the old one failed; no statement of the old one
+    runs after it (a regenerated 2F-85 drawer opening, correct, then failed on the old program's
+    Franka Hand ``release_handle``)."""
+    wrong = UR5E_BODY.replace("open_ur5_ee(env, task)", PANDA_LINE).replace(
+        "ur5_release_at(env, task, place_pos=drop_pos)", "close_gripper(env, task)"
+    )
+    regenerated = "open_ur5_ee(env, task)\n    ur5_grasp_at(env, task, grasp_pos=obj_pos)"  # stops short of the bin
+    agent, _ = _agent(ontology, "cap", [wrong, regenerated])
+    result = run_episode(agent, "cube_in_bin", "UR5e", seed=0)
+    assert not result.success  # the new program ran to its end, and the skill with it
+    assert [c.kind for c in result.runtime_calls] == ["repair"]  # the old close_gripper never ran to fail
+
+
 @pytest.mark.parametrize("method", ["repair", "agentless"])
 def test_repair_and_agentless_rewrite_only_the_statement_that_failed(ontology, method):
     wrong = UR5E_BODY.replace("open_ur5_ee(env, task)", PANDA_LINE)

@@ -57,6 +57,10 @@ def test_only_upcoming_segments_can_be_patched(grounded):
         executor.replace_segment(2, "close_ur5_ee(env, task)")
     executor.replace_segment(5, "ur5_release_at(env, task, place_pos=[0.0, 0.2, 0.95])")
     assert executor.segments[5].source.endswith("[0.0, 0.2, 0.95])")
+    executor.replace_rest(3, "x = 1\n    y = 2")  # a regenerated program: nothing of the old one after it
+    assert [s.source for s in executor.segments[3:]] == ["x = 1", "y = 2"]
+    with pytest.raises(ValueError, match="already started"):
+        executor.replace_rest(2, "x = 1")
 
 
 def test_unvalidated_code_is_never_executed(grounded):

@@ -2,9 +2,9 @@
 
 Baselines have no run-time checks (they react to errors only), so :meth:`guard` and
 :meth:`before_segment` do nothing. When a segment fails, ``cap`` regenerates the whole program
-with the error appended and runs it from its first statement; ``repair`` rewrites the failed
-statement with the error and the observed scene; ``agentless`` rewrites the statement first and
-the whole function if the skill fails again. Every call is a ``repair`` (EI, IT). A repair is held
+with the error appended and runs it from its first statement, in place of all the old one had
+left to run; ``repair`` rewrites the failed statement with the error and the observed scene;
+``agentless`` rewrites the statement first and the whole function if the skill fails again. Every call is a ``repair`` (EI, IT). A repair is held
 to the security gate only, as the first program was: it runs until it fails.
 """
 
@@ -119,7 +119,10 @@ class BaselineAdapter:
         )  # fmt: skip
         if accepted is None:
             return False
-        executor.replace_segment(failure.segment, accepted.text)
+        if whole:  # the new program replaces the failed statement and all the old one had left to run
+            executor.replace_rest(failure.segment, accepted.text)
+        else:
+            executor.replace_segment(failure.segment, accepted.text)
         self.emit(PatchApplied(name, "repair", source_diff(code, executor.source()), executor.source()))
         return True
 
