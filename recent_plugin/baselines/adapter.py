@@ -4,8 +4,9 @@ Baselines have no run-time checks (they react to errors only), so :meth:`guard` 
 :meth:`before_segment` do nothing. When a segment fails, ``cap`` regenerates the whole program
 with the error appended and runs it from its first statement, in place of all the old one had
 left to run; ``repair`` rewrites the failed statement with the error and the observed scene;
-``agentless`` rewrites the statement first and the whole function if the skill fails again. Every call is a ``repair`` (EI, IT). A repair is held
-to the security gate only, as the first program was: it runs until it fails.
+``agentless`` rewrites the statement first and the whole function if the skill fails again. Every
+call is a ``repair`` (EI, IT). A repair is held to the security gate only, as the first program
+was: it runs until it fails.
 """
 
 from __future__ import annotations
