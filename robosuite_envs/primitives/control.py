@@ -378,27 +378,13 @@ def hold_until_still(session: RobotSession, hold: np.ndarray, *, max_duration_s:
         previous = current
 
 
-def release_at(
-    session: RobotSession, position: Sequence[float], *, timeout_s: float = 10.0, hanging_load: bool = False
-) -> Steps:
-    """Carry the held object above ``position``, lower to it, open, and retreat upwards.
-
-    ``hanging_load``: the object, not the grip site, goes to ``position`` — for a cup, which holds
-    an object by its top face and lets it sway: wait above the target until it hangs still, then
-    lower by where it hangs.
-    """
+def release_at(session: RobotSession, position: Sequence[float], *, timeout_s: float = 10.0) -> Steps:
+    """Carry the held object above ``position`` (where the grip site goes), lower to it, open, and retreat upwards."""
     target = as_position(position, "release position")
-    if hanging_load:
-        target = target - np.array([0.0, 0.0, held_offset(session)[2]])
     above = target + np.array([0.0, 0.0, APPROACH_HEIGHT / 2])
     lift = np.array([session.obs.eef_pos[0], session.obs.eef_pos[1], max(session.obs.eef_pos[2], above[2])])
     yield from move_to(session, lift, timeout_s=timeout_s / 2, tol=0.02)
     yield from move_to(session, above, timeout_s=timeout_s, settle=True)
-    if hanging_load:
-        yield from hold_until_still(session, above)
-        offset = held_offset(session)
-        target = target - np.array([offset[0], offset[1], 0.0])
-        above = target + np.array([0.0, 0.0, APPROACH_HEIGHT / 2])
     yield from move_to(session, target, timeout_s=timeout_s / 2, set_down=True)
     yield from actuate_gripper(session, -1.0)
     yield from move_to(session, above, timeout_s=timeout_s / 2, tol=0.02)
