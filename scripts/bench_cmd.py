@@ -193,7 +193,7 @@ def _run(args) -> int:
         show(f"{reason}: {job.method} {job.task_id.split('/')[-1]} {job.target} queued again")
 
     try:
-        run = run_bench(config, on_record=on_record, on_retry=on_retry)
+        run = run_bench(config, on_record=on_record, on_retry=on_retry, stamp={"commit": commit})
     finally:
         bar.close()
     header = {
@@ -218,7 +218,8 @@ def _run(args) -> int:
     results = config.out / "results.json"
     runs = json.loads(results.read_text()).get("runs", []) if results.exists() else []
     records = load_records(config.out)  # every episode in DIR: runs with other settings share it
-    write_json(results, {**results_document(records, header), "runs": [*runs, header]})
+    runs = [*runs, header]
+    write_json(results, {**results_document(records, header, runs), "runs": runs})
     report = render_report([config.out], config.out)
     print(f"{len(records)} episodes; results: {config.out / 'results.json'}; report: {report}")
     broken = [r for r in run.records if crashed(r)]  # the grid asked for is not done while any crashed

@@ -349,3 +349,27 @@ def test_methods_on_several_models_are_rows_of_their_own(tmp_path):
     with pytest.raises(ValueError, match="needs an LM backend"):
         settings_for("recent@qwen2.5-coder-0.5b", RecentSettings(infiller=RuleConfig()))
     assert settings_for("recent@qwen2.5-coder-0.5b", RecentSettings()).infiller.model == "qwen2.5-coder-0.5b"
+
+
+def test_records_name_the_commit_that_ran_them_and_results_json_says_whether_it_is_one(bench_dir):
+    results = json.loads((bench_dir / "results.json").read_text())
+    ran_at = results["runs"][-1]["git_commit"]
+    assert {r["commit"] for r in load_records(bench_dir)} == {ran_at}
+    assert results["commits"] == {ran_at: 4}
+    clean = ran_at is not None and not ran_at.endswith("+dirty")
+    assert results["commit"] == (ran_at if clean else None)
+
+
+def test_a_directory_of_several_commits_or_local_edits_is_no_one_commit_snapshot():
+    from lerobot_policy_recent.recent_plugin.evaluation.report import commit_line, episode_commits, single_clean_commit
+
+    assert single_clean_commit(episode_commits([{"commit": "a" * 40}] * 3)) == "a" * 40
+    assert single_clean_commit(episode_commits([{"commit": "a" * 40}, {"commit": "b" * 40}])) is None
+    assert single_clean_commit(episode_commits([{"commit": "a" * 40 + "+dirty"}])) is None
+    # records from before the stamp: their runs' commit where every run names the same one
+    assert single_clean_commit(episode_commits([{}], [{"git_commit": "c" * 40}] * 2)) == "c" * 40
+    unknown = episode_commits([{}, {"commit": "c" * 40}], [{"git_commit": "c" * 40}, {"git_commit": "d" * 40}])
+    assert single_clean_commit(unknown) is None
+    assert commit_line([{}, {"commit": "c" * 40}]) == (
+        "code: **not one clean commit** (episodes per commit: not recorded (1), cccccccccccc (1))"
+    )

@@ -356,7 +356,8 @@ def render_report(dirs: list[Path], out: Path) -> Path:
         "# RECENT benchmark report",
         "",
         f"{len(records)} episodes from {', '.join(str(d) for d in dirs)}; LM: {', '.join(models)}; "
-        f"seeds {sorted({r['seed'] for r in records})}; rendered {dt.date.today().isoformat()}.",
+        f"seeds {sorted({r['seed'] for r in records})}; {commit_line(records + broken)}; "
+        f"rendered {dt.date.today().isoformat()}.",
         "Values are mean ± std over seeds (a single seed shows no std); SR and GC add in brackets a 95 % "
         "bootstrap interval over episodes (task × target × seed). The paper's rows are its own numbers (7B model, GPU, "
         "CoppeliaSim/Genesis) for orientation, not a like-for-like comparison.",
@@ -578,11 +579,49 @@ def _per_target(records: list[dict]) -> str:
     return "\n".join(lines)
 
 
-def results_document(records: list[dict], header: dict) -> dict:
-    """``DIR/results.json``: what ran, on which LM and machine, and every aggregate (crashed episodes
-    are listed apart and in no aggregate)."""
+def results_document(records: list[dict], header: dict, runs: list[dict] = ()) -> dict:
+    """``DIR/results.json``: what ran, on which LM, code and machine, and every aggregate (crashed
+    episodes are listed apart and in no aggregate). ``runs`` are the headers of every ``recent bench``
+    call that filled the directory."""
     ran, broken = split_crashed(records)
-    return {**header, "episodes": len(ran), "crashed": [crash_entry(r) for r in broken], **aggregate(ran)}
+    commits = episode_commits(records, runs)
+    return {
+        **header,
+        "commit": single_clean_commit(commits),
+        "commits": dict(commits),
+        "episodes": len(ran),
+        "crashed": [crash_entry(r) for r in broken],
+        **aggregate(ran),
+    }
+
+
+UNRECORDED = "unrecorded"
+
+
+def episode_commits(records: list[dict], runs: list[dict] = ()) -> Counter:
+    """Episodes per commit their code came from. A record from before records were stamped counts
+    under its directory's commit where every run of the directory names the same one."""
+    named = {run.get("git_commit") for run in runs}
+    fallback = next(iter(named)) if len(named) == 1 else None
+    return Counter(r.get("commit") or fallback or UNRECORDED for r in records)
+
+
+def single_clean_commit(commits: Counter) -> str | None:
+    """The one commit every episode ran at, or None: several commits, local edits or an unknown one."""
+    if len(commits) != 1:
+        return None
+    (commit,) = commits
+    return None if commit == UNRECORDED or commit.endswith("+dirty") else commit
+
+
+def commit_line(records: list[dict]) -> str:
+    """The report's word on the code: one commit, or how many episodes ran at each."""
+    commits = episode_commits(records)
+    one = single_clean_commit(commits)
+    if one:
+        return f"code: commit {one[:12]}"
+    parts = ", ".join(f"{c[:12] if c != UNRECORDED else 'not recorded'} ({n})" for c, n in commits.most_common())
+    return f"code: **not one clean commit** (episodes per commit: {parts})"
 
 
 def crash_entry(record: dict) -> dict:

@@ -17,7 +17,7 @@ import json
 import os
 import platform
 import shutil
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from contextlib import nullcontext
 from dataclasses import astuple, dataclass, replace
 from pathlib import Path
@@ -61,8 +61,12 @@ def run_bench(
     *,
     on_record: Callable[[dict], None] | None = None,
     on_retry: Callable[[Job, str], None] | None = None,
+    stamp: Mapping[str, object] | None = None,
 ) -> BenchRun:
-    """Run every pending episode on Ray; the records of all episodes of ``config`` (old and new)."""
+    """Run every pending episode on Ray; the records of all episodes of ``config`` (old and new).
+
+    ``stamp`` goes into every record this call writes: ``recent bench`` stamps the commit the code
+    came from, so a directory filled over several sessions says episode by episode what ran it."""
 
     jobs, todo = pending(config)
     config.out.mkdir(parents=True, exist_ok=True)
@@ -71,7 +75,7 @@ def run_bench(
     recorder = Recorder(log_dir(config.out), config.log_sinks) if config.log_sinks and todo else None
     with RayEngine(config) as engine, recorder or nullcontext():
         for outcome in engine.run(todo, on_retry=on_retry):
-            record = outcome.record
+            record = {**outcome.record, **(stamp or {})}
             if recorder is not None and outcome.log is not None:
                 record.update(log_dir=str(recorder.layout.root), log_episode=recorder.write(outcome.log))
             write_json(Job(*record_key(record)).record_path(config.out), record)
