@@ -151,6 +151,18 @@ def test_a_run_can_take_only_the_held_out_split_and_records_say_which_split():
         BenchConfig(out="/tmp/x", suites=("kinematic",), tasks=("cube_on_plate",)).jobs()
 
 
+def test_a_run_goes_episode_by_episode_so_a_stopped_one_has_every_method_on_the_same_episodes():
+    from lerobot_policy_recent.recent_plugin.evaluation.jobs import BenchConfig
+
+    methods = ("recent", "cap", "oracle-rule")
+    jobs = BenchConfig(out="/tmp/x", suites=("end_effector",), methods=methods, seeds=(0, 1)).jobs()
+    for start in range(0, len(jobs), len(methods)):  # stopped after any whole episode: all methods ran it
+        episode = jobs[start : start + len(methods)]
+        assert tuple(j.method for j in episode) == methods
+        assert len({(j.task_id, j.target, j.seed) for j in episode}) == 1
+    assert len(set(jobs)) == len(jobs)
+
+
 def test_unknown_methods_and_tasks_are_named():
     assert parse_methods("all")[0] == "recent" and "cap" in parse_methods("all")
     with pytest.raises(ValueError, match="unknown method.*capp"):

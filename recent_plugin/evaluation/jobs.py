@@ -71,19 +71,20 @@ class BenchConfig:
     agent: RecentSettings = field(default_factory=RecentSettings)
 
     def jobs(self) -> list[Job]:
-        """Every episode of the run, grouped by method then target so each worker reuses its groundings."""
+        """Every episode of the run, episode by episode with every method on each in turn: a run
+        stopped part way leaves every method on the same episodes, ready for paired comparison.
+        (A worker keeps each method's groundings across episodes, so this order grounds no more.)"""
         if self.split not in ("all", *SPLITS):
             raise ValueError(f"unknown split {self.split!r}; choose from all, {', '.join(SPLITS)}")
         jobs = []
-        for method in self.methods:
-            for suite in self.suites:
-                specs = get_suite(suite)
-                chosen = [s for s in specs if not self.tasks or {s.task_id, s.task_id.split("/")[-1]} & set(self.tasks)]
+        for suite in self.suites:
+            specs = get_suite(suite)
+            chosen = [s for s in specs if not self.tasks or {s.task_id, s.task_id.split("/")[-1]} & set(self.tasks)]
+            for spec in chosen:
                 for target in self.targets or SUITE_TARGETS[suite]:
-                    for spec in chosen:
-                        for seed in self.seeds:
-                            if self.split in ("all", split_of(spec.task_id, seed)):
-                                jobs.append(Job(method, suite, spec.task_id, target, seed))
+                    for seed in self.seeds:
+                        if self.split in ("all", split_of(spec.task_id, seed)):
+                            jobs += [Job(method, suite, spec.task_id, target, seed) for method in self.methods]
         robots = [t for t in self.targets if t not in EMBODIMENTS]
         if robots:
             raise ValueError(f"unknown target(s) {', '.join(robots)}; known robots: {', '.join(EMBODIMENTS)}")
