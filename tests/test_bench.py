@@ -255,6 +255,35 @@ def test_a_packed_run_keeps_what_each_lm_was_asked_and_answered(bench_dir, tmp_p
     assert calls and all("prompt" in r and "completion" in r for r in calls)
 
 
+def test_a_committed_run_extended_without_its_logs_keeps_what_each_lm_was_asked(bench_dir, tmp_path, capsys):
+    """Packed and committed without logs, then run on with another seed: the new logs are numbered
+    from 0 again, yet the old episodes keep their prompts and the new ones get their own."""
+    import gzip
+    import shutil
+
+    from lerobot_policy_recent.recent_plugin.evaluation.runner import LM_CALLS, lm_call_episode
+
+    def lm_rows(out):
+        with gzip.open(out / LM_CALLS, "rt") as lines:
+            return [json.loads(line) for line in lines]
+
+    committed = tmp_path / "committed"
+    shutil.copytree(bench_dir, committed)
+    assert main(["bench", "pack", str(committed)]) == 0
+    shutil.rmtree(committed / "logs")
+    before = lm_rows(committed)
+    extended = [word if not word.startswith("--seeds=") else "--seeds=0,1,42" for word in RUN]
+    assert main([*extended, f"--out={committed}"]) == 0
+    assert "6 episodes (4 already done)" in capsys.readouterr().err
+    assert main(["bench", "pack", str(committed)]) == 0
+    after = lm_rows(committed)
+    assert [r for r in after if r["seed"] != 42] == before  # the old episodes' rows, untouched
+    assert {lm_call_episode(r) for r in after if r["seed"] == 42} == {
+        ("recent", "kinematic/cube_on_plate", "UR5e", 42),
+        ("recent-no-insitu", "kinematic/cube_on_plate", "UR5e", 42),
+    }
+
+
 def test_unknown_targets_are_refused_before_any_episode(tmp_path, capsys):
     assert main(["bench", "--target=Kuka", "--infiller.type=rule", f"--out={tmp_path / 'x'}"]) == 2
     assert "unknown target(s) Kuka; known robots: Panda" in capsys.readouterr().err

@@ -135,27 +135,49 @@ LM_EVENTS = ("infill_call", "validation_verdict", "patch_applied")
 def pack_lm_calls(out: Path) -> int:
     """From a run's logs (``DIR/logs/grounding_events``), every prompt, answer, verdict and patch,
     each with its episode (method, task, robot, seed), into one compressed file a reviewer can read
-    without the logs: why a method's program failed. How many rows (0 where the run kept no logs)."""
+    without the logs: why a method's program failed. How many rows (0 where there are none).
+
+    A committed run extended without its logs (copied without ``logs/``, then run on) keeps the rows
+    its file already had for episodes the logs no longer hold. A log counts for the record that
+    points at it only where its first event names the same task, robot and seed: the extension's
+    logs are numbered from 0 again, and must not be read as the old episodes."""
     from lerobot_policy_recent.logs.layout import LogLayout, episode_number
     from lerobot_policy_recent.logs.readers import read_table
 
-    episodes = {r["log_episode"]: r for r in load_records(out) if r.get("log_episode") is not None}
-    rows = []
+    claims: dict[int, list[dict]] = {}
+    for record in load_records(out):
+        if record.get("log_episode") is not None:
+            claims.setdefault(record["log_episode"], []).append(record)
+    rows, logged = [], set()
     for path in sorted(LogLayout(log_dir(out)).events_dir.glob("*.parquet")):
-        record = episodes.get(episode_number(path))
-        if record is None:
-            continue  # an episode whose record is gone (crashed and not run again)
-        episode = {k: record[f] for k, f in (("method", "method"), ("task_id", "task_id"), ("robot", "target"))}
-        for order, row in enumerate(read_table(path)):
+        events = read_table(path)
+        started = next((json.loads(e["payload"]) for e in events if e["event"] == "episode_started"), {})
+        seen = (started.get("task_id"), started.get("robot"), started.get("seed"))
+        owners = [r for r in claims.get(episode_number(path), []) if (r["task_id"], r["target"], r["seed"]) == seen]
+        if len(owners) != 1:
+            continue  # no record of that episode (crashed and not run again), or none that can be told apart
+        record = owners[0]
+        episode = {"method": record["method"], "task_id": record["task_id"], "robot": record["target"]}
+        logged.add(lm_call_episode({**episode, "seed": record["seed"]}))
+        for order, row in enumerate(events):
             if row["event"] in LM_EVENTS:
                 rows.append({**episode, "seed": record["seed"], "order": order, "event": row["event"]})
                 rows[-1].update(json.loads(row["payload"]))
+    if (out / LM_CALLS).is_file():  # what an earlier pack kept, for the episodes whose logs are gone
+        with gzip.open(out / LM_CALLS, "rt") as packed:
+            earlier = [json.loads(line) for line in packed if line.strip()]
+        rows += [row for row in earlier if lm_call_episode(row) not in logged]
     if not rows:
         return 0
     rows.sort(key=lambda r: (r["method"], r["task_id"], r["robot"], str(r["seed"]), r["order"]))
     with open(out / LM_CALLS, "wb") as raw, gzip.GzipFile(fileobj=raw, mode="wb", mtime=0) as packed:
         packed.write("".join(json.dumps(r, sort_keys=True, default=str) + "\n" for r in rows).encode())
     return len(rows)
+
+
+def lm_call_episode(row: dict) -> tuple:
+    """The episode a row of ``lm_calls.jsonl.gz`` belongs to: (method, task id, robot, seed)."""
+    return row["method"], row["task_id"], row["robot"], row["seed"]
 
 
 def pack_records(out: Path) -> int:
