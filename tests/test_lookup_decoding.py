@@ -116,3 +116,19 @@ def test_a_prompt_starts_from_the_saved_state_it_shares_most_with(ontology, put_
     cold = session.generate(texts[1], max_tokens=24, stops=stops)
     assert cold.evaluated_prompt_tokens == len(tokens)
     assert again.text == cold.text
+
+
+def test_a_completion_stops_at_the_end_of_the_context_and_a_prompt_that_fills_it_gets_none():
+    """A long regeneration prompt once overran llama.cpp's context mid-draft (llama_decode returned 1)
+    and broke the episode off; now the completion is cut where the context ends, and a prompt that
+    leaves no room is answered with nothing, for the method to judge."""
+    from lerobot_policy_recent.recent_plugin.infillers.llama_session import LlamaSession
+    from lerobot_policy_recent.recent_plugin.models import model_path
+
+    session = LlamaSession(str(model_path("qwen2.5-coder-1.5b")), n_ctx=96, state_bytes=0)
+    counting = session.tokenize(", ".join(str(i) for i in range(1, 18)) + ",")  # drafts find every next number
+    assert 40 < len(counting) < 80
+    decoded = session.decoder.generate(counting, max_tokens=200, stops=())
+    assert not decoded.context_full and 0 < decoded.generated_tokens <= 96 - len(counting)
+    full = session.decoder.generate(counting * 2, max_tokens=200, stops=())
+    assert full.context_full and full.text == "" and full.generated_tokens == 0

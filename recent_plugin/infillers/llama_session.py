@@ -18,6 +18,12 @@ from lerobot_policy_recent.recent_plugin.infillers.prompt_states import STATE_BU
 GRAMMARS_KEPT = 8  # compiled GBNF grammars kept per session (the statement grammars recur; retry grammars do not)
 
 
+# Room for the longest prompts the methods build: a baseline's regeneration with its program, the
+# error and the detector's findings passes 2048 tokens on paper-length tasks. The KV cache this
+# reserves is 28 KiB a token for the 1.5B (230 MiB here), and the decoder keeps every call within it.
+N_CTX = 8192
+
+
 class LlamaSession:
     """One loaded GGUF with its decoder: tokenize, generate, measure. Runs wherever it is built."""
 
@@ -26,7 +32,7 @@ class LlamaSession:
         model_path: str,
         *,
         n_threads: int | None = None,
-        n_ctx: int = 2048,
+        n_ctx: int = N_CTX,
         seed: int = 0,
         state_bytes: int = STATE_BUDGET_BYTES,
     ):

@@ -14,6 +14,7 @@ part that runs inside that worker (or in-process, ``in_process=True``); it has a
 
 from __future__ import annotations
 
+import logging
 import os
 import time
 from pathlib import Path
@@ -31,6 +32,7 @@ from lerobot_policy_recent.recent_plugin.refactoring.chat_prompt import (
 from lerobot_policy_recent.recent_plugin.refactoring.fim_prompt import build_prompt
 from lerobot_policy_recent.recent_plugin.refactoring.units import RefactoringUnit
 
+log = logging.getLogger(__name__)
 QWEN = FORMATS["qwen2.5-coder"]  # the GGUFs we provision are Qwen2.5-Coder
 
 
@@ -84,6 +86,12 @@ class LlamaCppInfiller:
                 seed=seed,
             )
             text, shown = out.text, prompt.shown()
+        if out.context_full:
+            log.warning(
+                "%s: a prompt of %d tokens fills the LM's context; no completion (it is judged as empty)",
+                unit.span_type,
+                out.prompt_tokens,
+            )
         return Completion(
             text=text,
             generated_tokens=out.generated_tokens,

@@ -39,6 +39,7 @@ class Decoded:
     evaluated_prompt_tokens: int  # the part of the prompt not already in the KV cache
     prompt_seconds: float = 0.0  # evaluating that part
     generation_seconds: float = 0.0  # sampling the completion
+    context_full: bool = False  # the prompt left no room in the model's context: nothing was generated
 
 
 def draft_from_context(context: list[int], *, max_ngram: int = 3, max_draft: int = 8) -> list[int]:
@@ -200,6 +201,11 @@ class LookupDecoder:
         import llama_cpp
 
         llm = self.llm
+        context = min(llm.n_ctx(), len(llm.input_ids))  # llama.cpp pads its context; the binding's arrays are not
+        room = context - len(prompt)  # the completion and its drafts share the context with the prompt
+        if room < 2:
+            return Decoded("", 0, len(prompt), 0, context_full=True)
+        max_tokens = min(max_tokens, room - 1)
         started = time.perf_counter()
         keep = self._start_from(prompt)
         self._decode(prompt[keep:], all_logits=False)
@@ -223,7 +229,7 @@ class LookupDecoder:
             length = self.max_draft
             while not finished(token):
                 draft = draft_from_context(prompt + out, max_ngram=self.max_ngram, max_draft=length)
-                draft = draft[: max(0, max_tokens - len(out))]
+                draft = draft[: max(0, min(max_tokens - len(out), context - llm.n_tokens - 1))]
                 base = llm.n_tokens
                 self._decode([token, *draft], all_logits=True)
                 accepted, done = 0, False
