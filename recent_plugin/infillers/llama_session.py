@@ -18,9 +18,10 @@ from lerobot_policy_recent.recent_plugin.infillers.prompt_states import STATE_BU
 GRAMMARS_KEPT = 8  # compiled GBNF grammars kept per session (the statement grammars recur; retry grammars do not)
 
 
-# Room for the longest prompts the methods build: a baseline's regeneration with its program, the
-# error and the detector's findings passes 2048 tokens on paper-length tasks. The KV cache this
-# reserves is 28 KiB a token for the 1.5B (230 MiB here), and the decoder keeps every call within it.
+# Room for the longest calls the methods make: a baseline's regeneration prompt (its program, the
+# error, the detector's findings) and its completion passed 2048 tokens on a paper-length task. The
+# KV cache this reserves is 28 KiB a token for the 1.5B (230 MiB); a saved prompt state stays the
+# size of its prompt (6 MiB for 220 tokens at either size). The decoder keeps every call within it.
 N_CTX = 8192
 
 
