@@ -61,7 +61,9 @@ def compare_records(reference: list[dict], rerun: list[dict]) -> list[EpisodeCom
 
 
 SAME_MODEL = ("backend", "model", "model_sha256")  # a difference here makes it another experiment
-FLAGGED = ("git_commit", "commit", "config")  # a difference here is worth knowing, not a failure
+# a difference here is worth knowing, not a failure (and so is any in the settings tree, ``config``);
+# ``commit`` is the one clean commit of all a directory's episodes, ``git_commit`` its last run's
+FLAGGED = ("git_commit", "commit")
 LISTED = 50  # missing episodes listed one by one; the rest are counted
 
 
@@ -109,7 +111,7 @@ def setup_differences(reference: dict, rerun: dict) -> dict[str, tuple[object, o
     """Model, backend, commit and settings that differ between two run headers (a field one lacks is
     named as missing, so an old reference without a config dump is flagged, not silently equal)."""
     out: dict[str, tuple[object, object]] = {}
-    for f in (*SAME_MODEL, "git_commit", "commit"):  # commit: the one clean commit of all its episodes
+    for f in (*SAME_MODEL, *FLAGGED):
         if reference.get(f) != rerun.get(f):
             out[f] = (reference.get(f, "(not recorded)"), rerun.get(f, "(not recorded)"))
     before, after = _flat(reference.get("config") or {}), _flat(rerun.get("config") or {})
