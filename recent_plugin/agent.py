@@ -51,6 +51,16 @@ def lm_calls(grounded: GroundedSkill) -> int:
     return sum(1 for call in grounded.calls if not call.rendered)
 
 
+def lm_call_limit(task: TaskSpec, max_lm_calls: int, library: Path = LIBRARY) -> int:
+    """LM calls ``task`` may make, grounding and run time together, the same for every method (0: no
+    limit): ``max_lm_calls``, or for a task that scales it, as many calls per primitive call of its
+    reference skills if that is more (a paper-length task has a span per call to ground)."""
+    if max_lm_calls and task.lm_calls_per_primitive:
+        calls = task_calls([step.skill for step in task.plan], library).primitives
+        return max(max_lm_calls, task.lm_calls_per_primitive * calls)
+    return max_lm_calls
+
+
 class RecentAgent:
     def __init__(
         self,
@@ -151,16 +161,10 @@ class RecentAgent:
         )
 
     def budget(self, task: TaskSpec) -> CallBudget | None:
-        """A fresh LM call budget for ``task`` (None for the rule backend: it makes no LM calls):
-        ``max_lm_calls``, or for a task that scales it, as many calls per primitive call of its
-        reference skills if that is more (a paper-length task has a span per call to ground)."""
+        """A fresh LM call budget for ``task`` (None for the rule backend: it makes no LM calls)."""
         if self.lm.name == "rule":
             return None
-        limit = self.settings.max_lm_calls
-        if limit and task.lm_calls_per_primitive:
-            calls = task_calls([step.skill for step in task.plan], self.library).primitives
-            limit = max(limit, task.lm_calls_per_primitive * calls)
-        return CallBudget(limit)
+        return CallBudget(lm_call_limit(task, self.settings.max_lm_calls, self.library))
 
     def episode_lm(self, budget: CallBudget | None, seed: int | None = None) -> Infiller:
         """The method's infiller over the LM for one episode: every LM call taken from ``budget``, and

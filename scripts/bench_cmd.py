@@ -90,13 +90,22 @@ def register(sub) -> None:
 
     add_settings_arguments(parser, with_method=False)
     parser.set_defaults(handler=_run)
-    sub_bench = parser.add_subparsers(dest="bench_command", metavar="{report,compare,pack}")
+    sub_bench = parser.add_subparsers(dest="bench_command", metavar="{report,headline,compare,pack}")
     report = sub_bench.add_parser("report", help="tables (markdown) and plots (PNG) from one or more run directories")
     report.add_argument("dirs", nargs="+", help="run directories written by `recent bench`")
     report.add_argument(
         "--out", dest="report_out", default=None, help="where report.md and the PNGs go (default: the first DIR)"
     )
     report.set_defaults(handler=_report)
+    headline = sub_bench.add_parser(
+        "headline",
+        help="DIR/headline.md: the README's results table, test split only, with a caption written from the records",
+        description="The caption states what the records say was run: split, tasks with their primitive calls, the "
+        "LM-call budget per task, seeds, model, backend, temperature, machine, engine, commit and dates. A "
+        "directory whose episodes ran at several commits, or with local edits, says so in the caption.",
+    )
+    headline.add_argument("dir", help="a `recent bench --out` directory (packed or not)")
+    headline.set_defaults(handler=_headline)
     compare = sub_bench.add_parser(
         "compare",
         help="whether RERUN reproduced REFERENCE, episode by episode (exit 1 if an outcome or the model differs, "
@@ -295,6 +304,15 @@ def _report(args) -> int:
     path = render_report(dirs, Path(args.report_out) if args.report_out else dirs[0])
     print(path.read_text())
     print(f"written: {path} (+ sr_vs_go.png, failures_by_method.png)")
+    return 0
+
+
+def _headline(args) -> int:
+    from lerobot_policy_recent.recent_plugin.evaluation.headline import render_headline
+
+    path = render_headline(Path(args.dir))
+    print(path.read_text())
+    print(f"written: {path}")
     return 0
 
 

@@ -77,7 +77,8 @@ def _rank(row: str) -> tuple[int, str]:
     return METHODS.index(method_of(row)), model_of(row) or ""
 
 
-def _ordered(rows) -> list[str]:
+def ordered_rows(rows) -> list[str]:
+    """Grid rows in table order: registered methods only, by family, then model."""
     return sorted({r for r in rows if method_of(r) in METHODS}, key=_rank)
 
 
@@ -86,7 +87,7 @@ def main_table(records: list[dict]) -> str:
     by = {k: summarize(v) for k, v in group(records, lambda r: (r["method"], r["suite"])).items()}
     head = "| method | " + " | ".join(f"{s}: {LABELS[m]}" for s in settings for m in MAIN_METRICS) + " |"
     lines = [head, "|---|" + "---:|" * (len(settings) * len(MAIN_METRICS))]
-    methods = [m for m in _ordered({r["method"] for r in records}) if method_of(m) not in ABLATION_METHODS]
+    methods = [m for m in ordered_rows({r["method"] for r in records}) if method_of(m) not in ABLATION_METHODS]
     for method in methods:
         cells = [fmt(by[(method, s)], m) if (method, s) in by else "–" for s in settings for m in MAIN_METRICS]
         lines.append(f"| **{method}** | " + " | ".join(cells) + " |")
@@ -109,7 +110,7 @@ def ablation_table(records: list[dict]) -> tuple[str, list[str]]:
         r for r in records if r["method"] in ABLATION_METHODS or (r["method"] == "recent" and episode_key(r) in ran)
     ]
     by = {k[0]: summarize(v) for k, v in group(records, lambda r: (r["method"],)).items()}
-    methods = [m for m in _ordered(by) if m == "recent" or m in ABLATION_METHODS]
+    methods = [m for m in ordered_rows(by) if m == "recent" or m in ABLATION_METHODS]
     lines = ["| method | " + " | ".join(LABELS[m] for m in ABLATION_METRICS) + " | paper (SR / GO / EI / IT) |"]
     lines.append("|---|" + "---:|" * len(ABLATION_METRICS) + "---|")
     for method in methods:
@@ -227,7 +228,7 @@ def failure_table(records: list[dict]) -> str:
     categories = sorted({k for c in counts.values() for k in c})
     if not categories:
         return "No failures."
-    methods = _ordered(counts)
+    methods = ordered_rows(counts)
     episodes = Counter(r["method"] for r in records)
     lines = ["| category | " + " | ".join(methods) + " |", "|---|" + "---:|" * len(methods)]
     lines.append("| *episodes run* | " + " | ".join(f"*{episodes[m]}*" for m in methods) + " |")
@@ -276,7 +277,7 @@ def plot_sr_vs_go(records: list[dict], path: Path) -> Path:
     models = ["", *sorted({model_of(m) for m, _ in by} - {None})]
     shown = {}
     for ax, suite in zip(axes, suites, strict=True):
-        for method in _ordered({m for m, s in by if s == suite}):
+        for method in ordered_rows({m for m, s in by if s == suite}):
             s = summarize(by[(method, suite)])
             # the method's own pair in every report; a row on another model shifted by a round of METHODS
             i = METHODS.index(method_of(method)) + len(METHODS) * models.index(model_of(method) or "")
@@ -314,7 +315,7 @@ def plot_failures(records: list[dict], path: Path) -> Path:
 
     counts = failure_counts(records)
     episodes = Counter(r["method"] for r in records)
-    methods = _ordered(episodes) or ["(none)"]
+    methods = ordered_rows(episodes) or ["(none)"]
     names = sorted({key.split(": ", 1)[1] for c in counts.values() for key in c})
     colour = {name: plt.get_cmap("tab20")(i % 20) for i, name in enumerate(names)}
     fig, axes = _figure((max(7.0, 0.8 * len(methods) + 3.0), 7.5), rows=2, sharex=True)
@@ -462,7 +463,7 @@ def paper_ordering_lines(records: list[dict]) -> list[str]:
             for (m, s), rs in group(records, lambda r: (r["method"], r["suite"])).items()
             if s == suite and m in PAPER_MAIN
         }
-        methods = _ordered(ours)
+        methods = ordered_rows(ours)
         if len(methods) < 2:
             continue
         lines.append(f"- **{suite}** ({len(methods)} of the paper's rows ran):")
@@ -494,7 +495,7 @@ def _tied(pairs: list[tuple[str, str]]) -> str:
     """A few tied pairs one by one (as the paper orders them); many, as the methods they are among."""
     if len(pairs) <= 4:
         return ", ".join(f"{hi} > {lo}" for hi, lo in pairs)
-    return "among " + ", ".join(_ordered({m for pair in pairs for m in pair}))
+    return "among " + ", ".join(ordered_rows({m for pair in pairs for m in pair}))
 
 
 def lm_necessity_lines(records: list[dict]) -> list[str]:
