@@ -478,6 +478,32 @@ def test_an_instruct_model_writes_whole_programs_through_its_chat_template_and_e
     assert text.startswith("<|fim_prefix|>") and options["gbnf"] is not None
 
 
+def test_a_regenerated_program_has_room_to_restate_its_header_and_the_error_before_its_body(ontology):
+    """An instruct model's reply restates the ``def`` line, the docstring and the error fed back
+    before the body; the budget holds them besides the body's own (a regenerated program used to be
+    cut mid-statement here). A span edit gets no such room: its reply is the span."""
+    from lerobot_policy_recent.recent_plugin.refactoring.chat_prompt import FENCE_TOKENS, build_chat
+    from lerobot_policy_recent.recent_plugin.refactoring.fim_prompt import approximate_tokens
+
+    wrong = UR5E_BODY.replace("open_ur5_ee(env, task)", PANDA_LINE)
+    agent, infiller = _agent(ontology, "cap", [wrong, UR5E_BODY])
+    run_episode(agent, "cube_in_bin", "UR5e", seed=0)
+    regeneration = infiller.units[1]
+    span_tokens = approximate_tokens(regeneration.span)
+    prompt, chat = build_prompt(regeneration, span_tokens), build_chat(regeneration, span_tokens)
+    header = prompt.prefix[prompt.prefix.rindex("\ndef ") + 1 :]  # def line, docstring, the error as comments
+    assert "NameError" in header
+    reply = f"```python\n{header}{UR5E_BODY}\n```"
+    assert approximate_tokens(reply) > prompt.max_tokens  # the body's budget alone would cut this reply
+    assert chat.max_tokens >= approximate_tokens(reply) + span_tokens  # room for it, and for a longer body
+
+    rule, rule_infiller = _agent(ontology, "recent", _recorded_completions(ontology, "recent"))
+    rule.ground("put_in_bin", "UR5e", get_task("cube_in_bin"))
+    edit = rule_infiller.units[0]
+    edit_tokens = approximate_tokens(edit.span)
+    assert build_chat(edit, edit_tokens).max_tokens == build_prompt(edit, edit_tokens).max_tokens + FENCE_TOKENS
+
+
 def test_a_chat_reply_keeps_its_nested_blocks_nested():
     from lerobot_policy_recent.recent_plugin.refactoring.chat_prompt import span_of_reply
 

@@ -31,7 +31,8 @@ from lerobot_policy_recent.recent_plugin.evaluation.metrics import (
     split_crashed,
     summarize,
 )
-from lerobot_policy_recent.recent_plugin.evaluation.runner import load_records
+from lerobot_policy_recent.recent_plugin.evaluation.programs import program_table
+from lerobot_policy_recent.recent_plugin.evaluation.runner import lm_call_rows, load_records
 
 SETTINGS = ("kinematic", "end_effector")  # the paper's two settings; a suite is one of them or its -v1
 SUITE_ORDER = (*SETTINGS, *(f"{s}-v1" for s in SETTINGS))
@@ -69,6 +70,12 @@ PAPER_ABLATION = {
 }
 # The headline targets of the benchmark issue, per setting: SR floor, GO ceiling.
 TARGETS = {"kinematic": {"sr": 73.0, "go": 5.0}, "end_effector": {"sr": 82.5, "go": 3.0}}
+PROGRAMS_NOTE = (
+    "Every program the whole-program methods wrote (first programs and regenerations; `lm_calls.jsonl.gz` holds "
+    "them): the share that does not parse, the share that calls a function the target robot lacks, and of "
+    "those, the ones calling the source robot's primitive of that name (copied from the example). A "
+    "regeneration repeats when it calls what an earlier program of the same episode and skill called, in order."
+)
 EI_CEILING, IT_CEILING, CAP_SR_MARGIN, CAP_GO_FACTOR = 0.7, 2.0, 40.0, 10.0
 
 
@@ -396,6 +403,9 @@ def render_report(dirs: list[Path], out: Path) -> Path:
     models_md = model_table(records)
     if models_md:
         parts += ["## Model size (RECENT)", "", models_md, ""]
+    programs_md = program_table([row for d in dirs for row in lm_call_rows(Path(d))])
+    if programs_md:
+        parts += ["## What the whole programs called", "", PROGRAMS_NOTE, "", programs_md, ""]
     parts += [
         "## Per target",
         "",

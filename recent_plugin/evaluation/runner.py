@@ -132,10 +132,10 @@ LM_CALLS = "lm_calls.jsonl.gz"  # what each LM was asked and answered, and what 
 LM_EVENTS = ("infill_call", "validation_verdict", "patch_applied")
 
 
-def pack_lm_calls(out: Path) -> int:
-    """From a run's logs (``DIR/logs/grounding_events``), every prompt, answer, verdict and patch,
-    each with its episode (method, task, robot, seed), into one compressed file a reviewer can read
-    without the logs: why a method's program failed. How many rows (0 where there are none).
+def lm_call_rows(out: Path) -> list[dict]:
+    """Every prompt, answer, verdict and patch of a run, each with its episode (method, task, robot,
+    seed), in episode and event order: from its logs (``DIR/logs/grounding_events``), and for the
+    episodes whose logs are gone, from its packed ``lm_calls.jsonl.gz``.
 
     A committed run extended without its logs (copied without ``logs/``, then run on) keeps the rows
     its file already had for episodes the logs no longer hold. A log counts for the record that
@@ -167,9 +167,16 @@ def pack_lm_calls(out: Path) -> int:
         with gzip.open(out / LM_CALLS, "rt") as packed:
             earlier = [json.loads(line) for line in packed if line.strip()]
         rows += [row for row in earlier if lm_call_episode(row) not in logged]
+    rows.sort(key=lambda r: (r["method"], r["task_id"], r["robot"], str(r["seed"]), r["order"]))
+    return rows
+
+
+def pack_lm_calls(out: Path) -> int:
+    """``lm_call_rows`` of a run into one compressed file a reviewer can read without the logs: why a
+    method's program failed. How many rows (0 where there are none, and no file)."""
+    rows = lm_call_rows(out)
     if not rows:
         return 0
-    rows.sort(key=lambda r: (r["method"], r["task_id"], r["robot"], str(r["seed"]), r["order"]))
     with open(out / LM_CALLS, "wb") as raw, gzip.GzipFile(fileobj=raw, mode="wb", mtime=0) as packed:
         packed.write("".join(json.dumps(r, sort_keys=True, default=str) + "\n" for r in rows).encode())
     return len(rows)

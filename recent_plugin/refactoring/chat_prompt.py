@@ -13,7 +13,12 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass
 
-from lerobot_policy_recent.recent_plugin.refactoring.fim_prompt import FILL, WHOLE_BODY_SPAN_TYPES, build_prompt
+from lerobot_policy_recent.recent_plugin.refactoring.fim_prompt import (
+    FILL,
+    WHOLE_BODY_SPAN_TYPES,
+    approximate_tokens,
+    build_prompt,
+)
 from lerobot_policy_recent.recent_plugin.refactoring.units import RefactoringUnit
 
 SYSTEM = "You write Python skill code for robots. Answer with code only, in one ```python block."
@@ -25,7 +30,7 @@ _BLOCK = re.compile(r"```(?:python)?\n(.*?)(?:```|$)", re.DOTALL)
 @dataclass(frozen=True)
 class ChatPrompt:
     messages: tuple[dict[str, str], ...]  # {"role": ..., "content": ...}, system first
-    max_tokens: int  # the FIM span's budget plus the code fence
+    max_tokens: int  # the FIM span's budget plus the code fence, and for a whole body, room to restate its header
 
 
 def writes_whole_body(unit: RefactoringUnit) -> bool:
@@ -41,13 +46,25 @@ def build_chat(unit: RefactoringUnit, span_tokens: int) -> ChatPrompt:
         + (", the whole body of the last function" if writes_whole_body(unit) else "")
         + ". Reply with that code only, indented as it stands there.\n\n"
     )
+    restated = restatement_tokens(prompt.prefix) if writes_whole_body(unit) else 0
     return ChatPrompt(
         messages=(
             {"role": "system", "content": SYSTEM},
             {"role": "user", "content": ask + prompt.prefix + FILL + prompt.suffix},
         ),
-        max_tokens=prompt.max_tokens + FENCE_TOKENS,
+        max_tokens=prompt.max_tokens + FENCE_TOKENS + restated,
     )
+
+
+def restatement_tokens(prefix: str) -> int:
+    """Room for what an instruct model writes again before a whole body: the function's ``def`` line,
+    its docstring, and the comment lines above the fill (an error fed back, the scene). Qwen2.5-Coder
+    restates them in most replies, and ``span_of_reply`` drops them. Without this room, a regenerated
+    program whose prompt carries a long error was cut mid-statement and failed to parse. The count is
+    doubled, as the span's own budget is: digits and punctuation cost more real tokens than
+    ``approximate_tokens`` counts."""
+    start = prefix.rfind("\ndef ")
+    return 0 if start < 0 else 2 * approximate_tokens(prefix[start + 1 :])
 
 
 def render_chatml(messages: tuple[dict[str, str], ...] | list[dict[str, str]]) -> str:
