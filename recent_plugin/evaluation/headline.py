@@ -105,7 +105,7 @@ def headline_table(records: list[dict]) -> str:
 
 
 def _tasks_line(records: list[dict]) -> str:
-    """Each setting's tasks with their primitive calls and LM-call budget, and how much of the split they are."""
+    """Each setting's tasks with their primitive calls, its targets, and how much of the test split they are."""
     parts = []
     for suite in SETTINGS:
         ids = sorted({r["task_id"] for r in records if r["suite"] == suite})

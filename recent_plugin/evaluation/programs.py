@@ -74,10 +74,10 @@ class ProgramCounts:
 
 
 def program_counts(rows: list[dict]) -> list[ProgramCounts]:
-    """Per whole-program method (every method that does not ground through the ontology), in the rows'
-    order: what its recorded programs call."""
+    """Per whole-program method (every method that does not ground through the ontology), in the
+    tables' method order: what its recorded programs call. Rows are read in episode and event order."""
     counts: dict[str, ProgramCounts] = {}
-    earlier: dict[tuple, list[tuple[str, ...]]] = defaultdict(list)
+    earlier: dict[tuple, list[tuple[str, ...] | None]] = defaultdict(list)  # per episode and skill
     for row in rows:
         method = row["method"]
         if (
