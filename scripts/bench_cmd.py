@@ -303,7 +303,7 @@ def _report(args) -> int:
     dirs = [Path(d) for d in args.dirs]
     path = render_report(dirs, Path(args.report_out) if args.report_out else dirs[0])
     print(path.read_text())
-    print(f"written: {path} (+ sr_vs_go.png, failures_by_method.png)")
+    print(f"written: {path} (+ sr_vs_go.png, failures_by_method.png, and paired.png where methods share episodes)")
     return 0
 
 

@@ -114,7 +114,8 @@ def test_report_renders_tables_checks_and_plots(bench_dir, tmp_path, capsys):
     assert "- kinematic-v1: SR" not in report  # the paper's targets are for the paper-length suites only
     assert "| episode: motion_planning |" in report  # failure categories per method (a place held up by the obstacle)
     assert "No held-out test episode in these runs: every number above is a dev number." in report
-    for png in ("sr_vs_go.png", "failures_by_method.png"):
+    assert "![RECENT against each method](paired.png)" in report  # the paired differences, drawn
+    for png in ("sr_vs_go.png", "failures_by_method.png", "paired.png"):
         assert (tmp_path / png).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 

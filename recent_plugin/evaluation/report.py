@@ -314,6 +314,48 @@ def plot_sr_vs_go(records: list[dict], path: Path) -> Path:
     return _save(fig, path)
 
 
+def plot_paired(records: list[dict], path: Path) -> Path | None:
+    """RECENT minus each method on the episodes both ran, SR and GC in percentage points with their
+    95 % paired intervals, one panel per suite: where a bar crosses 0, another draw of tasks and
+    seeds could reverse the comparison. None where no method shares episodes with RECENT."""
+    pairs = paired_comparisons(records)
+    if not pairs:
+        return None
+    suites = [s for s in SUITE_ORDER if any(k.endswith(f"|{s}") for k in pairs)]
+    methods = ordered_rows({k.split("|")[0].removeprefix("recent vs ") for k in pairs})
+    fig, axes = _figure((5.0 * len(suites) + 2.0, 0.45 * len(methods) + 1.8), cols=len(suites), sharey=True)
+    axes = axes if len(suites) > 1 else [axes]
+    handles = {}
+    for ax, suite in zip(axes, suites, strict=True):
+        for y, method in enumerate(methods):
+            p = pairs.get(f"recent vs {method}|{suite}")
+            if p is None:
+                continue
+            for metric, offset, filled in (("sr", -0.15, True), ("gc", 0.15, False)):
+                mean, (low, high) = p[f"{metric}_diff"], p[f"{metric}_diff_ci95"]
+                colour = "tab:blue" if filled else "tab:orange"
+                handles[metric.upper()] = ax.errorbar(
+                    mean,
+                    y + offset,
+                    xerr=[[mean - low], [high - mean]],
+                    fmt="o" if filled else "s",
+                    color=colour,
+                    markerfacecolor=colour if filled else "none",
+                    capsize=3,
+                )
+            ax.text(-102, y, f"n={p['episodes']}", fontsize=7, va="center", ha="left", color="grey")
+        ax.axvline(0.0, color="black", linewidth=0.8)
+        ax.set_xlim(-105, 105)
+        ax.set_xlabel("RECENT − method (percentage points)")
+        ax.set_title(suite.replace("_", "-"))
+        ax.grid(axis="x", alpha=0.3)
+    axes[0].set_yticks(range(len(methods)), methods)
+    axes[0].invert_yaxis()  # once: the panels share the axis; the table's order reads top down
+    fig.legend(list(handles.values()), list(handles), fontsize=8, loc="upper center", ncol=2, bbox_to_anchor=(0.5, 0.0))
+    fig.suptitle("RECENT against each method on the same episodes (95 % paired bootstrap intervals)")
+    return _save(fig, path)
+
+
 def plot_failures(records: list[dict], path: Path) -> Path:
     """Failures per method, by category and per episode (the methods ran different numbers of
     episodes): the share of episodes that failed, and the LM outputs the gate rejected."""
@@ -358,6 +400,7 @@ def render_report(dirs: list[Path], out: Path) -> Path:
     out.mkdir(parents=True, exist_ok=True)
     sr_go = plot_sr_vs_go(records, out / "sr_vs_go.png")
     failures = plot_failures(records, out / "failures_by_method.png")
+    paired = plot_paired(records, out / "paired.png")
     ablations, checks = ablation_table(records)
     models = sorted({f"{r.get('backend')}:{r.get('model')}" for r in records})
     parts = [
@@ -387,6 +430,7 @@ def render_report(dirs: list[Path], out: Path) -> Path:
         "",
         paired_table(records),
         "",
+        *([f"![RECENT against each method]({paired.name})", ""] if paired else []),
         *lm_necessity_lines(records),
         *paper_ordering_lines(records),
         "## Headline targets",
