@@ -86,7 +86,13 @@ def test_the_headline_is_the_test_split_with_a_caption_of_what_the_records_say_w
 def test_a_headline_of_several_commits_says_so_and_one_without_test_episodes_is_refused(tmp_path, capsys):
     records = [_record("recent", "UR5e", True), _record("cap", "UR5e", False, commit="b" * 40 + "+dirty")]
     assert main(["bench", "headline", str(_run_dir(tmp_path, records))]) == 0
-    assert "NOT one clean commit: aaaaaaa (1), bbbbbbb+dirty (1)" in (tmp_path / "headline.md").read_text()
+    text = (tmp_path / "headline.md").read_text()
+    assert "NOT one clean commit: aaaaaaa (1), bbbbbbb+dirty (1)" in text
+    assert "1 episode per method, every method on the same episodes" in text
+    (tmp_path / PACKED).unlink()
+    _run_dir(tmp_path, [*records, _record("recent", "Sawyer", True)])  # a run stopped part way: cap lacks one
+    assert main(["bench", "headline", str(tmp_path)]) == 0
+    assert "1 to 2 episodes per method, NOT every method on the same episodes" in (tmp_path / "headline.md").read_text()
     dev_only = tmp_path / "dev"
     dev_only.mkdir()
     assert main(["bench", "headline", str(_run_dir(dev_only, [_record("recent", "UR5e", True, seed=3)]))]) == 2

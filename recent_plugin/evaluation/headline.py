@@ -15,7 +15,7 @@ from pathlib import Path
 
 from lerobot_policy_recent.recent_plugin.agent import lm_call_limit
 from lerobot_policy_recent.recent_plugin.evaluation.compare import run_header
-from lerobot_policy_recent.recent_plugin.evaluation.confidence import paired_difference
+from lerobot_policy_recent.recent_plugin.evaluation.confidence import episode_key, paired_difference
 from lerobot_policy_recent.recent_plugin.evaluation.methods import ABLATION_METHODS, method_of
 from lerobot_policy_recent.recent_plugin.evaluation.metrics import (
     group,
@@ -166,13 +166,20 @@ def headline_caption(records: list[dict], header: dict, runs: list[dict], dev_ep
     dates = sorted(str(run.get("date", ""))[:10] for run in runs if run.get("date"))
     when = dates[0] if dates and dates[0] == dates[-1] else (f"{dates[0]} to {dates[-1]}" if dates else "undated")
     episodes = group(records, lambda r: (r["method"],))
-    per_method = sorted({len(v) for v in episodes.values()})
+    counts = sorted({len(v) for v in episodes.values()})
+    per_method = f"{counts[0]}" if len(counts) == 1 else f"{counts[0]} to {counts[-1]}"
+    shared = len({frozenset(map(episode_key, v)) for v in episodes.values()}) == 1
+    pairing = (
+        "every method on the same episodes"
+        if shared
+        else "NOT every method on the same episodes (RECENT − method uses the shared ones)"
+    )
     temperature = config.get("temperature")
     decoding = "greedy" if temperature == 0 else f"seeded sampling at temperature {temperature}"
     return " ".join(
         [
             f"Caption: the held-out **{SPLIT}** split; {_tasks_line(records)} (primitive calls in brackets).",
-            f"{'–'.join(map(str, per_method))} episodes per method, every method on the same episodes;",
+            f"{per_method} episode{'s' if counts[-1] > 1 else ''} per method, {pairing};",
             f"seeds {sorted({r['seed'] for r in records})}; variations {header.get('variations', 'unrecorded')}.",
             f"{_budget_line(records, config.get('max_lm_calls'))}.",
             f"Model: {_models_line(records)}; {decoding}, the same for every method.",
