@@ -59,10 +59,10 @@ def build_chat(unit: RefactoringUnit, span_tokens: int) -> ChatPrompt:
 def restatement_tokens(prefix: str) -> int:
     """Room for what an instruct model writes again before a whole body: the function's ``def`` line,
     its docstring, and the comment lines above the fill (an error fed back, the scene). Qwen2.5-Coder
-    restates them in most replies, and ``span_of_reply`` drops them. Without this room, a regenerated
-    program whose prompt carries a long error was cut mid-statement and failed to parse. The count is
-    doubled, as the span's own budget is: digits and punctuation cost more real tokens than
-    ``approximate_tokens`` counts."""
+    restates them in most replies; ``span_of_reply`` drops the first two, and the comments do nothing
+    when the program runs. Without this room, a regenerated program whose prompt carries a long error
+    was cut mid-statement and failed to parse. The count is doubled, as the span's own budget is:
+    digits and punctuation cost more real tokens than ``approximate_tokens`` counts."""
     start = prefix.rfind("\ndef ")
     return 0 if start < 0 else 2 * approximate_tokens(prefix[start + 1 :])
 
