@@ -92,7 +92,10 @@ def test_a_headline_of_several_commits_says_so_and_one_without_test_episodes_is_
     (tmp_path / PACKED).unlink()
     _run_dir(tmp_path, [*records, _record("recent", "Sawyer", True)])  # a run stopped part way: cap lacks one
     assert main(["bench", "headline", str(tmp_path)]) == 0
-    assert "1 to 2 episodes per method, NOT every method on the same episodes" in (tmp_path / "headline.md").read_text()
+    assert (
+        "except where one lacks some (`cap` 1): RECENT − method uses the shared ones"
+        in (tmp_path / "headline.md").read_text()
+    )
     dev_only = tmp_path / "dev"
     dev_only.mkdir()
     assert main(["bench", "headline", str(_run_dir(dev_only, [_record("recent", "UR5e", True, seed=3)]))]) == 2

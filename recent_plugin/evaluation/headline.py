@@ -153,7 +153,29 @@ def _short(commit: str) -> str:
     return sha[:7] + plus + suffix if len(sha) == 40 else commit
 
 
-def headline_caption(records: list[dict], header: dict, runs: list[dict], dev_episodes: int) -> str:
+def _pairing(episodes: dict[tuple, list[dict]], crashed: list[dict]) -> str:
+    """Whether every method ran the same episodes, and where not, which lack how many (and whether
+    those crashed: a method that cannot run on a target says so in its crash)."""
+    keys = {method: set(map(episode_key, rs)) for (method,), rs in episodes.items()}
+    every = set().union(*keys.values())
+    missing = {method: len(every - mine) for method, mine in keys.items() if every - mine}
+    if not missing:
+        return "every method on the same episodes"
+    broken = {(r["method"], episode_key(r)) for r in crashed}
+    lacking = []
+    for method, count in sorted(missing.items()):
+        why = sum((method, key) in broken for key in every - keys[method])
+        lacking.append(f"`{method}` {count}" + (f", {why} of them crashed (report.md says why)" if why else ""))
+    return (
+        "every method on the same episodes except where one lacks some ("
+        + "; ".join(lacking)
+        + "): RECENT − method uses the shared ones"
+    )
+
+
+def headline_caption(
+    records: list[dict], header: dict, runs: list[dict], dev_episodes: int, crashed: list[dict] = ()
+) -> str:
     """Split, tasks, calls per task, seeds, model, backend, decoding, machine, commit and dates, as recorded."""
     config = header.get("config") or {}
     machine = header.get("machine") or {}
@@ -168,12 +190,7 @@ def headline_caption(records: list[dict], header: dict, runs: list[dict], dev_ep
     episodes = group(records, lambda r: (r["method"],))
     counts = sorted({len(v) for v in episodes.values()})
     per_method = f"{counts[0]}" if len(counts) == 1 else f"{counts[0]} to {counts[-1]}"
-    shared = len({frozenset(map(episode_key, v)) for v in episodes.values()}) == 1
-    pairing = (
-        "every method on the same episodes"
-        if shared
-        else "NOT every method on the same episodes (RECENT − method uses the shared ones)"
-    )
+    pairing = _pairing(episodes, crashed)
     temperature = config.get("temperature")
     decoding = "greedy" if temperature == 0 else f"seeded sampling at temperature {temperature}"
     return " ".join(
@@ -198,7 +215,7 @@ def headline_caption(records: list[dict], header: dict, runs: list[dict], dev_ep
 
 def render_headline(directory: Path) -> Path:
     """Write ``directory/headline.md`` from its records and ``results.json``; return its path."""
-    ran, _ = split_crashed(load_records(directory))
+    ran, broken = split_crashed(load_records(directory))
     records = [r for r in ran if record_split(r) == SPLIT]
     if not records:
         raise ValueError(f"{directory}: no {SPLIT}-split episodes to make a headline of")
@@ -216,7 +233,7 @@ def render_headline(directory: Path) -> Path:
             "",
             headline_table(records),
             "",
-            headline_caption(records, header, runs, dev),
+            headline_caption(records, header, runs, dev, [r for r in broken if record_split(r) == SPLIT]),
             ""
             if not coverage
             else f"\nRECENT's rule coverage (spans and run-time patches the ontology or a check decided without "
