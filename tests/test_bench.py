@@ -415,3 +415,6 @@ def test_a_directory_of_several_commits_or_local_edits_is_no_one_commit_snapshot
     assert commit_line([{}, {"commit": "c" * 40}]) == (
         "code: **not one clean commit** (episodes per commit: not recorded (1), cccccccccccc (1))"
     )
+    assert commit_line([{"commit": "d" * 40 + "+dirty"}]).endswith(
+        ": dddddddddddd+dirty (1))"
+    )  # local edits stay visible

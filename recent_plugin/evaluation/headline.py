@@ -27,6 +27,7 @@ from lerobot_policy_recent.recent_plugin.evaluation.metrics import (
 from lerobot_policy_recent.recent_plugin.evaluation.report import (
     PAPER_MAIN,
     SETTINGS,
+    commit_counts,
     episode_commits,
     ordered_rows,
     single_clean_commit,
@@ -147,12 +148,6 @@ def _models_line(records: list[dict]) -> str:
     return "; ".join(parts)
 
 
-def _short(commit: str) -> str:
-    """``bff68d4`` or ``bff68d4+dirty`` (other labels, such as "unrecorded", as they are)."""
-    sha, plus, suffix = commit.partition("+")
-    return sha[:7] + plus + suffix if len(sha) == 40 else commit
-
-
 def _pairing(episodes: dict[tuple, list[dict]], crashed: list[dict]) -> str:
     """Whether every method ran the same episodes, and where not, which lack how many (and whether
     those crashed: a method that cannot run on a target says so in its crash)."""
@@ -184,7 +179,7 @@ def headline_caption(
     if commit:
         code = f"every episode ran at commit `{commit[:7]}`, clean"
     else:
-        code = "NOT one clean commit: " + ", ".join(f"{_short(c)} ({n})" for c, n in commits.items())
+        code = f"NOT one clean commit: {commit_counts(commits, digits=7)}"
     dates = sorted(str(run.get("date", ""))[:10] for run in runs if run.get("date"))
     when = dates[0] if dates and dates[0] == dates[-1] else (f"{dates[0]} to {dates[-1]}" if dates else "undated")
     episodes = group(records, lambda r: (r["method"],))

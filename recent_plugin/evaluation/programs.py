@@ -17,10 +17,11 @@ import functools
 from collections import defaultdict
 from dataclasses import dataclass
 
+from lerobot_policy_recent.ontology.specs import load_api_spec
 from lerobot_policy_recent.recent_plugin.baselines.program_prompt import PROGRAM
 from lerobot_policy_recent.recent_plugin.evaluation.methods import METHODS, ONTOLOGY_METHODS, method_of
 from lerobot_policy_recent.robosuite_envs.embodiments import EMBODIMENTS
-from lerobot_policy_recent.robosuite_envs.primitives import api_functions
+from lerobot_policy_recent.robosuite_envs.primitives import api_spec_path
 from lerobot_policy_recent.skills.repository import SkillNotFoundError, load_skill
 
 SAFE_CALLS = frozenset(dir(builtins))  # len, range, abs… : Python's, not a robot's
@@ -28,9 +29,10 @@ SAFE_CALLS = frozenset(dir(builtins))  # len, range, abs… : Python's, not a ro
 
 @functools.cache
 def primitives(robot: str) -> frozenset[str]:
-    """The primitive names of a bundled embodiment (empty for one this package does not know)."""
+    """The primitive names of a bundled embodiment's API spec, as the executor reads them (empty for
+    a robot this package does not know)."""
     embodiment = EMBODIMENTS.get(robot)
-    return frozenset(api_functions(embodiment.api)) if embodiment else frozenset()
+    return frozenset(load_api_spec(api_spec_path(embodiment.api)).names()) if embodiment else frozenset()
 
 
 @functools.cache

@@ -675,8 +675,20 @@ def commit_line(records: list[dict]) -> str:
     one = single_clean_commit(commits)
     if one:
         return f"code: commit {one[:12]}"
-    parts = ", ".join(f"{c[:12] if c != UNRECORDED else 'not recorded'} ({n})" for c, n in commits.most_common())
-    return f"code: **not one clean commit** (episodes per commit: {parts})"
+    return f"code: **not one clean commit** (episodes per commit: {commit_counts(commits)})"
+
+
+def commit_counts(commits: Counter, digits: int = 12) -> str:
+    """``abc123 (40), def456+dirty (2)``: the episodes per commit, most first, local edits kept visible."""
+    return ", ".join(f"{short_commit(c, digits)} ({n})" for c, n in commits.most_common())
+
+
+def short_commit(commit: str, digits: int = 12) -> str:
+    """A commit's first ``digits`` hex digits, with its ``+dirty`` kept; "not recorded" where it was not."""
+    if commit == UNRECORDED:
+        return "not recorded"
+    sha, plus, suffix = commit.partition("+")
+    return sha[:digits] + plus + suffix
 
 
 def crash_entry(record: dict) -> dict:
