@@ -208,6 +208,12 @@ def test_the_headline_targets_are_checked_for_recent_and_its_fast_path():
     assert "- kinematic: GO 8.00% (target ≤ 5.0%) ✗" in lines
     assert "- kinematic (recent+fast-path): GO 0.00% (target ≤ 5.0%) ✓" in lines
     assert "- kinematic (recent+fast-path): IT 0.00 s (target ≤ 2.0 s) ✓" in lines
+    # a sanity row that cannot run on some target leaves the check standing; a crash of RECENT does not
+    sanity_crash = {"method": "cap-target-example", "suite": "kinematic", "error": "ValueError: no reference"}
+    assert target_checks(records, crashed=[sanity_crash]) == lines
+    unchecked = target_checks(records, crashed=[{**sanity_crash, "method": "recent"}])
+    assert unchecked[0].startswith("- not checked against the paper's targets: 1 episode(s) of a checked row crashed")
+    assert "- kinematic: GO 8.00% (target ≤ 5.0%) (not checked)" in unchecked
     # EI counts the LM's calls; the patch the fast path rendered is named beside it, not hidden
     assert (
         "- kinematic (recent+fast-path): EI 0.00 (target ≤ 0.7) ✓ "
