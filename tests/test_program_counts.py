@@ -73,3 +73,36 @@ def test_the_report_says_what_the_programs_called_from_the_packed_prompts(tmp_pa
     report = render_report([tmp_path], tmp_path).read_text()
     assert "## What the whole programs called" in report
     assert "| cap | 2 | 0 (0 %) | 2 (100 %) | 2 (100 %) | 1 | 1 of 1 |" in report
+
+
+def test_a_run_with_test_and_dev_episodes_reports_the_test_split_and_keeps_dev_apart(tmp_path):
+    """RECENT on test and dev, a baseline on test only: pooling dev into RECENT's row would compare two task sets."""
+
+    def episode(method: str, task: str, seed: int, success: bool) -> dict:
+        return {
+            "method": method,
+            "suite": "kinematic",
+            "task_id": f"kinematic/{task}",
+            "target": "UR5e",
+            "seed": seed,
+            "success": success,
+            "gc": float(success),
+            "subtasks": 3,
+            "failure_category": None if success else "motion_planning",
+        }
+
+    records = [
+        episode("recent", "panel_then_clear", 0, True),  # a test task on a test seed
+        episode("recent", "serve_then_clear", 3, False),  # dev
+        episode("recent", "panel_then_clear", 3, False),  # a test task on a dev seed is dev too
+        episode("cap", "panel_then_clear", 0, False),
+    ]
+    with gzip.open(tmp_path / PACKED, "wt") as f:
+        f.writelines(json.dumps(r) + "\n" for r in records)
+    report = render_report([tmp_path], tmp_path).read_text()
+    assert "4 episodes from" in report and "Figures: the 2 test-split episodes; the 2 dev ones are apart." in report
+    main = report.split("## Main table")[1].split("##")[0]
+    assert "| **recent** | 100.0 [100.0, 100.0] |" in main  # test alone, not 1 of 3
+    apart = report.split("## Held-out test split and dev, apart")[1].split("##")[0]
+    assert "| recent | kinematic | 1 | 100.0 [100.0, 100.0] | 100.0 [100.0, 100.0] | 2 | 0.0 [0.0, 0.0] |" in apart
+    assert "## Dev split, apart (2 episodes)" in report

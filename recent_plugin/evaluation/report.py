@@ -398,11 +398,41 @@ def plot_failures(records: list[dict], path: Path) -> Path:
     return _save(fig, path)
 
 
+def held_out_first(records: list[dict]) -> tuple[list[dict], list[dict]]:
+    """The episodes the report's figures are drawn from, and the dev episodes kept apart.
+
+    Where a run holds test-split episodes, every figure is theirs alone: dev is where things were
+    tuned, and pooling it in would mix two task sets in one row (RECENT on test and dev, a baseline
+    on test only). A run with no test episode is reported whole."""
+    test = [r for r in records if record_split(r) == "test"]
+    if not test:
+        return records, []
+    return test, [r for r in records if record_split(r) != "test"]
+
+
+def dev_apart_lines(dev: list[dict]) -> list[str]:
+    """The dev episodes of a run that also holds test ones: per target and failures, in a section of their own."""
+    if not dev:
+        return []
+    return [
+        f"## Dev split, apart ({len(dev)} episodes)",
+        "",
+        "Every figure above is the held-out test split's. The dev episodes of this run (where checks and "
+        "hints may be tuned) are here, never pooled with it.",
+        "",
+        _per_target(dev),
+        "",
+        failure_table(dev),
+        "",
+    ]
+
+
 def render_report(dirs: list[Path], out: Path) -> Path:
     """Write ``out/report.md`` and its plots from the episode records of ``dirs``; return the markdown's path."""
-    records, broken = split_crashed([r for d in dirs for r in load_records(Path(d))])
-    if not records and not broken:
+    everything, broken = split_crashed([r for d in dirs for r in load_records(Path(d))])
+    if not everything and not broken:
         raise ValueError(f"no episode records under {', '.join(str(d) for d in dirs)} (expected DIR/episodes/...)")
+    records, dev = held_out_first(everything)
     out.mkdir(parents=True, exist_ok=True)
     sr_go = plot_sr_vs_go(records, out / "sr_vs_go.png")
     failures = plot_failures(records, out / "failures_by_method.png")
@@ -412,9 +442,10 @@ def render_report(dirs: list[Path], out: Path) -> Path:
     parts = [
         "# RECENT benchmark report",
         "",
-        f"{len(records)} episodes from {', '.join(str(d) for d in dirs)}; LM: {', '.join(models)}; "
-        f"seeds {sorted({r['seed'] for r in records})}; {commit_line(records + broken)}; "
-        f"rendered {dt.date.today().isoformat()}.",
+        f"{len(everything)} episodes from {', '.join(str(d) for d in dirs)}; LM: {', '.join(models)}; "
+        f"seeds {sorted({r['seed'] for r in everything})}; {commit_line(everything + broken)}; "
+        f"rendered {dt.date.today().isoformat()}."
+        + (f" Figures: the {len(records)} test-split episodes; the {len(dev)} dev ones are apart." if dev else ""),
         "Values are mean ± std over seeds (a single seed shows no std); SR and GC add in brackets a 95 % "
         "bootstrap interval over episodes (task × target × seed). The paper's rows are its own numbers (7B model, GPU, "
         "CoppeliaSim/Genesis) for orientation, not a like-for-like comparison.",
@@ -430,7 +461,7 @@ def render_report(dirs: list[Path], out: Path) -> Path:
         "",
         "## Held-out test split and dev, apart",
         "",
-        split_results_table(records),
+        split_results_table(everything),
         "",
         "## RECENT against each method, on the same episodes",
         "",
@@ -453,7 +484,8 @@ def render_report(dirs: list[Path], out: Path) -> Path:
     models_md = model_table(records)
     if models_md:
         parts += ["## Model size (RECENT)", "", models_md, ""]
-    programs_md = program_table([row for d in dirs for row in lm_call_rows(Path(d))])
+    rows = [row for d in dirs for row in lm_call_rows(Path(d))]
+    programs_md = program_table([row for row in rows if not dev or record_split(row) == "test"])
     if programs_md:
         parts += ["## What the whole programs called", "", PROGRAMS_NOTE, "", programs_md, ""]
     parts += [
@@ -470,6 +502,7 @@ def render_report(dirs: list[Path], out: Path) -> Path:
         f"![failures]({failures.name})",
         "",
     ]
+    parts += dev_apart_lines(dev)
     parts += crash_lines(broken)
     path = out / "report.md"
     path.write_text("\n".join(parts))
