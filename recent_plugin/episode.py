@@ -34,6 +34,7 @@ class EpisodeResult:
     finished: bool = True  # the plan ran to its end (or failed) before the step limit
     runtime_calls: list[LMCall] = field(default_factory=list)  # revise (in-situ) and repair calls
     adaptations: list[AdaptationEvent] = field(default_factory=list)
+    unmet: str = ""  # the first subtask the env did not count as achieved, with its objects as observed at the end
 
     @property
     def generated_tokens(self) -> int:
@@ -137,7 +138,7 @@ class EpisodeResult:
         if broken is not None and broken.verdict is not None:
             return str(broken.verdict.category), f"{broken.skill}: {broken.verdict.message}"
         if self.success is False:
-            return str(FailureCategory.TIMEOUT if not self.finished else FailureCategory.SUBTASK_FAILED), ""
+            return str(FailureCategory.TIMEOUT if not self.finished else FailureCategory.SUBTASK_FAILED), self.unmet
         return "", ""
 
     def to_record(self) -> dict:
@@ -280,9 +281,33 @@ def _run(
     result = episode_result(
         executor, grounding, seed, success, float(info.get("gc", 0.0)), steps, time.perf_counter() - started
     )
+    if not success:
+        final = Observation.decode(raw["agent_pos"], raw["environment_state"], names)
+        result.unmet = unmet_subtask(
+            env.spec_task.plan, int(info.get("subtasks_done", 0)), final, finished=executor.finished
+        )
     if episode is not None:
         episode.end(result.ended_event())
     return result
+
+
+def unmet_subtask(plan, done: int, final: Observation, *, finished: bool) -> str:
+    """Why a failed episode failed where no skill raised: the first plan step the env did not count
+    as achieved, and its objects as observed at the end (an articulated object's state is its
+    opening, a button's is pressed or not), so that "subtask_failed" is never a bare label."""
+    if done >= len(plan):
+        return ""
+    step = plan[done]
+    seen = []
+    for role, name in step.args.items():
+        state = final.objects.get(name)
+        if state is None:
+            seen.append(f"{role}={name} not observed")
+            continue
+        where = ", ".join(f"{v:.3f}" for v in state.pos)
+        seen.append(f"{role}={name} at [{where}] state {round(state.state, 3) + 0.0:.3f}")
+    ending = "when the plan ended" if finished else "at the step limit"
+    return f"{step.subtask} (subtask {done + 1} of {len(plan)}) not achieved {ending}; observed: " + "; ".join(seen)
 
 
 def crashed_event(task_id: str, robot: str, seed: int, steps: int, wall_seconds: float, exc: Exception) -> EpisodeEnded:

@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
 from lerobot_policy_recent.recent_plugin.agent import RecentAgent
-from lerobot_policy_recent.recent_plugin.episode import run_episode
+from lerobot_policy_recent.recent_plugin.episode import run_episode, unmet_subtask
 from lerobot_policy_recent.recent_plugin.infillers.configs import RuleConfig
 from lerobot_policy_recent.recent_plugin.settings import RecentSettings
+from lerobot_policy_recent.robosuite_envs.observation import ObjectState, Observation
+from lerobot_policy_recent.robosuite_envs.tasks import PlanStep
 
 
 def test_panda_runs_the_reference_skill_unmodified(ontology, rule_infiller):
@@ -72,10 +75,7 @@ def test_grounded_episode_on_end_effector_targets_with_the_real_lm(ontology, lla
 
 def test_sawyer_reaches_the_whole_table(ontology):
     """Its base joint turns (no mount contact locks it): the hand reaches both halves of the table."""
-    import numpy as np
-
     from lerobot_policy_recent.robosuite_envs.gym_env import RecentEnv
-    from lerobot_policy_recent.robosuite_envs.observation import Observation
     from lerobot_policy_recent.robosuite_envs.primitives.control import servo_action
     from lerobot_policy_recent.robosuite_envs.primitives.session import RobotSession
 
@@ -108,3 +108,26 @@ def test_sawyer_presses_the_button_its_loose_tracking_would_stop_short_of(panda_
 def test_rule_grounding_succeeds_on_every_paper_seed(ontology, rule_infiller, seed):
     agent = RecentAgent(RecentSettings(infiller=RuleConfig()), infiller=rule_infiller, ontology=ontology)
     assert run_episode(agent, "cube_in_bin", "UR5e", seed=seed).success
+
+
+def test_a_failed_subtask_names_itself_and_what_was_observed():
+    """ "subtask_failed" is never a bare label: the record says which step the env did not count, and
+    how its objects ended up (a drawer's state is its opening)."""
+    plan = [
+        PlanStep("open_drawer", "open_drawer", {"drawer": "drawer"}),
+        PlanStep("close_drawer", "close_drawer", {"drawer": "drawer"}),
+    ]
+    final = Observation(
+        eef_pos=np.zeros(3),
+        eef_quat=np.array([1.0, 0.0, 0.0, 0.0]),
+        gripper_opening=0.0,
+        objects={"drawer": ObjectState(np.array([-0.038, -0.165, 0.857]), np.array([0, 0, 0, 1.0]), state=-0.0002)},
+    )
+    assert unmet_subtask(plan, 0, final, finished=True) == (
+        "open_drawer (subtask 1 of 2) not achieved when the plan ended; "
+        "observed: drawer=drawer at [-0.038, -0.165, 0.857] state 0.000"
+    )
+    assert unmet_subtask(plan, 1, final, finished=False).startswith(
+        "close_drawer (subtask 2 of 2) not achieved at the step limit"
+    )
+    assert unmet_subtask(plan, 2, final, finished=True) == ""  # every step achieved: nothing unmet
