@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import time
 from collections import Counter
+from collections.abc import Sequence
 from dataclasses import dataclass, field, fields
 
 from lerobot_policy_recent.logs.events import EpisodeEnded, HeldChanged, SubtaskSucceeded, ignore
@@ -14,6 +15,7 @@ from lerobot_policy_recent.recent_plugin.failures import FailureCategory
 from lerobot_policy_recent.recent_plugin.grounding.attempts import AdaptationEvent, LMCall
 from lerobot_policy_recent.robosuite_envs.gym_env import RecentEnv
 from lerobot_policy_recent.robosuite_envs.observation import Observation
+from lerobot_policy_recent.robosuite_envs.tasks import PlanStep
 
 CAMERA_SIZE = 84  # the logged front view, pixels per side
 SETTLE_STEPS = 20  # after the plan ends, let objects come to rest before judging success
@@ -291,7 +293,7 @@ def _run(
     return result
 
 
-def unmet_subtask(plan, done: int, final: Observation, *, finished: bool) -> str:
+def unmet_subtask(plan: Sequence[PlanStep], done: int, final: Observation, *, finished: bool) -> str:
     """Why a failed episode failed where no skill raised: the first plan step the env did not count
     as achieved, and its objects as observed at the end (an articulated object's state is its
     opening, a button's is pressed or not), so that "subtask_failed" is never a bare label."""
