@@ -19,7 +19,7 @@ from lerobot_policy_recent.recent_plugin.evaluation.confidence import episode_ke
 from lerobot_policy_recent.recent_plugin.evaluation.methods import ABLATION_METHODS, method_of
 from lerobot_policy_recent.recent_plugin.evaluation.metrics import (
     group,
-    record_split,
+    held_out_apart,
     rule_coverage,
     split_crashed,
     summarize,
@@ -211,12 +211,12 @@ def headline_caption(
 def render_headline(directory: Path) -> Path:
     """Write ``directory/headline.md`` from its records and ``results.json``; return its path."""
     ran, broken = split_crashed(load_records(directory))
-    records = [r for r in ran if record_split(r) == SPLIT]
+    records, dev_records = held_out_apart(ran)
     if not records:
         raise ValueError(f"{directory}: no {SPLIT}-split episodes to make a headline of")
     header = run_header(directory)
     runs = header.get("runs") or []
-    dev = len(ran) - len(records)
+    dev = len(dev_records)
     coverage = [
         f"{key.split('|')[1]} {value:.1f} %"
         for key, value in rule_coverage(records).items()
@@ -228,7 +228,7 @@ def render_headline(directory: Path) -> Path:
             "",
             headline_table(records),
             "",
-            headline_caption(records, header, runs, dev, [r for r in broken if record_split(r) == SPLIT]),
+            headline_caption(records, header, runs, dev, held_out_apart(broken)[0]),
             ""
             if not coverage
             else f"\nRECENT's rule coverage (spans and run-time patches the ontology or a check decided without "

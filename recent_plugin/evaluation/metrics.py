@@ -125,6 +125,13 @@ def record_split(record: dict) -> str:
     return record.get("split") or split_of(record["task_id"], record["seed"])
 
 
+def held_out_apart(records: list[dict]) -> tuple[list[dict], list[dict]]:
+    """``(test, dev)``: the held-out episodes, and every other one (dev is where things were tuned, so a
+    figure never pools the two)."""
+    test = [r for r in records if record_split(r) == "test"]
+    return test, [r for r in records if record_split(r) != "test"]
+
+
 def fmt(summary: dict, metric: str) -> str:
     """``73.0 ± 3.7 [65.0, 80.0]`` — how tables show one metric: mean ± std over seeds (no std for one
     seed), and for SR and GC the 95 % bootstrap interval over episodes."""

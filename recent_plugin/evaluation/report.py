@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import datetime as dt
 from collections import Counter
+from collections.abc import Sequence
 from pathlib import Path
 
 from lerobot_policy_recent.recent_plugin.evaluation.confidence import episode_key, paired_comparisons, paired_difference
@@ -26,6 +27,7 @@ from lerobot_policy_recent.recent_plugin.evaluation.metrics import (
     aggregate,
     fmt,
     group,
+    held_out_apart,
     record_split,
     rule_coverage,
     split_crashed,
@@ -160,7 +162,7 @@ def _why_not(method: str, ablated: dict, base: dict) -> str:
     return ""
 
 
-def target_checks(records: list[dict], crashed: list[dict] = ()) -> list[str]:
+def target_checks(records: list[dict], crashed: Sequence[dict] = ()) -> list[str]:
     """The benchmark issue's headline targets for RECENT (and its fast path, where it ran), each
     with the measured value and ✓/✗.
 
@@ -401,13 +403,11 @@ def plot_failures(records: list[dict], path: Path) -> Path:
 def held_out_first(records: list[dict]) -> tuple[list[dict], list[dict]]:
     """The episodes the report's figures are drawn from, and the dev episodes kept apart.
 
-    Where a run holds test-split episodes, every figure is theirs alone: dev is where things were
-    tuned, and pooling it in would mix two task sets in one row (RECENT on test and dev, a baseline
-    on test only). A run with no test episode is reported whole."""
-    test = [r for r in records if record_split(r) == "test"]
-    if not test:
-        return records, []
-    return test, [r for r in records if record_split(r) != "test"]
+    Where a run holds test-split episodes, every figure is theirs alone: pooling dev in would mix two
+    task sets in one row (RECENT on test and dev, a baseline on test only). A run with no test
+    episode is reported whole."""
+    test, dev = held_out_apart(records)
+    return (test, dev) if test else (records, [])
 
 
 def dev_apart_lines(dev: list[dict]) -> list[str]:
@@ -438,7 +438,7 @@ def render_report(dirs: list[Path], out: Path) -> Path:
     failures = plot_failures(records, out / "failures_by_method.png")
     paired = plot_paired(records, out / "paired.png")
     ablations, checks = ablation_table(records)
-    models = sorted({f"{r.get('backend')}:{r.get('model')}" for r in records})
+    models = sorted({f"{r.get('backend')}:{r.get('model')}" for r in everything})
     parts = [
         "# RECENT benchmark report",
         "",
@@ -485,7 +485,7 @@ def render_report(dirs: list[Path], out: Path) -> Path:
     if models_md:
         parts += ["## Model size (RECENT)", "", models_md, ""]
     rows = [row for d in dirs for row in lm_call_rows(Path(d))]
-    programs_md = program_table([row for row in rows if not dev or record_split(row) == "test"])
+    programs_md = program_table(held_out_apart(rows)[0] if dev else rows)
     if programs_md:
         parts += ["## What the whole programs called", "", PROGRAMS_NOTE, "", programs_md, ""]
     parts += [
