@@ -66,6 +66,9 @@ def test_the_headline_is_the_test_split_with_a_caption_of_what_the_records_say_w
     assert "| 1 / 2 [0, 100] | 62.5 [25, 100] | – | – | +50 [+0, +100] |" in rows["| `oracle-rule`"]  # paired
     assert "| 10.0 / – | 80.0 / – | 1.00 / – | 5.0 / – |" in rows["| `cap`"]  # GO beside GO-pre, per setting
     assert "| *reference: the paper's `recent` (7B)* | *73.0 %* | *81.8* |" in text  # labelled, not a target
+    # every row of the paper's table shows: the ones that did not run here say so
+    assert "| *reference: the paper's `cap-llm` (GPT-5.2-Codex), not run here* | *67.5 %* |" in text
+    assert "| *reference: the paper's `cap` (7B)* |" in text and "`cap` (7B), not run here" not in text
     caption = text.split("Caption: ", 1)[1]
     for fact in (
         "held-out **test** split",
