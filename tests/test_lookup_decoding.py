@@ -2,10 +2,14 @@
 
 from __future__ import annotations
 
+import ctypes
+
+import numpy as np
 import pytest
 from doubles import sweep_unit
 
 from lerobot_policy_recent.ontology.diagnosis import diagnose
+from lerobot_policy_recent.recent_plugin.infillers import lookup_decoding
 from lerobot_policy_recent.recent_plugin.infillers.llamacpp import QWEN
 from lerobot_policy_recent.recent_plugin.infillers.lookup_decoding import draft_from_context
 from lerobot_policy_recent.recent_plugin.refactoring.fim_prompt import STATEMENT_LINE, build_prompt
@@ -47,6 +51,48 @@ def test_lookup_decoding_matches_plain_greedy_decoding(ontology, put_in_bin, lla
         )
         assert decoded.text == reference
         assert decoded.evaluated_prompt_tokens < decoded.prompt_tokens  # the KV cache of the reference run was reused
+
+
+class FullGrammarPass(lookup_decoding.GreedyGrammarSampler):
+    """The reference: the grammar judges every one of the 150k tokens before each choice."""
+
+    def _judged(self, logits):
+        self._all.copy_logits(logits)
+        self._api.llama_sampler_apply(self._grammar, ctypes.byref(self._all.candidates))
+        return np.asarray(self._all.candidates_data.logit, dtype=np.float64)
+
+    def _candidates(self, scaled, logits):
+        ids = np.arange(len(logits))
+        return ids, (scaled if self._grammar is None else self._judged(logits) / self.temperature)
+
+    def _best_admitted(self, logits):
+        return int(np.argmax(self._judged(logits)))
+
+
+def test_the_grammar_judges_only_the_tokens_a_draw_can_reach(ontology, put_in_bin, llama_session, monkeypatch):
+    """Sampling asks the grammar about the tokens near the best admitted one, greedy decoding about the
+    best ones first; both choose exactly what judging all 150k tokens chooses. Cases: the statement
+    grammar at the default temperature 0.2 and at 1.0, greedy, and a grammar (digits only) that
+    refuses nearly every likely token."""
+    session = llama_session
+    diagnosis = diagnose(ontology, put_in_bin.name, put_in_bin.code, "UR5e", source=put_in_bin.source_embodiment)
+    unit = unit_from_conflict(put_in_bin.code, diagnosis.conflicts[-1], ontology.target("UR5e"))
+    prompt = build_prompt(unit, len(session.tokenize(unit.span)))
+    text = QWEN.render(prompt.prefix, prompt.suffix)
+    stops = (*prompt.stop, *QWEN.stops)
+    cases = [(STATEMENT_LINE, t, seed) for t in (0.2, 1.0) for seed in (1, 2, 3)]
+    cases += [(STATEMENT_LINE, 0.0, 0), (r"root ::= [0-9]+", 0.0, 0), (r"root ::= [0-9]+", 0.2, 4)]
+
+    def decode_all():
+        return [
+            session.generate(text, max_tokens=12, stops=stops, gbnf=gbnf, temperature=t, seed=seed).text
+            for gbnf, t, seed in cases
+        ]
+
+    windowed = decode_all()
+    monkeypatch.setattr(lookup_decoding, "GreedyGrammarSampler", FullGrammarPass)
+    assert decode_all() == windowed
+    assert all(w.isdigit() for w in windowed[-2:])  # the grammar held where it refused the model's favourites
 
 
 GROUNDED = '''def place_on_plate(env, task, obj="cube", target="plate"):
