@@ -96,13 +96,45 @@ def test_saved_states_are_an_lru_bounded_in_bytes_without_dominated_entries():
     assert len(states) == 2
 
 
-def test_a_reactive_repair_keeps_the_whole_function(ontology):
-    hints = Hints(target=ontology.target("UR5e"), original_call="", reason="recompute obj_pos before retrying")
-    start = SKILL.index("pick(env")
-    repair = cut_unit(SKILL, start, start, "reactive_repair", hints)
-    revision = cut_unit(SKILL, start, start, "in_situ_revision", hints)
-    assert "open_gripper" in build_prompt(repair, 10, "dataflow").prefix
-    assert "open_gripper" not in build_prompt(revision, 10, "dataflow").prefix
+def test_a_reactive_repair_keeps_the_function_before_it_and_the_window_after_it(ontology):
+    """Before the span a repair shows the whole function (its hint asks to recompute several values);
+    after it, the retried statement and the readers of what it recomputes, not the rest of the skill."""
+    drop = "drop = [bin_pos[0] + dx, bin_pos[1], bin_pos[2] + height]"
+    hints = Hints(
+        target=ontology.target("UR5e"),
+        original_call="place(env, task, target_pos=drop)",
+        substitute_call=drop,
+        reason="recompute drop before retrying",
+    )
+    start = SKILL.index("place(env")
+    repair = build_prompt(cut_unit(SKILL, start, start, "reactive_repair", hints), 10, "dataflow")
+    revision = build_prompt(cut_unit(SKILL, start, start, "in_situ_revision", hints), 10, "dataflow")
+    assert "open_gripper" in repair.prefix and "open_gripper" not in revision.prefix
+    assert repair.suffix.strip() == "place(env, task, target_pos=drop)"  # not the move after it
+    whole = build_prompt(cut_unit(SKILL, start, start, "reactive_repair", hints), 10, "function")
+    assert "move(env" in whole.suffix
+
+
+UNROLLED = """def two(env, task, first="cube", second="block"):
+    name = first
+    obj_pos = task.get_object_position(name)
+    pick(env, task, target_pos=obj_pos)
+    place(env, task, target_pos=obj_pos)
+    name = second
+    obj_pos = task.get_object_position(name)
+    pick(env, task, target_pos=obj_pos)
+"""
+
+
+def test_the_readers_after_a_span_end_where_its_names_are_assigned_again():
+    """An unrolled loop's next item reads ``obj_pos`` too, but a value assigned anew, not the span's."""
+    start = UNROLLED.index("obj_pos = task")
+    end = UNROLLED.index("\n", start)
+    _, suffix = dataflow_window(UNROLLED[: start - 4], "    ", UNROLLED[start:end], UNROLLED[end:])
+    assert suffix.strip().splitlines() == [
+        "pick(env, task, target_pos=obj_pos)",
+        "    place(env, task, target_pos=obj_pos)",
+    ]
 
 
 def test_the_logs_record_the_prompt_the_model_was_sent(ontology):

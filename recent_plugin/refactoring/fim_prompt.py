@@ -35,10 +35,14 @@ NOT_CONFLICT_SPAN_TYPES = (*RUNTIME_SPAN_TYPES, *BASELINE_SPAN_TYPES, "full_rege
 WHOLE_BODY_SPAN_TYPES = ("program_synthesis", "full_regeneration")  # a function body, blank lines and all
 WRITTEN_FREELY = (*BASELINE_SPAN_TYPES, "full_regeneration")  # no grammar: the model writes Python as it would
 # The spans a ``dataflow`` window applies to: RECENT's localized edits before and during execution.
-# A reactive repair after a failure keeps the whole function: its hint asks to recompute several
-# values, and shown only their definitions (an unrolled loop defines them twice) the 1.5B wrote
-# them over and over to the length cap (dev: end_effector/stock_drawer, Suction, seed 3).
+# A reactive repair after a failure keeps the whole function before the span: its hint asks to
+# recompute several values, and shown only their definitions (an unrolled loop defines them twice)
+# the 1.5B wrote them over and over to the length cap (dev: end_effector/stock_drawer, Suction,
+# seed 3). After the span it shows the window's suffix: the retried statement and the readers of
+# what it recomputes. The rest of a long skill (900 of a repair's 1,250 tokens on the dev task
+# plate_clear_switch) was evaluated again by every attempt.
 WINDOWED_SPAN_TYPES = (*SPAN_TYPES, "in_situ_revision")
+SUFFIX_WINDOWED_SPAN_TYPES = ("reactive_repair",)
 FILL = "<FILL>"  # where the span goes, in the prompts the logs record
 
 
@@ -177,7 +181,8 @@ def _render_mapping(mapping: ParameterMapping) -> str:
 
 def build_prompt(unit: RefactoringUnit, span_tokens: int, window: str = "function") -> FimPrompt:
     """The FIM prompt for ``unit``. ``window`` (:mod:`~lerobot_policy_recent.recent_plugin.refactoring.window`) applies
-    to :data:`WINDOWED_SPAN_TYPES`; whole bodies, reactive repairs and the baselines' rewrites show the whole function."""
+    to :data:`WINDOWED_SPAN_TYPES`, and after the span to reactive repairs; whole bodies and the baselines'
+    rewrites show the whole function."""
     if window not in WINDOWS:
         raise ValueError(f"unknown prompt window {window!r}; choose one of: {', '.join(WINDOWS)}")
     comments = "".join(f"{unit.indent}# {line}\n" for line in hint_lines(unit.span_type, unit.hints))
@@ -197,10 +202,11 @@ def build_prompt(unit: RefactoringUnit, span_tokens: int, window: str = "functio
     if unit.span_type == "structured_plan":
         stop = ("\n\n", "\ndef ")  # comment lines, up to the code
     prefix, suffix = unit.prefix, unit.suffix
-    if window == "dataflow" and unit.span_type in WINDOWED_SPAN_TYPES:
-        prefix, suffix = dataflow_window(
+    if window == "dataflow" and unit.span_type in (*WINDOWED_SPAN_TYPES, *SUFFIX_WINDOWED_SPAN_TYPES):
+        windowed, suffix = dataflow_window(
             prefix, unit.indent, unit.span, suffix, (unit.hints.original_call, unit.hints.substitute_call)
         )
+        prefix = windowed if unit.span_type in WINDOWED_SPAN_TYPES else prefix
     return FimPrompt(
         prefix=prefix + comments + unit.indent,
         suffix=suffix,

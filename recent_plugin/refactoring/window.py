@@ -7,8 +7,9 @@ after a span are re-evaluated by every call (the KV cache only keeps a shared *s
 * before the span: the signature and docstring, the headers of the blocks the span sits in, and
   the statements that define, directly or through others, a name the span, its hints' calls or
   those headers read;
-* after it: the statements that read a name the span assigns, and for an insertion the statement
-  it comes before (what it serves). Not simply the next statement: with the next, already
+* after it: the statements that read a name the span assigns, up to the first that assigns it
+  again, and for an insertion the statement it comes before (what it serves). Not simply the next
+  statement: with the next, already
   grounded call in view, the 1.5B wrote a copy of it in most spans of a long skill (dev task
   ``plate_clear_switch`` on UR5e, 2026-11-25) and each span needed a grammar-held retry.
 
@@ -122,7 +123,12 @@ def dataflow_window(
 
     rest_of_line, _, _ = suffix.partition("\n")
     after = [s for s in leaves if s.first > last]
-    chosen = (after[:1] if not span else []) + [s for s in after[0 if span else 1 :] if s.loads & stores]
+    chosen = after[:1] if not span else []
+    for stmt in after[len(chosen) :]:
+        if stmt.loads & stores:
+            chosen.append(stmt)
+        if stmt.stores & stores:
+            break  # from here on those names hold other values (an unrolled loop's next item)
     window_suffix = (
         rest_of_line + "\n" + "".join("".join(lines[s.first : s.last + 1]) for s in chosen[:SUFFIX_STATEMENTS])
     )
