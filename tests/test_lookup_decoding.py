@@ -23,6 +23,14 @@ def test_draft_continues_the_latest_match_of_the_longest_ngram():
     assert draft_from_context([7, 1, 7], max_ngram=2, max_draft=4) == [1, 7]  # falls back to a 1-gram
 
 
+def test_expected_text_is_drafted_from_and_wins_a_tie():
+    context = [5, 1, 2, 8, 9, 1, 2]
+    assert draft_from_context(context, max_draft=2) == [8, 9]
+    assert draft_from_context(context, max_draft=2, expected=[1, 2, 3, 4]) == [3, 4]  # the hint's call
+    assert draft_from_context(context, max_draft=2, expected=[2, 3, 4]) == [8, 9]  # a longer match wins
+    assert draft_from_context([5, 6], expected=[6, 7, 8]) == [7, 8]  # found only in the expected text
+
+
 def _greedy(llm, text: str, max_tokens: int, stops, grammar) -> str:
     llm.reset()
     out = llm.create_completion(
@@ -48,6 +56,7 @@ def test_lookup_decoding_matches_plain_greedy_decoding(ontology, put_in_bin, lla
             max_tokens=prompt.max_tokens,
             stops=stops,
             grammar=grammar,
+            expected=session.tokenize(unit.hints.substitute_call or ""),
         )
         assert decoded.text == reference
         assert decoded.evaluated_prompt_tokens < decoded.prompt_tokens  # the KV cache of the reference run was reused

@@ -102,12 +102,20 @@ class LlamaSession:
         gbnf: str | None = None,
         temperature: float = 0.0,
         seed: int = 0,
+        draft_text: str | None = None,
     ) -> Decoded:
         """The completion of ``text`` (FIM markers as special tokens) under the grammar ``gbnf``: greedy,
-        or sampled at ``temperature`` from a generator seeded with ``seed``."""
+        or sampled at ``temperature`` from a generator seeded with ``seed``. ``draft_text``: what the
+        completion is likely to copy (the hint's call); it only speeds decoding up."""
         tokens = self.tokenize(text, special=True)
         return self.decoder.generate(
-            tokens, max_tokens=max_tokens, stops=stops, grammar=self.grammar(gbnf), temperature=temperature, seed=seed
+            tokens,
+            max_tokens=max_tokens,
+            stops=stops,
+            grammar=self.grammar(gbnf),
+            temperature=temperature,
+            seed=seed,
+            expected=self.tokenize(draft_text) if draft_text else (),
         )
 
     def speed(self, prompt: str, *, repeats: int = 3, gen_tokens: int = 64) -> dict[str, float]:

@@ -170,7 +170,8 @@ class LlamaWorker:
         return self._call("tokenize", text, special)
 
     def generate(self, text: str, **options):
-        """:meth:`LlamaSession.generate` in the worker (``max_tokens``, ``stops``, ``gbnf``, ``temperature``, ``seed``)."""
+        """:meth:`LlamaSession.generate` in the worker (``max_tokens``, ``stops``, ``gbnf``, ``temperature``,
+        ``seed``, ``draft_text``)."""
         return self._call("generate", text, **options)
 
     def speed(self, prompt: str, *, repeats: int = 3, gen_tokens: int = 64) -> dict[str, float]:

@@ -84,6 +84,7 @@ class LlamaCppInfiller:
                 gbnf=prompt.grammar,
                 temperature=temperature,
                 seed=seed,
+                draft_text=unit.hints.substitute_call,
             )
             text, shown = out.text, prompt.shown()
         if out.context_full:
