@@ -10,7 +10,7 @@ a batch of 9 tokens 160 ms, of 17 205 ms), so the draft length adapts: it double
 the model took whole and shrinks to what it took after one it refused. The longest match (up to 6
 tokens) picks the draft, up to 16 tokens long: replaying the 30 LM calls of two dev groundings and
 one dev episode, that decoded the same text in 22 % less time than 3-token matches and 8-token
-drafts (2026-11-27, BENCHMARKS.md "Grounding"). The hint's call is a draft source too: a run-time
+drafts (2026-11-27, BENCHMARKS.md "Decoding on a CPU"). The hint's call is a draft source too: a run-time
 patch writes it out with line breaks where the hint has "; then " (a grammar-held retry of a
 four-move sweep, 120 tokens, copies it whole); over 59 dev calls, 14 % less decoding time.
 

@@ -9,9 +9,9 @@ after a span are re-evaluated by every call (the KV cache only keeps a shared *s
   those headers read;
 * after it: the statements that read a name the span assigns, up to the first that assigns it
   again, and for an insertion the statement it comes before (what it serves). Not simply the next
-  statement: with the next, already
-  grounded call in view, the 1.5B wrote a copy of it in most spans of a long skill (dev task
-  ``plate_clear_switch`` on UR5e, 2026-11-25) and each span needed a grammar-held retry.
+  statement: with the next, already grounded call in view, the 1.5B wrote a copy of it in most
+  spans of a long skill (dev task ``plate_clear_switch`` on UR5e, 2026-11-25) and each span needed
+  a grammar-held retry.
 
 Whatever cannot be parsed keeps the whole function.
 """
