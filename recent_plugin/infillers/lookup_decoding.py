@@ -50,6 +50,10 @@ class Decoded:
     context_full: bool = False  # the prompt left no room in the model's context: nothing was generated
 
 
+MAX_NGRAM = 6  # the longest tail matched to find a draft
+MAX_DRAFT = 16  # the longest draft (a batch of 17 costs 205 ms on the 2-core host, one token 30 ms)
+
+
 def _longest_match(haystack: np.ndarray, tail: np.ndarray, max_ngram: int) -> tuple[int, int]:
     """``(n, i)``: the latest ``i`` where ``haystack[i - n + 1 : i + 1]`` is the last ``n`` tokens of
     ``tail``, with ``n`` as large as there is (at most ``max_ngram``); ``(0, -1)`` where none is."""
@@ -67,7 +71,11 @@ def _longest_match(haystack: np.ndarray, tail: np.ndarray, max_ngram: int) -> tu
 
 
 def draft_from_context(
-    context: list[int], *, max_ngram: int = 6, max_draft: int = 16, expected: list[int] | tuple[int, ...] = ()
+    context: list[int],
+    *,
+    max_ngram: int = MAX_NGRAM,
+    max_draft: int = MAX_DRAFT,
+    expected: list[int] | tuple[int, ...] = (),
 ) -> list[int]:
     """The tokens that followed the latest earlier occurrence of the context's last n-gram (longest n
     first), in the context or in ``expected`` (text the span is likely to copy: the hint's call, with
@@ -208,7 +216,9 @@ class GreedyGrammarSampler:
 class LookupDecoder:
     """Greedy (grammar-constrained) decoding with prompt-lookup drafts on a ``llama_cpp.Llama``."""
 
-    def __init__(self, llm, *, max_ngram: int = 6, max_draft: int = 16, states: PromptStates | None = None):
+    def __init__(
+        self, llm, *, max_ngram: int = MAX_NGRAM, max_draft: int = MAX_DRAFT, states: PromptStates | None = None
+    ):
         self.llm = llm
         self.max_ngram = max_ngram
         self.max_draft = max_draft
