@@ -76,9 +76,11 @@ class InfillCall(Event):
     generated_tokens: int
     seconds: float
     rendered: bool = False  # the fast path wrote the span; no model was called
+    forced: bool = False  # the grammar admitted only this text; it was not decoded
 
     def summary(self) -> str:
         cost = "rendered, no LM" if self.rendered else f"{self.generated_tokens} tok, {self.seconds:.2f} s"
+        cost += ", held by the grammar, not decoded" if self.forced else ""
         return f"{self.kind} {self.skill} [{self.span_type}] -> {self.completion!r} ({cost})"
 
 

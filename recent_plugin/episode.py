@@ -174,6 +174,7 @@ class EpisodeResult:
             "grounding_cached": self.grounding.cached,
             "lm_seconds": round(self.lm_seconds, 4),
             "lm_calls": len(calls),
+            "forced_calls": sum(c.forced for c in calls),  # answered by the grammar alone (a held retry), not decoded
             "rule_coverage": None if self.rule_coverage is None else round(self.rule_coverage, 1),
             **self.time_breakdown(),
             "valid": all(s.valid for s in self.grounding.skills),

@@ -132,6 +132,34 @@ def test_a_traced_push_is_one_move_per_waypoint_and_its_retry_is_held_to_all_of_
     LlamaGrammar.from_string(retry.grammar, verbose=False)
 
 
+def test_a_retry_the_grammar_holds_to_one_text_is_answered_without_decoding(ontology, put_in_bin, llama_infiller):
+    """A retry of a call with no placeholder admits one text: llama.cpp returns it without running the
+    model, as decoding it would have written it (the same text; the count within the final line break)."""
+    from lerobot_policy_recent.recent_plugin.infillers.llamacpp import QWEN
+
+    def unit(robot: str, attempt: int):
+        conflict = diagnose(ontology, put_in_bin.name, put_in_bin.code, robot).conflicts[1]
+        return unit_from_conflict(
+            put_in_bin.code, conflict, ontology.target(robot), feedback="no" if attempt else None, attempt=attempt
+        )
+
+    assert build_prompt(unit("UR5e", 0), 20).forced is None  # a first attempt is free FIM
+    assert build_prompt(unit("Sawyer", 1), 20).forced is None  # the object's name is left to the LM
+    retry = unit("UR5e", 1)
+    prompt = build_prompt(retry, llama_infiller.count_tokens(retry.span), llama_infiller.prompt_window)
+    assert prompt.forced == "ur5_grasp_at(env, task, grasp_pos=obj_pos)\n"
+    answered = llama_infiller.infill(retry)
+    decoded = llama_infiller.lm.generate(
+        QWEN.render(prompt.prefix, prompt.suffix),
+        max_tokens=prompt.max_tokens,
+        stops=(*prompt.stop, *QWEN.stops),
+        gbnf=prompt.grammar,
+    )
+    assert answered.forced and answered.text == decoded.text == "ur5_grasp_at(env, task, grasp_pos=obj_pos)"
+    assert decoded.generated_tokens - answered.generated_tokens in (0, 1)
+    assert answered.prompt_tokens == 0 and answered.prompt == prompt.shown()
+
+
 def test_rule_backend_grounds_with_zero_tokens(ontology, put_in_bin, rule_infiller):
     grounded = ground_skill(put_in_bin, ontology.target("UR5e"), ontology, rule_infiller)
     assert grounded.valid

@@ -16,7 +16,7 @@ from lerobot_policy_recent.recent_plugin.executor import split_segments
 from lerobot_policy_recent.recent_plugin.infillers.base import Completion
 from lerobot_policy_recent.recent_plugin.infillers.configs import RuleConfig
 from lerobot_policy_recent.recent_plugin.infillers.rule import RuleInfiller
-from lerobot_policy_recent.recent_plugin.insitu.adapter import latest_definitions, recomputation
+from lerobot_policy_recent.recent_plugin.insitu.adapter import changed_assignment, latest_definitions, recomputation
 from lerobot_policy_recent.recent_plugin.insitu.checks import (
     CLEARANCE,
     FALSE_MOVES,
@@ -122,6 +122,34 @@ def test_a_run_time_patch_keeps_the_arguments_its_check_wrote(ontology):
     assert not first.accepted and first.category == "hallucinated_kwarg"
     assert "changes the value the check wrote: keep start_pos=[" in first.message
     assert retry.accepted and event.after.splitlines()[0] == retry.text.splitlines()[0]
+
+
+def test_a_patch_assigns_what_its_statements_assign_and_to_the_same_values():
+    """A repair copies the skill's own recomputation: an unrolled loop's next item in its place
+    (``second`` for ``first``) is rejected; a literal for the value a variable holds is not."""
+    import ast
+
+    def statements(code: str) -> list[ast.stmt]:
+        return ast.parse(code).body
+
+    suggested = statements("bin_pos = task.get_object_position(receptacle)\nname, dx = [first, -0.045]")
+    now = {"first": "cube", "second": "block", "receptacle": "bin"}
+    same = statements("bin_pos = task.get_object_position('bin')\nname, dx = ['cube', -0.045]")
+    assert changed_assignment(same, suggested, now) is None
+    next_item = changed_assignment(
+        statements("bin_pos = task.get_object_position(receptacle)\nname, dx = [second, -0.045]"), suggested, now
+    )
+    assert next_item.category == "hallucinated_kwarg"
+    assert (
+        next_item.message
+        == "(name, dx) = [second, -0.045] changes the value it must hold: (name, dx) = [first, -0.045]"
+    )
+    other_object = changed_assignment(
+        statements("bin_pos = task.get_object_position(first)\nname, dx = [first, -0.045]"), suggested, now
+    )
+    assert other_object is not None and other_object.message.startswith("bin_pos = task.get_object_position(first)")
+    left_out = changed_assignment(statements("bin_pos = task.get_object_position(receptacle)"), suggested, now)
+    assert left_out.message == "the patch must assign (name, dx) as well"
 
 
 def test_ei_it_and_go_add_up_from_the_recorded_calls(counting_agent):

@@ -96,23 +96,31 @@ def test_saved_states_are_an_lru_bounded_in_bytes_without_dominated_entries():
     assert len(states) == 2
 
 
-def test_a_reactive_repair_keeps_the_function_before_it_and_the_window_after_it(ontology):
-    """Before the span a repair shows the whole function (its hint asks to recompute several values);
-    after it, the retried statement and the readers of what it recomputes, not the rest of the skill."""
-    drop = "drop = [bin_pos[0] + dx, bin_pos[1], bin_pos[2] + height]"
+def test_a_reactive_repair_shows_the_window_and_writes_at_most_its_statements_lines(ontology):
+    """A repair's prompt is windowed like a revision's: what the recomputation reads before the span,
+    the retried statement after it. Its first attempt may write as many lines as the recomputation."""
+    from llama_cpp import LlamaGrammar
+
+    recompute = (
+        "bin_pos = task.get_object_position(receptacle)\ndrop = [bin_pos[0] + dx, bin_pos[1], bin_pos[2] + height]"
+    )
     hints = Hints(
         target=ontology.target("UR5e"),
         original_call="place(env, task, target_pos=drop)",
-        substitute_call=drop,
-        reason="recompute drop before retrying",
+        substitute_call=recompute,
+        reason="recompute bin_pos, drop before retrying",
     )
     start = SKILL.index("place(env")
     repair = build_prompt(cut_unit(SKILL, start, start, "reactive_repair", hints), 10, "dataflow")
-    revision = build_prompt(cut_unit(SKILL, start, start, "in_situ_revision", hints), 10, "dataflow")
-    assert "open_gripper" in repair.prefix and "open_gripper" not in revision.prefix
-    assert repair.suffix.strip() == "place(env, task, target_pos=drop)"  # not the move after it
+    assert "height = 0.2" in repair.prefix and "open_gripper" not in repair.prefix
+    assert [line.strip() for line in repair.suffix.strip().splitlines()] == [  # the retried call, a reader of bin_pos
+        "place(env, task, target_pos=drop)",
+        "move(env, task, target_pos=[bin_pos[0], bin_pos[1], bin_pos[2] + height])",
+    ]
+    assert repair.grammar.splitlines()[0] == 'root ::= line ("\\n" line){0,1} "\\n"?'  # two lines at most
+    LlamaGrammar.from_string(repair.grammar, verbose=False)
     whole = build_prompt(cut_unit(SKILL, start, start, "reactive_repair", hints), 10, "function")
-    assert "move(env" in whole.suffix
+    assert "open_gripper" in whole.prefix
 
 
 UNROLLED = """def two(env, task, first="cube", second="block"):

@@ -48,6 +48,7 @@ class LMCall:
     evaluated_prompt_tokens: int = 0  # not already in the model's cache
     prompt_seconds: float = 0.0  # of ``seconds``: prompt evaluation (0 where the backend does not measure it)
     generation_seconds: float = 0.0  # of ``seconds``: generation
+    forced: bool = False  # the grammar admitted one text, returned without running the model (still a call)
 
 
 def call_events(skill: str, call: LMCall) -> list[Event]:
@@ -64,6 +65,7 @@ def call_events(skill: str, call: LMCall) -> list[Event]:
             call.generated_tokens,
             call.seconds,
             call.rendered,
+            call.forced,
         ),
         ValidationVerdict(skill, call.kind, call.accepted, call.category or "", "" if call.accepted else call.message),
     ]
@@ -146,6 +148,7 @@ def infill_until_valid(
                 evaluated_prompt_tokens=completion.evaluated_prompt_tokens,
                 prompt_seconds=completion.prompt_seconds,
                 generation_seconds=completion.generation_seconds,
+                forced=completion.forced,
             )
         )
         if verdict.ok:

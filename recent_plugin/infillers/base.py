@@ -19,6 +19,7 @@ class Completion:
     prompt_seconds: float = 0.0  # of ``seconds``: evaluating the prompt (where a backend measures it)
     generation_seconds: float = 0.0  # of ``seconds``: generating the completion
     prompt: str = ""  # the FIM prompt as sent (``FimPrompt.shown()``), for the logs; empty where a backend has none
+    forced: bool = False  # the grammar admitted this one text: the model was not run (it would have copied it)
 
 
 class Infiller(Protocol):

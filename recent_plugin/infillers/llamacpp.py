@@ -29,7 +29,7 @@ from lerobot_policy_recent.recent_plugin.refactoring.chat_prompt import (
     span_of_reply,
     writes_whole_body,
 )
-from lerobot_policy_recent.recent_plugin.refactoring.fim_prompt import build_prompt
+from lerobot_policy_recent.recent_plugin.refactoring.fim_prompt import FimPrompt, build_prompt
 from lerobot_policy_recent.recent_plugin.refactoring.units import RefactoringUnit
 
 log = logging.getLogger(__name__)
@@ -77,6 +77,8 @@ class LlamaCppInfiller:
             text, shown = span_of_reply(out.text, unit.indent), ""
         else:
             prompt = build_prompt(unit, span_tokens, self.prompt_window)
+            if prompt.forced is not None and (tokens := self.count_tokens(prompt.forced)) <= prompt.max_tokens:
+                return _forced(prompt, tokens, started)
             out = self.lm.generate(
                 QWEN.render(prompt.prefix, prompt.suffix),
                 max_tokens=prompt.max_tokens,
@@ -108,3 +110,23 @@ class LlamaCppInfiller:
         close = getattr(self.lm, "close", None)
         if close is not None:
             close()
+
+
+def _forced(prompt: FimPrompt, tokens: int, started: float) -> Completion:
+    """The completion of a prompt whose grammar admits one text, without decoding it.
+
+    Decoding would copy that text token by token under the grammar (a grammar-held retry of a
+    four-move sweep: 120 tokens, 3 to 4 s on a 2-core CPU) and end where the prompt's stops end it.
+    ``tokens``, the text's own tokenization, is what decoding counts, or one more where the model
+    wrote the final line break as a token of its own (110 of 124 dev retries: equal; the rest: one).
+    """
+    text = prompt.forced or ""
+    for stop in prompt.stop:
+        text = text.split(stop, 1)[0] if stop in text else text
+    return Completion(
+        text=text,
+        generated_tokens=tokens,
+        seconds=time.perf_counter() - started,
+        forced=True,
+        prompt=prompt.shown(),
+    )

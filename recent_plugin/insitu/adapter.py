@@ -21,6 +21,8 @@ import textwrap
 from collections import Counter
 from dataclasses import dataclass, field, replace
 
+import numpy as np
+
 from lerobot_policy_recent.logs.events import CheckVerdict, Emit, PatchApplied, ignore
 from lerobot_policy_recent.ontology.diagnosis import Warning
 from lerobot_policy_recent.ontology.skill_code import definition_indices, dependency_indices, loads, stores
@@ -288,6 +290,7 @@ class InSituAdapter:
         code, start = executor.source(), executor.segment_offsets(at)[0]
         suggestion = "\n".join(statements)  # nested lines at the body's indentation, as segments keep them
         wanted = _called(_body(suggestion, executor.indent))
+        suggested = ast.parse(textwrap.dedent(_body(suggestion, executor.indent))).body  # the skill's or a check's code
 
         def make_unit(feedback: str | None, attempt: int) -> RefactoringUnit:
             hints = Hints(
@@ -311,7 +314,12 @@ class InSituAdapter:
                 message = f"the patch must call {sorted(wanted)}, it calls {sorted(called)}"
                 return Verdict.reject(FailureCategory.HALLUCINATED_API, message), candidate
             verdict = validate_program(candidate, self.target.api, executor.grounded.entry, self.apis)
-            kept = verdict.ok and changed_argument(ast.parse(textwrap.dedent(body)).body, suggestion, "the check wrote")
+            if not verdict.ok:
+                return verdict, candidate
+            written = ast.parse(textwrap.dedent(body)).body
+            kept = changed_argument(written, suggestion, "the check wrote") or changed_assignment(
+                written, suggested, executor.namespace
+            )
             return kept or verdict, candidate
 
         before = len(self.calls)
@@ -325,6 +333,79 @@ class InSituAdapter:
         if accepted is None:
             return None, attempts
         return textwrap.dedent(accepted.unit.indent + accepted.text), attempts
+
+
+def changed_assignment(written: list[ast.stmt], suggested: list[ast.stmt], namespace: dict) -> Verdict | None:
+    """A patch assigns every name the suggested statements assign, each to the same value.
+
+    The statements are the check's or the skill's own (a repair recomputes what the failed statement
+    uses), so what they assign is decided; a value may be written differently (``obj`` for the
+    ``'cube'`` it holds). Unchecked, an unrolled loop's next item (``name = second`` for ``first``)
+    would pass validation and move the wrong object.
+    """
+    wanted, got = _assignments(suggested), _assignments(written)
+    missing = [targets for targets in wanted if targets not in got]
+    if missing:
+        return Verdict.reject(FailureCategory.HALLUCINATED_KWARG, f"the patch must assign {', '.join(missing)} as well")
+    for targets, value in wanted.items():
+        if not _same_value(got[targets], value, namespace):
+            return Verdict.reject(
+                FailureCategory.HALLUCINATED_KWARG,
+                f"{targets} = {ast.unparse(got[targets])} changes the value it must hold: "
+                f"{targets} = {ast.unparse(value)}",
+            )
+    return None
+
+
+def _assignments(statements: list[ast.stmt]) -> dict[str, ast.expr]:
+    """``targets -> value`` of the plain assignments among ``statements`` (the last one of each)."""
+    return {
+        ", ".join(ast.unparse(t) for t in s.targets): s.value
+        for s in statements
+        if isinstance(s, ast.Assign) and not any(isinstance(t, ast.Subscript | ast.Attribute) for t in s.targets)
+    }
+
+
+def _same_value(node: ast.expr, wanted: ast.expr, namespace: dict) -> bool:
+    """Whether two expressions compute the same value: the same code, or, part by part, calls of the
+    same function on the same values and names or literals that hold the same value now."""
+    if ast.dump(node) == ast.dump(wanted):
+        return True
+    if isinstance(node, ast.Call) and isinstance(wanted, ast.Call):
+        return (
+            ast.dump(node.func) == ast.dump(wanted.func)
+            and len(node.args) == len(wanted.args)
+            and all(_same_value(a, b, namespace) for a, b in zip(node.args, wanted.args, strict=True))
+            and sorted(k.arg or "" for k in node.keywords) == sorted(k.arg or "" for k in wanted.keywords)
+            and all(
+                _same_value(k.value, next(w.value for w in wanted.keywords if w.arg == k.arg), namespace)
+                for k in node.keywords
+            )
+        )
+    if isinstance(node, ast.List | ast.Tuple) and isinstance(wanted, ast.List | ast.Tuple):
+        return len(node.elts) == len(wanted.elts) and all(
+            _same_value(a, b, namespace) for a, b in zip(node.elts, wanted.elts, strict=True)
+        )
+    if any(isinstance(n, ast.Call) for n in (*ast.walk(node), *ast.walk(wanted))):
+        return False
+    mine, theirs = _evaluated(node, namespace), _evaluated(wanted, namespace)
+    if mine is _UNKNOWN or theirs is _UNKNOWN:
+        return False
+    try:
+        return bool(np.array_equal(mine, theirs))  # positions may be arrays on one side, lists on the other
+    except (TypeError, ValueError):  # ragged or incomparable values: not shown to be the same
+        return False
+
+
+_UNKNOWN = object()  # an expression that cannot be evaluated now
+
+
+def _evaluated(node: ast.expr, namespace: dict) -> object:
+    """The value of an expression of validated code in ``namespace`` now (``_UNKNOWN`` where it fails)."""
+    try:
+        return eval(compile(ast.Expression(node), "<skill>", "eval"), dict(namespace))  # noqa: S307
+    except Exception:  # noqa: BLE001 - a value we cannot compute is one we cannot use
+        return _UNKNOWN
 
 
 def _guards(warning: Warning, node: ast.stmt) -> bool:
@@ -376,10 +457,8 @@ def _value(node: ast.expr, executor: SkillExecutor) -> object | None:
     """Evaluate an argument expression now (validated code; calls other than task queries are skipped)."""
     if any(isinstance(n, ast.Call) and isinstance(n.func, ast.Name) for n in ast.walk(node)):
         return None
-    try:
-        return eval(compile(ast.Expression(node), "<check>", "eval"), dict(executor.namespace))  # noqa: S307
-    except Exception:  # noqa: BLE001 - a value we cannot compute is a check we cannot run
-        return None
+    value = _evaluated(node, executor.namespace)
+    return None if value is _UNKNOWN else value
 
 
 def recomputation(earlier: list[Segment], node: ast.AST, primitives: set[str]) -> tuple[str, ...]:

@@ -26,7 +26,15 @@ from lerobot_policy_recent.recent_plugin.refactoring.window import WINDOWS, data
 # that demanded the newline would refuse the model's end token, and the next-best admitted tokens
 # ran on (" # <the call again>") to the length cap.
 STATEMENT_LINE = r'root ::= [a-zA-Z_] [^\n]* "\n"?'
-STATEMENT_LINES = r'root ::= line ("\n" line)* "\n"?' + "\n" + r"line ::= [ ]* [a-zA-Z_] [^\n]*"
+LINE = r"line ::= [ ]* [a-zA-Z_] [^\n]*"
+STATEMENT_LINES = r'root ::= line ("\n" line)* "\n"?' + "\n" + LINE
+
+
+def statement_lines(most: int) -> str:
+    """:data:`STATEMENT_LINES`, at most ``most`` lines: a run-time patch as long as the statements its
+    check or repair wrote. Uncapped, the 1.5B went on past a repair's recomputation into the rest of
+    the skill, to the length cap, on every first attempt of the dev episodes (17 of 17, 2026-11-27)."""
+    return f'root ::= line ("\\n" line){{0,{most - 1}}} "\\n"?' + "\n" + LINE
 
 
 RUNTIME_SPAN_TYPES = ("in_situ_revision", "reactive_repair")  # spans patched while the skill runs
@@ -35,14 +43,12 @@ NOT_CONFLICT_SPAN_TYPES = (*RUNTIME_SPAN_TYPES, *BASELINE_SPAN_TYPES, "full_rege
 WHOLE_BODY_SPAN_TYPES = ("program_synthesis", "full_regeneration")  # a function body, blank lines and all
 WRITTEN_FREELY = (*BASELINE_SPAN_TYPES, "full_regeneration")  # no grammar: the model writes Python as it would
 # The spans a ``dataflow`` window applies to: RECENT's localized edits before and during execution.
-# A reactive repair after a failure keeps the whole function before the span: its hint asks to
-# recompute several values, and shown only their definitions (an unrolled loop defines them twice)
-# the 1.5B wrote them over and over to the length cap (dev: end_effector/stock_drawer, Suction,
-# seed 3). After the span it shows the window's suffix: the retried statement and the readers of
-# what it recomputes. The rest of a long skill (900 of a repair's 1,250 tokens on the dev task
-# plate_clear_switch) was evaluated again by every attempt.
-WINDOWED_SPAN_TYPES = (*SPAN_TYPES, "in_situ_revision")
-SUFFIX_WINDOWED_SPAN_TYPES = ("reactive_repair",)
+# A reactive repair once kept the whole function before the span: shown only the definitions of the
+# values it recomputes (an unrolled loop defines them twice), the 1.5B wrote them over and over to
+# the length cap (dev: end_effector/stock_drawer, Suction, seed 3). A run-time patch is now at most
+# as many lines as its statements (:func:`statement_lines`), and the whole function cost a repair's
+# first attempt 380 to 510 cold prompt tokens (dev: plate_clear_switch and tool_panel on UR5e).
+WINDOWED_SPAN_TYPES = (*SPAN_TYPES, *RUNTIME_SPAN_TYPES)
 FILL = "<FILL>"  # where the span goes, in the prompts the logs record
 
 
@@ -99,6 +105,9 @@ class FimPrompt:
     stop: tuple[str, ...]  # text stops that end the span (on top of the model's special tokens)
     max_tokens: int
     grammar: str | None  # GBNF the generated span must match (None: unconstrained)
+    # The one text ``grammar`` admits, where it admits one (a retry of a call with no placeholder
+    # left): a backend that applies the grammar may answer it without decoding, as decoding copies it.
+    forced: str | None = None
 
     def shown(self) -> str:
         """The prompt as the logs record it: prefix, ``<FILL>`` at the span, suffix (format-independent)."""
@@ -181,8 +190,7 @@ def _render_mapping(mapping: ParameterMapping) -> str:
 
 def build_prompt(unit: RefactoringUnit, span_tokens: int, window: str = "function") -> FimPrompt:
     """The FIM prompt for ``unit``. ``window`` (:mod:`~lerobot_policy_recent.recent_plugin.refactoring.window`) applies
-    to :data:`WINDOWED_SPAN_TYPES`, and after the span to reactive repairs; whole bodies and the baselines'
-    rewrites show the whole function."""
+    to :data:`WINDOWED_SPAN_TYPES`; whole bodies and the baselines' rewrites show the whole function."""
     if window not in WINDOWS:
         raise ValueError(f"unknown prompt window {window!r}; choose one of: {', '.join(WINDOWS)}")
     comments = "".join(f"{unit.indent}# {line}\n" for line in hint_lines(unit.span_type, unit.hints))
@@ -192,8 +200,12 @@ def build_prompt(unit: RefactoringUnit, span_tokens: int, window: str = "functio
     else:
         single_line = "\n" not in unit.span and "\n" not in (call or "")
     grammar = STATEMENT_LINE if single_line else STATEMENT_LINES
+    if not single_line and call and unit.span_type in RUNTIME_SPAN_TYPES:
+        grammar = statement_lines(call.count("\n") + 1)
+    forced = None
     if unit.hints.attempt > 0 and call and unit.span_type not in WRITTEN_FREELY:
         grammar = call_grammar(call, unit_name_variables(unit))  # a retry of what the ontology or a check wrote
+        forced = None if has_placeholders(call) else call + "\n"
     stop = ("\n", "  #") if single_line else ("\n\n",)
     if unit.span_type in WRITTEN_FREELY:
         grammar = None
@@ -202,17 +214,17 @@ def build_prompt(unit: RefactoringUnit, span_tokens: int, window: str = "functio
     if unit.span_type == "structured_plan":
         stop = ("\n\n", "\ndef ")  # comment lines, up to the code
     prefix, suffix = unit.prefix, unit.suffix
-    if window == "dataflow" and unit.span_type in (*WINDOWED_SPAN_TYPES, *SUFFIX_WINDOWED_SPAN_TYPES):
-        windowed, suffix = dataflow_window(
+    if window == "dataflow" and unit.span_type in WINDOWED_SPAN_TYPES:
+        prefix, suffix = dataflow_window(
             prefix, unit.indent, unit.span, suffix, (unit.hints.original_call, unit.hints.substitute_call)
         )
-        prefix = windowed if unit.span_type in WINDOWED_SPAN_TYPES else prefix
     return FimPrompt(
         prefix=prefix + comments + unit.indent,
         suffix=suffix,
         stop=stop,
         max_tokens=max(24, 2 * max(span_tokens, approximate_tokens(call or "")) + 16),
         grammar=grammar,
+        forced=forced,
     )
 
 
