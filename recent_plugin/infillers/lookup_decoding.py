@@ -6,13 +6,15 @@ decoder looks up the last few generated tokens in the prompt and proposes what f
 there; one batched forward pass scores the whole draft, and greedy sampling (with the span's
 grammar) keeps the prefix the model itself would have produced. The output is the same as plain
 greedy decoding. A rejected draft still costs its batch (on the 2-core AMD EPYC, one token 30 ms,
-a batch of 9 tokens 160 ms, of 17 205 ms), so the draft length adapts: it doubles after a draft
-the model took whole and shrinks to what it took after one it refused. The longest match (up to 6
-tokens) picks the draft, up to 16 tokens long: replaying the 30 LM calls of two dev groundings and
-one dev episode, that decoded the same text in 22 % less time than 3-token matches and 8-token
-drafts (2026-11-27, BENCHMARKS.md "Decoding on a CPU"). The hint's call is a draft source too: a run-time
-patch writes it out with line breaks where the hint has "; then " (a grammar-held retry of a
-four-move sweep, 120 tokens, copies it whole); over 59 dev calls, 14 % less decoding time.
+a batch of 16 tokens 150 ms, of 32 260 ms, of 48 365 ms), so the draft length adapts: it doubles
+after a draft the model took whole and shrinks to what it took after one it refused. The longest
+match (up to 6 tokens) picks the draft: replaying the 30 LM calls of two dev groundings and one dev
+episode, that decoded the same text in 22 % less time than 3-token matches and 8-token drafts
+(2026-11-27, BENCHMARKS.md "Decoding on a CPU"). The hint's call is a draft source too: a run-time
+patch writes it out with line breaks where the hint has "; then "; over 59 dev calls, 14 % less
+decoding time. With it, longer drafts pay: replaying the 54 LM calls of four dev episodes (their
+groundings and patches), drafts of up to 48 tokens decoded the same text in 17 % less time than
+16 (24 and 32: 10 %, 64: 14 %; two interleaved rounds each).
 
 The grammar is checked the way llama.cpp's own common sampler does it: the unconstrained argmax
 is tested alone, and only when the grammar refuses it are more candidates constrained, the best
@@ -51,7 +53,7 @@ class Decoded:
 
 
 MAX_NGRAM = 6  # the longest tail matched to find a draft
-MAX_DRAFT = 16  # the longest draft (a batch of 17 costs 205 ms on the 2-core host, one token 30 ms)
+MAX_DRAFT = 48  # the longest draft (a batch of 49 costs ~370 ms on the 2-core host, one token 30 ms)
 
 
 def _longest_match(haystack: np.ndarray, tail: np.ndarray, max_ngram: int) -> tuple[int, int]:
