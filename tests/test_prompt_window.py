@@ -145,6 +145,27 @@ def test_the_readers_after_a_span_end_where_its_names_are_assigned_again():
     ]
 
 
+def test_only_the_latest_definition_before_the_span_is_shown():
+    """An unrolled loop's earlier item assigned ``name`` and ``obj_pos`` too; the span reads the latest."""
+    start = UNROLLED.rindex("pick(env")
+    end = UNROLLED.index("\n", start)
+    prefix, _ = dataflow_window(UNROLLED[: start - 4], "    ", UNROLLED[start:end], UNROLLED[end:])
+    assert [line.strip() for line in prefix.splitlines()[1:]] == [
+        "name = second",
+        "obj_pos = task.get_object_position(name)",
+    ]
+    branched = (
+        'def lift(env, task, obj="cube"):\n'
+        "    pos = task.get_object_position(obj)\n"
+        "    if pos[2] < 0.9:\n"
+        "        pos = [pos[0], pos[1], 0.9]\n"
+        "    pick(env, task, target_pos=pos)\n"
+    )
+    start = branched.index("pick(env")
+    prefix, _ = dataflow_window(branched[: start - 4], "    ", "pick(env, task, target_pos=pos)", "\n")
+    assert "pos = task.get_object_position(obj)" in prefix  # a definition in a block may not have run
+
+
 def test_the_logs_record_the_prompt_the_model_was_sent(ontology):
     """An LM call's record holds the backend's own prompt (its window), not a re-rendering of the unit."""
     from lerobot_policy_recent.recent_plugin.grounding.attempts import infill_until_valid

@@ -6,7 +6,8 @@ after a span are re-evaluated by every call (the KV cache only keeps a shared *s
 
 * before the span: the signature and docstring, the headers of the blocks the span sits in, and
   the statements that define, directly or through others, a name the span, its hints' calls or
-  those headers read;
+  those headers read; of the function's own statements only the latest definition of a name (an
+  unrolled loop's earlier items, or a value a patch read again, no longer reach the span);
 * after it: the statements that read a name the span assigns, up to the first that assigns it
   again, and for an insertion the statement it comes before (what it serves). Not simply the next
   statement: with the next, already grounded call in view, the 1.5B wrote a copy of it in most
@@ -35,6 +36,7 @@ class _Statement:
     loads: frozenset[str]
     stores: frozenset[str]
     block_last: int = -1  # a compound statement's header: the last line of its whole block
+    top_level: bool = False  # a simple statement of the function's own body: it always runs before what follows
 
 
 def _names(node: ast.AST) -> tuple[set[str], set[str]]:
@@ -57,8 +59,9 @@ def _code_names(*texts: str | None) -> tuple[set[str], set[str]]:
     return loads, stores
 
 
-def _walk(body: list[ast.stmt], headers: list[_Statement], leaves: list[_Statement]) -> None:
-    """Leaf statements, and the header lines of the compound statements around them."""
+def _walk(body: list[ast.stmt], headers: list[_Statement], leaves: list[_Statement], top: bool = True) -> None:
+    """Leaf statements, and the header lines of the compound statements around them (``top``: ``body``
+    is the function's own)."""
     for stmt in body:
         blocks = [b for b in (getattr(stmt, f, None) for f in ("body", "orelse", "finalbody")) if b]
         blocks += [h.body for h in getattr(stmt, "handlers", [])]
@@ -75,10 +78,12 @@ def _walk(body: list[ast.stmt], headers: list[_Statement], leaves: list[_Stateme
                 _Statement(stmt.lineno - 1, first_inner - 1, frozenset(loads), frozenset(stores), stmt.end_lineno - 1)
             )
             for block in blocks:
-                _walk(block, headers, leaves)
+                _walk(block, headers, leaves, top=False)
         else:
             loads, stores = _names(stmt)
-            leaves.append(_Statement(stmt.lineno - 1, stmt.end_lineno - 1, frozenset(loads), frozenset(stores)))
+            leaves.append(
+                _Statement(stmt.lineno - 1, stmt.end_lineno - 1, frozenset(loads), frozenset(stores), top_level=top)
+            )
 
 
 def dataflow_window(
@@ -118,6 +123,8 @@ def dataflow_window(
     for stmt in sorted((s for s in [*leaves, *headers] if s.last < first), key=lambda s: -s.first):
         if stmt.stores & needed:
             keep |= set(range(stmt.first, stmt.last + 1))
+            if stmt.top_level:  # the latest definition: earlier ones of the same names no longer reach the span
+                needed -= stmt.stores
             needed |= stmt.loads
     window_prefix = "".join(lines[i] for i in sorted(keep) if i < first)
 
