@@ -77,6 +77,10 @@ class InfillCall(Event):
     seconds: float
     rendered: bool = False  # the fast path wrote the span; no model was called
     forced: bool = False  # the grammar admitted only this text; it was not decoded
+    prompt_tokens: int = 0  # where the backend counts them
+    evaluated_prompt_tokens: int = 0  # of those, the ones not already in the model's cache
+    prompt_seconds: float = 0.0  # of ``seconds``: prompt evaluation (where the backend measures it)
+    generation_seconds: float = 0.0  # of ``seconds``: generation
 
     def summary(self) -> str:
         cost = "rendered, no LM" if self.rendered else f"{self.generated_tokens} tok, {self.seconds:.2f} s"

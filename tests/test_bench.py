@@ -260,6 +260,8 @@ def test_a_packed_run_keeps_what_each_lm_was_asked_and_answered(bench_dir, tmp_p
     assert {r["event"] for r in rows} <= set(LM_EVENTS) and any(r["event"] == "validation_verdict" for r in rows)
     calls = [r for r in rows if r["event"] == "infill_call"]
     assert calls and all("prompt" in r and "completion" in r for r in calls)
+    assert all(r["evaluated_prompt_tokens"] <= r["prompt_tokens"] for r in calls)  # each call's cost, split
+    assert all(r["prompt_seconds"] + r["generation_seconds"] <= r["seconds"] + 1e-3 for r in calls)
 
 
 def test_a_committed_run_extended_without_its_logs_keeps_what_each_lm_was_asked(bench_dir, tmp_path, capsys):

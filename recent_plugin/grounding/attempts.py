@@ -66,6 +66,10 @@ def call_events(skill: str, call: LMCall) -> list[Event]:
             call.seconds,
             call.rendered,
             call.forced,
+            call.prompt_tokens,
+            call.evaluated_prompt_tokens,
+            round(call.prompt_seconds, 4),
+            round(call.generation_seconds, 4),
         ),
         ValidationVerdict(skill, call.kind, call.accepted, call.category or "", "" if call.accepted else call.message),
     ]
