@@ -290,7 +290,7 @@ class InSituAdapter:
         code, start = executor.source(), executor.segment_offsets(at)[0]
         suggestion = "\n".join(statements)  # nested lines at the body's indentation, as segments keep them
         wanted = _called(_body(suggestion, executor.indent))
-        suggested = ast.parse(textwrap.dedent(_body(suggestion, executor.indent))).body  # the skill's or a check's code
+        suggested = _statements(_body(suggestion, executor.indent))  # the skill's or a check's code
 
         def make_unit(feedback: str | None, attempt: int) -> RefactoringUnit:
             hints = Hints(
@@ -316,7 +316,7 @@ class InSituAdapter:
             verdict = validate_program(candidate, self.target.api, executor.grounded.entry, self.apis)
             if not verdict.ok:
                 return verdict, candidate
-            written = ast.parse(textwrap.dedent(body)).body
+            written = _statements(body)  # validated: it parses
             kept = changed_argument(written, suggestion, "the check wrote") or changed_assignment(
                 written, suggested, executor.namespace
             )
@@ -440,15 +440,19 @@ def _assigned(statements: tuple[str, ...], indent: str) -> list[str]:
     return list(dict.fromkeys(names))
 
 
+def _statements(code: str) -> list[ast.stmt]:
+    """``code``'s statements (none where it does not parse: what it calls or assigns is then unknown)."""
+    try:
+        return ast.parse(textwrap.dedent(code)).body
+    except SyntaxError:
+        return []
+
+
 def _called(code: str) -> set[str]:
     """Names of the functions and task queries ``code`` calls."""
-    try:
-        tree = ast.parse(textwrap.dedent(code))
-    except SyntaxError:
-        return set()
     return {
         n.func.id if isinstance(n.func, ast.Name) else n.func.attr
-        for n in ast.walk(tree)
+        for n in ast.walk(ast.Module(_statements(code), []))
         if isinstance(n, ast.Call) and isinstance(n.func, ast.Name | ast.Attribute)
     }
 
