@@ -164,6 +164,10 @@ def test_only_the_latest_definition_before_the_span_is_shown():
     start = branched.index("pick(env")
     prefix, _ = dataflow_window(branched[: start - 4], "    ", "pick(env, task, target_pos=pos)", "\n")
     assert "pos = task.get_object_position(obj)" in prefix  # a definition in a block may not have run
+    counted = 'def lift(env, task, obj="cube"):\n    height = 0.1\n    height += 0.05\n    move(env, task, z=height)\n'
+    start = counted.index("move(env")
+    prefix, _ = dataflow_window(counted[: start - 4], "    ", "move(env, task, z=height)", "\n")
+    assert "height = 0.1" in prefix and "height += 0.05" in prefix  # an augmented assignment reads the old value
 
 
 def test_the_logs_record_the_prompt_the_model_was_sent(ontology):

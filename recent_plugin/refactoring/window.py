@@ -36,7 +36,9 @@ class _Statement:
     loads: frozenset[str]
     stores: frozenset[str]
     block_last: int = -1  # a compound statement's header: the last line of its whole block
-    top_level: bool = False  # a simple statement of the function's own body: it always runs before what follows
+    # What a statement of the function's own body assigns on every path (``skill_code.always_assigned``):
+    # earlier definitions of those names no longer reach what follows. Empty inside a block, which may not run.
+    assigned: frozenset[str] = frozenset()
 
 
 def _names(node: ast.AST) -> tuple[set[str], set[str]]:
@@ -81,8 +83,9 @@ def _walk(body: list[ast.stmt], headers: list[_Statement], leaves: list[_Stateme
                 _walk(block, headers, leaves, top=False)
         else:
             loads, stores = _names(stmt)
+            assigned = frozenset(skill_code.always_assigned([stmt])) if top else frozenset()
             leaves.append(
-                _Statement(stmt.lineno - 1, stmt.end_lineno - 1, frozenset(loads), frozenset(stores), top_level=top)
+                _Statement(stmt.lineno - 1, stmt.end_lineno - 1, frozenset(loads), frozenset(stores), assigned=assigned)
             )
 
 
@@ -123,9 +126,8 @@ def dataflow_window(
     for stmt in sorted((s for s in [*leaves, *headers] if s.last < first), key=lambda s: -s.first):
         if stmt.stores & needed:
             keep |= set(range(stmt.first, stmt.last + 1))
-            if stmt.top_level:  # the latest definition: earlier ones of the same names no longer reach the span
-                needed -= stmt.stores
-            needed |= stmt.loads
+            # the latest definition: earlier ones of what it always assigns no longer reach the span
+            needed = (needed - stmt.assigned) | stmt.loads
     window_prefix = "".join(lines[i] for i in sorted(keep) if i < first)
 
     rest_of_line, _, _ = suffix.partition("\n")
