@@ -122,7 +122,7 @@ def _forced(prompt: FimPrompt, tokens: int, started: float) -> Completion:
     """
     text = prompt.forced or ""
     for stop in prompt.stop:
-        text = text.split(stop, 1)[0] if stop in text else text
+        text = text.split(stop, 1)[0]
     return Completion(
         text=text,
         generated_tokens=tokens,

@@ -372,15 +372,13 @@ def _same_value(node: ast.expr, wanted: ast.expr, namespace: dict) -> bool:
     if ast.dump(node) == ast.dump(wanted):
         return True
     if isinstance(node, ast.Call) and isinstance(wanted, ast.Call):
+        given, asked = {k.arg: k.value for k in node.keywords}, {k.arg: k.value for k in wanted.keywords}
         return (
             ast.dump(node.func) == ast.dump(wanted.func)
             and len(node.args) == len(wanted.args)
             and all(_same_value(a, b, namespace) for a, b in zip(node.args, wanted.args, strict=True))
-            and sorted(k.arg or "" for k in node.keywords) == sorted(k.arg or "" for k in wanted.keywords)
-            and all(
-                _same_value(k.value, next(w.value for w in wanted.keywords if w.arg == k.arg), namespace)
-                for k in node.keywords
-            )
+            and given.keys() == asked.keys()
+            and all(_same_value(value, asked[name], namespace) for name, value in given.items())
         )
     if isinstance(node, ast.List | ast.Tuple) and isinstance(wanted, ast.List | ast.Tuple):
         return len(node.elts) == len(wanted.elts) and all(
