@@ -79,8 +79,9 @@ def test_a_retry_is_held_to_the_ontology_call_with_only_the_placeholders_free(on
 
 
 def test_a_run_time_patch_retry_is_held_to_the_statements_its_check_wrote(ontology, put_in_bin):
-    """An in-situ sweep's first attempt is free FIM; its retry may only write the check's call (a
-    new arm's push primitive, which the 1.5B otherwise renamed to one the robot lacks)."""
+    """An in-situ sweep's first attempt begins as the check's call does, the rest of the line free;
+    its retry may only write the check's call (a new arm's push primitive, which the 1.5B otherwise
+    renamed to one the robot lacks)."""
     from llama_cpp import LlamaGrammar
 
     sweep = "jaco_shove(env, task, begin_xyz=[0.178, 0.069, 0.854], end_xyz=[0.178, -0.056, 0.854])"
@@ -89,7 +90,9 @@ def test_a_run_time_patch_retry_is_held_to_the_statements_its_check_wrote(ontolo
         target, observation = ontology.target("JacoRobotiq85"), "obstacle lies on the release target"
         return build_prompt(sweep_unit(put_in_bin.code, "place(", target, sweep, observation, attempt), 0)
 
-    assert prompt(0).grammar.startswith("root ::= [a-zA-Z_]")
+    first = prompt(0).grammar
+    assert first.splitlines()[0] == 'root ::= "jaco_shove(" rest "\\n"?'
+    LlamaGrammar.from_string(first, verbose=False)
     retry = prompt(1).grammar
     assert retry.splitlines()[0] == f'root ::= "{sweep}" "\\n"'
     LlamaGrammar.from_string(retry, verbose=False)
@@ -125,9 +128,14 @@ def test_a_traced_push_is_one_move_per_waypoint_and_its_retry_is_held_to_all_of_
     assert (
         first.stop == ("\n\n",) and "# Call exactly: close_robotiq85(env, task); then move_to_position(" in first.prefix
     )
+    # lookup drafts: a first attempt writes the later lines at the body's indentation, a held retry as the call has them
+    assert first.draft.splitlines() == [
+        line if i == 0 else unit.indent + line for i, line in enumerate(unit.hints.substitute_call.splitlines())
+    ]
     retry = build_prompt(
         unit_from_conflict(pushing.code, conflict, ontology.target("Robotiq85"), feedback="no", attempt=1), 30
     )
+    assert retry.draft == unit.hints.substitute_call
     assert retry.grammar.splitlines()[0].startswith('root ::= "close_robotiq85(env, task)\\nmove_to_position(')
     LlamaGrammar.from_string(retry.grammar, verbose=False)
 

@@ -7,7 +7,7 @@ import pytest
 
 from lerobot_policy_recent.recent_plugin.infillers.configs import LlamaCppConfig
 from lerobot_policy_recent.recent_plugin.infillers.prompt_states import PromptStates
-from lerobot_policy_recent.recent_plugin.refactoring.fim_prompt import build_prompt
+from lerobot_policy_recent.recent_plugin.refactoring.fim_prompt import build_prompt, patch_grammar
 from lerobot_policy_recent.recent_plugin.refactoring.units import Hints, cut_unit
 from lerobot_policy_recent.recent_plugin.refactoring.window import dataflow_window
 
@@ -98,7 +98,8 @@ def test_saved_states_are_an_lru_bounded_in_bytes_without_dominated_entries():
 
 def test_a_reactive_repair_shows_the_window_and_writes_at_most_its_statements_lines(ontology):
     """A repair's prompt is windowed like a revision's: what the recomputation reads before the span,
-    the retried statement after it. Its first attempt may write as many lines as the recomputation."""
+    the retried statement after it. Its first attempt writes the recomputation's lines, each beginning
+    as that line does (what it assigns); the values are the LM's."""
     from llama_cpp import LlamaGrammar
 
     recompute = (
@@ -108,7 +109,7 @@ def test_a_reactive_repair_shows_the_window_and_writes_at_most_its_statements_li
         target=ontology.target("UR5e"),
         original_call="place(env, task, target_pos=drop)",
         substitute_call=recompute,
-        reason="recompute bin_pos, drop before retrying",
+        reason="read bin_pos, drop again before retrying",
     )
     start = SKILL.index("place(env")
     repair = build_prompt(cut_unit(SKILL, start, start, "reactive_repair", hints), 10, "dataflow")
@@ -117,8 +118,10 @@ def test_a_reactive_repair_shows_the_window_and_writes_at_most_its_statements_li
         "place(env, task, target_pos=drop)",
         "move(env, task, target_pos=[bin_pos[0], bin_pos[1], bin_pos[2] + height])",
     ]
-    assert repair.grammar.splitlines()[0] == 'root ::= line ("\\n" line){0,1} "\\n"?'  # two lines at most
+    assert repair.grammar.splitlines()[0] == 'root ::= "bin_pos = " rest "\\n" [ ]* "drop = " rest "\\n"?'
     LlamaGrammar.from_string(repair.grammar, verbose=False)
+    assert patch_grammar("if held:\n    drop = bin_pos") is None  # not one line per statement: lines, at most
+    assert patch_grammar("drop = [\n    bin_pos[0],\n    bin_pos[1]]") is None
     whole = build_prompt(cut_unit(SKILL, start, start, "reactive_repair", hints), 10, "function")
     assert "open_gripper" in whole.prefix
 

@@ -86,7 +86,7 @@ class LlamaCppInfiller:
                 gbnf=prompt.grammar,
                 temperature=temperature,
                 seed=seed,
-                draft_text=unit.hints.substitute_call,
+                draft_text=prompt.draft,
             )
             text, shown = out.text, prompt.shown()
         if out.context_full:

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 from lerobot_policy_recent.ontology.diagnosis import SPAN_TYPES, ParameterMapping
 from lerobot_policy_recent.ontology.skill_code import name_variables, variable_kinds
 from lerobot_policy_recent.recent_plugin.refactoring.substitution import PLACEHOLDER, has_placeholders
-from lerobot_policy_recent.recent_plugin.refactoring.units import Hints, RefactoringUnit
+from lerobot_policy_recent.recent_plugin.refactoring.units import Hints, RefactoringUnit, at_indent
 from lerobot_policy_recent.recent_plugin.refactoring.window import WINDOWS, dataflow_window
 
 # GBNF grammars for RECENT's localized spans: code statements, never comments (a small model
@@ -35,6 +35,34 @@ def statement_lines(most: int) -> str:
     check or repair wrote. Uncapped, the 1.5B went on past a repair's recomputation into the rest of
     the skill, to the length cap, on every first attempt of the dev episodes (17 of 17, 2026-11-27)."""
     return f'root ::= line ("\\n" line){{0,{most - 1}}} "\\n"?' + "\n" + LINE
+
+
+def patch_grammar(statements: str) -> str | None:
+    """GBNF for a run-time patch's first attempt: the statements its check or repair wrote, in order, one
+    line each, every line beginning as its statement does (``name, dx, dy = ``, ``sawyer_push(``); the
+    rest of each line is the LM's. None where a statement spans lines or is not an assignment or a call.
+
+    A repair recomputes what the failed statement uses and a check's patch calls what it named, so
+    validation rejects a patch that does anything else. Given only a line count, the 1.5B wrote the
+    retried call, copied from the suffix, in 9 of the 17 repairs' first attempts of the dev episodes
+    (2026-11-27), and the one sweep a check asked for on the end-effector setting began with the grasp.
+    """
+    heads = []
+    for line in statements.splitlines():
+        try:
+            (statement,) = ast.parse(line.strip()).body
+        except (SyntaxError, ValueError):
+            return None
+        if isinstance(statement, ast.Assign | ast.AugAssign | ast.AnnAssign) and statement.value is not None:
+            heads.append(line.strip()[: statement.value.col_offset])
+        elif isinstance(statement, ast.Expr) and isinstance(statement.value, ast.Call):
+            heads.append(line.strip()[: statement.value.func.end_col_offset] + "(")
+        else:
+            return None
+    if not heads:
+        return None
+    lines = ' "\\n" [ ]* '.join(f"{json.dumps(head, ensure_ascii=False)} rest" for head in heads)
+    return f'root ::= {lines} "\\n"?\nrest ::= [^\\n]*'
 
 
 RUNTIME_SPAN_TYPES = ("in_situ_revision", "reactive_repair")  # spans patched while the skill runs
@@ -108,6 +136,8 @@ class FimPrompt:
     # The one text ``grammar`` admits, where it admits one (a retry of a call with no placeholder
     # left): a backend that applies the grammar may answer it without decoding, as decoding copies it.
     forced: str | None = None
+    # Text the completion is likely to copy (the hint's call, as the span writes it), for lookup drafts.
+    draft: str | None = None
 
     def shown(self) -> str:
         """The prompt as the logs record it: prefix, ``<FILL>`` at the span, suffix (format-independent)."""
@@ -200,12 +230,14 @@ def build_prompt(unit: RefactoringUnit, span_tokens: int, window: str = "functio
     else:
         single_line = "\n" not in unit.span and "\n" not in (call or "")
     grammar = STATEMENT_LINE if single_line else STATEMENT_LINES
-    if not single_line and call and unit.span_type in RUNTIME_SPAN_TYPES:
-        grammar = statement_lines(call.count("\n") + 1)
+    if call and unit.span_type in RUNTIME_SPAN_TYPES:
+        grammar = patch_grammar(call) or (grammar if single_line else statement_lines(call.count("\n") + 1))
     forced = None
+    draft = call and at_indent(call, unit.indent)[len(unit.indent) :]  # its later lines at the body's indentation
     if unit.hints.attempt > 0 and call and unit.span_type not in WRITTEN_FREELY:
         grammar = call_grammar(call, unit_name_variables(unit))  # a retry of what the ontology or a check wrote
         forced = None if has_placeholders(call) else call + "\n"
+        draft = call  # the grammar holds the retry to the call's own lines
     stop = ("\n", "  #") if single_line else ("\n\n",)
     if unit.span_type in WRITTEN_FREELY:
         grammar = None
@@ -225,6 +257,7 @@ def build_prompt(unit: RefactoringUnit, span_tokens: int, window: str = "functio
         max_tokens=max(24, 2 * max(span_tokens, approximate_tokens(call or "")) + 16),
         grammar=grammar,
         forced=forced,
+        draft=draft or None,
     )
 
 

@@ -101,3 +101,12 @@ def cut_unit(
 
 def apply_unit(code: str, unit: RefactoringUnit, replacement: str) -> str:
     return code[: unit.span_start] + replacement + code[unit.span_end :]
+
+
+def at_indent(text: str, indent: str) -> str:
+    """Statements as they sit in a body at ``indent``: top-level lines at ``indent``; nested lines, written
+    deeper (a segment keeps its later lines at the body's indentation), kept as they are."""
+    first, *rest = text.splitlines() or [""]
+    return "\n".join(
+        [indent + first.lstrip(), *(line if line.startswith(indent) else indent + line.lstrip() for line in rest)]
+    )
