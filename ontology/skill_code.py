@@ -441,6 +441,21 @@ def dependency_indices(earlier: list[ast.stmt], node: ast.AST, primitives: set[s
     return chosen[::-1]
 
 
+def recomputed_indices(earlier: list[ast.stmt], node: ast.AST, primitives: set[str]) -> list[int]:
+    """Of :func:`dependency_indices`, the statements that may compute another value when run again:
+    those that call something (a task query reads the world as it is now) and those that read what
+    such a statement assigns. The rest would compute what they hold already from the same values
+    (an unrolled loop's ``name, dx, dy = [first, -0.045, -0.045]``, a ``lift += 0.01`` that would add
+    its offset twice)."""
+    chosen, changed = [], set()
+    for index in dependency_indices(earlier, node, primitives):
+        stmt = earlier[index]
+        if any(isinstance(n, ast.Call) for n in ast.walk(stmt)) or loads(stmt) & changed:
+            chosen.append(index)
+            changed |= stores(stmt)
+    return chosen
+
+
 def definition_indices(earlier: list[ast.stmt], primitives: set[str]) -> list[int]:
     """Which of the ``earlier`` assignments (and branches of them, no primitive calls) still define a value, in order."""
     chosen, defined = [], set()

@@ -384,13 +384,11 @@ def test_a_second_recomputation_copies_only_the_latest_definitions():
     segments = split_segments(code, "push")
     redo = recomputation(segments[:-1], segments[-1].node, {"ur5_push_to"})
     # once each, from the second copy (the branch's own `sign` is no reason to go further back);
-    # `lift += 0.01` reads the `lift = 0.02` before it, so both come
+    # `lift = 0.02` and `lift += 0.01` compute nothing new (run again, the offset would come twice)
     assert [s.splitlines()[0] for s in redo] == [
         "obj_pos = task.get_object_position(obj)",
         "dx = 0.3 - obj_pos[0]",
         "if dx > 0:",
-        "lift = 0.02",
-        "lift += 0.01",
     ]
 
 

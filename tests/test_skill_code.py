@@ -7,6 +7,7 @@ from lerobot_policy_recent.ontology.skill_code import (
     body_span,
     dependency_indices,
     entry_function,
+    recomputed_indices,
     segment_statements,
     statement_span,
 )
@@ -45,6 +46,8 @@ def test_segments_unroll_literal_loops_and_data_flow_finds_what_a_call_needs():
     nodes = [node for node, _ in statements]
     # the last pick needs goal, which needs pos (a task query, no primitive), which needs name
     assert dependency_indices(nodes[:-1], nodes[-1], {"pick"}) == [0, 1, 2]
+    # run again, only the task query and what derives from it may compute another value; the name stays
+    assert recomputed_indices(nodes[:-1], nodes[-1], {"pick"}) == [1, 2]
 
 
 def test_calls_are_counted_as_the_paper_counts_them():

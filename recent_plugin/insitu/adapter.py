@@ -25,7 +25,13 @@ import numpy as np
 
 from lerobot_policy_recent.logs.events import CheckVerdict, Emit, PatchApplied, ignore
 from lerobot_policy_recent.ontology.diagnosis import Warning
-from lerobot_policy_recent.ontology.skill_code import definition_indices, dependency_indices, loads, stores
+from lerobot_policy_recent.ontology.skill_code import (
+    definition_indices,
+    dependency_indices,
+    loads,
+    recomputed_indices,
+    stores,
+)
 from lerobot_policy_recent.ontology.specs import ApiSpec
 from lerobot_policy_recent.ontology.target import Target
 from lerobot_policy_recent.recent_plugin.executor import RepairBudget, Segment, SkillExecutor, SkillFailure
@@ -48,7 +54,13 @@ from lerobot_policy_recent.recent_plugin.insitu.checks import (
     Violation,
     moved_reads,
 )
-from lerobot_policy_recent.recent_plugin.refactoring.units import Hints, RefactoringUnit, apply_unit, cut_unit
+from lerobot_policy_recent.recent_plugin.refactoring.units import (
+    Hints,
+    RefactoringUnit,
+    apply_unit,
+    at_indent,
+    cut_unit,
+)
 
 log = logging.getLogger(__name__)
 
@@ -204,6 +216,10 @@ class InSituAdapter:
         if self.insitu and self._rerun_if_stale(executor, segment, failure):
             return True
         # The usual cause is a world that moved on: recompute what the statement uses, then retry it.
+        # Worded as an object_unmoved check's patch is ("read obj_pos again"). Replaying the first
+        # attempts of the 17 repairs of the dev episodes (three seeds each, 2026-11-27), the 1.5B wrote
+        # the recomputation in 51 of 51 this way, in 40 as "recompute obj_pos before retrying", and in
+        # 28 when the recomputation also held the unrolled loop's constants (it wrote the next item).
         statements = recomputation(executor.segments[: failure.segment], segment.node, set(executor.primitives))
         return self._patch(
             executor,
@@ -212,7 +228,7 @@ class InSituAdapter:
             "repair",
             "reactive_repair",
             (str(failure.category),),
-            f"recompute {', '.join(_assigned(statements, executor.indent))} before retrying",
+            f"read {', '.join(_assigned(statements, executor.indent))} again before retrying",
             f"{_bare(segment.source, executor).split('(')[0]} failed ({failure.message})",
             statements,
         )
@@ -289,8 +305,8 @@ class InSituAdapter:
     ) -> tuple[str | None, int]:
         code, start = executor.source(), executor.segment_offsets(at)[0]
         suggestion = "\n".join(statements)  # nested lines at the body's indentation, as segments keep them
-        wanted = _called(_body(suggestion, executor.indent))
-        suggested = _statements(_body(suggestion, executor.indent))  # the skill's or a check's code
+        wanted = _called(at_indent(suggestion, executor.indent))
+        suggested = _statements(at_indent(suggestion, executor.indent))  # the skill's or a check's code
 
         def make_unit(feedback: str | None, attempt: int) -> RefactoringUnit:
             hints = Hints(
@@ -308,7 +324,7 @@ class InSituAdapter:
             candidate = apply_unit(code, unit, text + "\n" + unit.indent if text else "")
             if not text:
                 return Verdict.reject(FailureCategory.EMPTY_CONTINUATION, "the patch is empty"), candidate
-            body = _body(text, unit.indent)
+            body = at_indent(text, unit.indent)
             called = _called(body)
             if called != wanted:
                 message = f"the patch must call {sorted(wanted)}, it calls {sorted(called)}"
@@ -420,21 +436,14 @@ def _bare(source: str, executor: SkillExecutor) -> str:
     return source.replace("\n" + executor.indent, "\n")
 
 
-def _body(text: str, indent: str) -> str:
-    """Statements as they sit in the body: top-level lines at ``indent``; nested lines, written deeper, kept."""
-    first, *rest = text.splitlines() or [""]
-    return "\n".join(
-        [indent + first.lstrip(), *(line if line.startswith(indent) else indent + line.lstrip() for line in rest)]
-    )
-
-
 def _assigned(statements: tuple[str, ...], indent: str) -> list[str]:
-    """The variables ``statements`` assign, in order."""
-    try:
-        tree = ast.parse(textwrap.dedent(_body("\n".join(statements), indent)))
-    except SyntaxError:
-        return []
-    names = [n.id for n in ast.walk(tree) if isinstance(n, ast.Name) and isinstance(n.ctx, ast.Store)]
+    """The variables ``statements`` assign, in the order they assign them."""
+    names = [
+        n.id
+        for statement in _statements(at_indent("\n".join(statements), indent))
+        for n in ast.walk(statement)
+        if isinstance(n, ast.Name) and isinstance(n.ctx, ast.Store)
+    ]
     return list(dict.fromkeys(names))
 
 
@@ -464,8 +473,9 @@ def _value(node: ast.expr, executor: SkillExecutor) -> object | None:
 
 
 def recomputation(earlier: list[Segment], node: ast.AST, primitives: set[str]) -> tuple[str, ...]:
-    """The sources of :func:`dependencies`: what to run again before the statement, in order."""
-    return tuple(s.source for s in dependencies(earlier, node, primitives))
+    """What to run again before the statement, in order: of its :func:`dependencies`, those whose value
+    may have changed (``skill_code.recomputed_indices``)."""
+    return tuple(earlier[i].source for i in recomputed_indices([s.node for s in earlier], node, primitives))
 
 
 def dependencies(earlier: list[Segment], node: ast.AST, primitives: set[str]) -> list[Segment]:
