@@ -43,6 +43,7 @@ def test_every_episode_has_a_record_and_results_json_aggregates_them(bench_dir):
         assert {"success", "gc", "go", "go_pre", "ei", "it", "igt", "igt_cold", "failure_category", "model"} <= r.keys()
         assert r["go"] == pytest.approx(100 * r["adaptation_tokens"] / r["skill_tokens"], abs=1e-3)
         assert r["log_dir"] == str(bench_dir / "logs") and (bench_dir / "logs" / "mcap").is_dir()
+        assert r["worker_niceness"] == 0  # a local instance's episodes run below nothing of the run's own
     results = json.loads((bench_dir / "results.json").read_text())
     assert results["backend"] == "rule" and results["seeds"] == [0, 1] and results["machine"]["cores"]
     assert results["command"].startswith("recent bench") and results["runs"][-1]["command"] == results["command"]

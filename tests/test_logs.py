@@ -296,6 +296,22 @@ def test_a_failing_sink_is_switched_off_and_the_episode_goes_on(tmp_path, ontolo
     assert Recorder(tmp_path, ["mcap"]).last_episode is None and LogLayout(tmp_path).next_episode() == 1
 
 
+@pytest.mark.skipif(sys.platform != "linux", reason="a thread's own priority is Linux's")
+def test_the_dataset_writer_works_on_what_the_robot_and_its_lm_leave_idle(tmp_path):
+    """It encodes an ended episode's video while the next episode runs: at the least CPU priority."""
+    from lerobot_policy_recent.logs.dataset_sink import WRITER_NICENESS, DatasetSink
+
+    sink = DatasetSink(LogLayout(tmp_path))
+    try:
+        deadline = time.monotonic() + 30
+        while os.getpriority(os.PRIO_PROCESS, sink._writer.native_id) != WRITER_NICENESS:
+            assert time.monotonic() < deadline, "the writer thread kept its priority"
+            time.sleep(0.01)
+        assert os.nice(0) != WRITER_NICENESS  # the thread's own, not the process's
+    finally:
+        sink.close()
+
+
 CHILD = """
 import sys
 from lerobot_policy_recent.logs.recorder import Recorder

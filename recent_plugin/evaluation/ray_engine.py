@@ -22,6 +22,7 @@ from lerobot_policy_recent.recent_plugin.evaluation.jobs import BenchConfig, Epi
 MAX_ATTEMPTS = 3  # an episode whose worker died this often is recorded as a crash, not retried for ever
 DEFAULT_CPUS_PER_WORKER = 2  # the protocol's LM threads (the paper's timings are for 2 threads)
 # Forwarded to a cluster's workers (a local instance inherits the whole environment anyway).
+WORKER_NICENESS_ENV = "RAY_worker_niceness"  # read by Ray when it starts a local instance's workers
 FORWARDED_ENV = ("RECENT_", "MUJOCO_GL", "PYOPENGL_PLATFORM", "HF_", "XDG_CACHE_HOME")
 
 
@@ -49,6 +50,7 @@ class EpisodeWorker:
         outcome = self.runner.run(job)
         outcome.record["worker_seconds"] = round(time.perf_counter() - started, 4)
         outcome.record["node"] = ray.get_runtime_context().get_node_id()[:12]
+        outcome.record["worker_niceness"] = os.nice(0)  # the CPU priority the episode ran at
         return outcome
 
 
@@ -89,6 +91,9 @@ class RayEngine:
         if address is None:
             # A local instance listens on loopback only (Ray otherwise binds the host's address for other nodes).
             os.environ.setdefault("RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER", "0")
+            # Its workers run the episodes, which are what a run measures: at Ray's default niceness (15)
+            # the driver's log writer took half the CPU of an episode's LM calls on a 2-core host.
+            os.environ.setdefault(WORKER_NICENESS_ENV, "0")
         os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")
         import ray
 
