@@ -98,7 +98,7 @@ def test_saved_states_are_an_lru_bounded_in_bytes_without_dominated_entries():
 
 def test_a_reactive_repair_shows_the_window_and_writes_at_most_its_statements_lines(ontology):
     """A repair's prompt is windowed like a revision's: what the recomputation reads before the span,
-    the retried statement after it. Its first attempt writes the recomputation's lines, each beginning
+    the retried statement (and nothing further) after it. Its first attempt writes the recomputation's lines, each beginning
     as that line does (what it assigns); the values are the LM's."""
     from llama_cpp import LlamaGrammar
 
@@ -114,10 +114,8 @@ def test_a_reactive_repair_shows_the_window_and_writes_at_most_its_statements_li
     start = SKILL.index("place(env")
     repair = build_prompt(cut_unit(SKILL, start, start, "reactive_repair", hints), 10, "dataflow")
     assert "height = 0.2" in repair.prefix and "open_gripper" not in repair.prefix
-    assert [line.strip() for line in repair.suffix.strip().splitlines()] == [  # the retried call, a reader of bin_pos
-        "place(env, task, target_pos=drop)",
-        "move(env, task, target_pos=[bin_pos[0], bin_pos[1], bin_pos[2] + height])",
-    ]
+    # the retried call alone, not the later readers of bin_pos
+    assert [line.strip() for line in repair.suffix.strip().splitlines()] == ["place(env, task, target_pos=drop)"]
     assert repair.grammar.splitlines()[0] == 'root ::= "bin_pos = " rest "\\n" [ ]* "drop = " rest "\\n"?'
     LlamaGrammar.from_string(repair.grammar, verbose=False)
     assert patch_grammar("if held:\n    drop = bin_pos") is None  # not one line per statement: lines, at most

@@ -9,10 +9,12 @@ after a span are re-evaluated by every call (the KV cache only keeps a shared *s
   those headers read; of the function's own statements only the latest definition of a name (an
   unrolled loop's earlier items, or a value a patch read again, no longer reach the span);
 * after it: the statements that read a name the span assigns, up to the first that assigns it
-  again, and for an insertion the statement it comes before (what it serves). Not simply the next
-  statement: with the next, already grounded call in view, the 1.5B wrote a copy of it in most
-  spans of a long skill (dev task ``plate_clear_switch`` on UR5e, 2026-11-25) and each span needed
-  a grammar-held retry.
+  again. Not simply the next statement: with the next, already grounded call in view, the 1.5B
+  wrote a copy of it in most spans of a long skill (dev task ``plate_clear_switch`` on UR5e,
+  2026-11-25) and each span needed a grammar-held retry. An insertion (a run-time patch) shows
+  only the statement it comes before, what it serves: the readers further on cost a repair or a
+  re-read up to 85 prompt tokens, and without them the 67 first attempts of the dev episodes'
+  run-time patches, replayed with two seeds each, were judged the same (2026-11-27).
 
 Whatever cannot be parsed keeps the whole function.
 """
@@ -26,7 +28,7 @@ from dataclasses import dataclass
 from lerobot_policy_recent.ontology import skill_code
 
 WINDOWS = ("function", "dataflow")
-SUFFIX_STATEMENTS = 3  # at most: the first readers of what the span assigns (an insertion: and its statement)
+SUFFIX_STATEMENTS = 3  # at most: the first readers of what the span assigns
 
 
 @dataclass(frozen=True)
@@ -132,8 +134,8 @@ def dataflow_window(
 
     rest_of_line, _, _ = suffix.partition("\n")
     after = [s for s in leaves if s.first > last]
-    chosen = after[:1] if not span else []
-    for stmt in after[len(chosen) :]:
+    chosen = after[:1] if not span else []  # an insertion (a run-time patch): that statement alone
+    for stmt in after if span else ():
         if stmt.loads & stores:
             chosen.append(stmt)
         if stmt.stores & stores:
