@@ -446,11 +446,13 @@ def recomputed_indices(earlier: list[ast.stmt], node: ast.AST, primitives: set[s
     those that call something (a task query reads the world as it is now) and those that read what
     such a statement assigns. The rest would compute what they hold already from the same values
     (an unrolled loop's ``name, dx, dy = [first, -0.045, -0.045]``, a ``lift += 0.01`` that would add
-    its offset twice)."""
+    its offset twice). A name assigned on some paths only, or augmented, is read as well: its old
+    value goes on."""
     chosen, changed = [], set()
     for index in dependency_indices(earlier, node, primitives):
         stmt = earlier[index]
-        if any(isinstance(n, ast.Call) for n in ast.walk(stmt)) or loads(stmt) & changed:
+        reads = loads(stmt) | (stores(stmt) - always_assigned([stmt]))
+        if any(isinstance(n, ast.Call) for n in ast.walk(stmt)) or reads & changed:
             chosen.append(index)
             changed |= stores(stmt)
     return chosen

@@ -48,6 +48,14 @@ def test_segments_unroll_literal_loops_and_data_flow_finds_what_a_call_needs():
     assert dependency_indices(nodes[:-1], nodes[-1], {"pick"}) == [0, 1, 2]
     # run again, only the task query and what derives from it may compute another value; the name stays
     assert recomputed_indices(nodes[:-1], nodes[-1], {"pick"}) == [1, 2]
+    # an offset added to a value read anew is added again; one added to a constant is not
+    code = (
+        "def g(env, task):\n    lift = 0.02\n    lift += 0.01\n    z = task.get_object_position('cube')[2]\n"
+        "    z += lift\n    pick(env, task, target_pos=[0, 0, z + lift])\n"
+    )
+    nodes = [node for node, _ in segment_statements(code, entry_function(code, "g"))]
+    assert dependency_indices(nodes[:-1], nodes[-1], {"pick"}) == [0, 1, 2, 3]
+    assert recomputed_indices(nodes[:-1], nodes[-1], {"pick"}) == [2, 3]
 
 
 def test_calls_are_counted_as_the_paper_counts_them():
