@@ -118,6 +118,7 @@ def test_a_reactive_repair_shows_the_window_and_writes_at_most_its_statements_li
     assert [line.strip() for line in repair.suffix.strip().splitlines()] == ["place(env, task, target_pos=drop)"]
     assert repair.grammar.splitlines()[0] == 'root ::= "bin_pos = " rest "\\n" [ ]* "drop = " rest "\\n"?'
     LlamaGrammar.from_string(repair.grammar, verbose=False)
+    assert patch_grammar('größe = task.get_object_position("Würfel")').startswith('root ::= "größe = " rest')
     assert patch_grammar("if held:\n    drop = bin_pos") is None  # not one line per statement: lines, at most
     assert patch_grammar("drop = [\n    bin_pos[0],\n    bin_pos[1]]") is None
     whole = build_prompt(cut_unit(SKILL, start, start, "reactive_repair", hints), 10, "function")

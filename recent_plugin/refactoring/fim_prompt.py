@@ -53,10 +53,11 @@ def patch_grammar(statements: str) -> str | None:
             (statement,) = ast.parse(line.strip()).body
         except (SyntaxError, ValueError):
             return None
+        source = line.strip().encode()  # ast's columns count UTF-8 bytes
         if isinstance(statement, ast.Assign | ast.AugAssign | ast.AnnAssign) and statement.value is not None:
-            heads.append(line.strip()[: statement.value.col_offset])
+            heads.append(source[: statement.value.col_offset].decode())
         elif isinstance(statement, ast.Expr) and isinstance(statement.value, ast.Call):
-            heads.append(line.strip()[: statement.value.func.end_col_offset] + "(")
+            heads.append(source[: statement.value.func.end_col_offset].decode() + "(")
         else:
             return None
     if not heads:
