@@ -12,12 +12,13 @@ match (up to 6 tokens) picks the draft: replaying the 30 LM calls of two dev gro
 episode, that decoded the same text in 22 % less time than 3-token matches and 8-token drafts
 (2026-11-27, BENCHMARKS.md "Decoding on a CPU"). The hint's call is a draft source too: a run-time
 patch writes it out with line breaks where the hint has "; then "; over 59 dev calls, 14 % less
-decoding time. It is drafted as the span writes it, its later lines at the body's indentation
-(:attr:`FimPrompt.draft`): drafted without, every line break refused the draft, and a repair that
-copies four lines of its skill decoded in 1.7 s, slower than with no drafts (1.2 s); indented, in
-0.9 s. Over the 8 calls with multi-line drafts of four recorded dev episodes: 20 % less decoding time. With it, longer drafts pay: replaying the 54 LM calls of four dev episodes (their
+decoding time. With it, longer drafts pay: replaying the 54 LM calls of four dev episodes (their
 groundings and patches), drafts of up to 48 tokens decoded the same text in 17 % less time than
-16 (24 and 32: 10 %, 64: 14 %; two interleaved rounds each).
+16 (24 and 32: 10 %, 64: 14 %; two interleaved rounds each). The call is drafted as the span
+writes it, its later lines at the body's indentation (``FimPrompt.draft``): drafted without, every
+line break refused the draft, and a repair that copies four lines of its skill decoded in 1.7 s,
+slower than with no drafts (1.2 s); indented, in 0.9 s. Over the 8 calls with multi-line drafts of
+four recorded dev episodes: 20 % less decoding time (2026-11-27).
 
 The grammar is checked the way llama.cpp's own common sampler does it: the unconstrained argmax
 is tested alone, and only when the grammar refuses it are more candidates constrained, the best
