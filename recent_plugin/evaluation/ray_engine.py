@@ -21,8 +21,8 @@ from lerobot_policy_recent.recent_plugin.evaluation.jobs import BenchConfig, Epi
 
 MAX_ATTEMPTS = 3  # an episode whose worker died this often is recorded as a crash, not retried for ever
 DEFAULT_CPUS_PER_WORKER = 2  # the protocol's LM threads (the paper's timings are for 2 threads)
-# Forwarded to a cluster's workers (a local instance inherits the whole environment anyway).
 WORKER_NICENESS_ENV = "RAY_worker_niceness"  # read by Ray when it starts a local instance's workers
+# Forwarded to a cluster's workers (a local instance inherits the whole environment anyway).
 FORWARDED_ENV = ("RECENT_", "MUJOCO_GL", "PYOPENGL_PLATFORM", "HF_", "XDG_CACHE_HOME")
 
 

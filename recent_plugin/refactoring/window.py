@@ -134,12 +134,15 @@ def dataflow_window(
 
     rest_of_line, _, _ = suffix.partition("\n")
     after = [s for s in leaves if s.first > last]
-    chosen = after[:1] if not span else []  # an insertion (a run-time patch): that statement alone
-    for stmt in after if span else ():
-        if stmt.loads & stores:
-            chosen.append(stmt)
-        if stmt.stores & stores:
-            break  # from here on those names hold other values (an unrolled loop's next item)
+    if not span:  # an insertion (a run-time patch): the statement it comes before, alone
+        chosen = after[:1]
+    else:
+        chosen = []
+        for stmt in after:
+            if stmt.loads & stores:
+                chosen.append(stmt)
+            if stmt.stores & stores:
+                break  # from here on those names hold other values (an unrolled loop's next item)
     window_suffix = (
         rest_of_line + "\n" + "".join("".join(lines[s.first : s.last + 1]) for s in chosen[:SUFFIX_STATEMENTS])
     )
