@@ -60,7 +60,15 @@ def test_after_the_span_only_readers_of_what_it_assigns():
 def test_an_insertion_sees_the_statement_it_serves():
     shown = _window("pick(env", insertion=True, hint="obj_pos = task.get_object_position(name)")
     assert shown.split("<FILL>")[1].strip() == "pick(env, task, target_pos=obj_pos)"
-    assert "obj_pos = task.get_object_position(name)" in shown
+    assert "obj_pos = task.get_object_position(name)" in shown  # the re-read copies its statement
+
+
+def test_an_insertion_shows_what_its_own_statements_read_not_what_the_next_one_reads():
+    """A sweep's literals read nothing: before it, only the signature and the blocks it sits in."""
+    shown = _window("pick(env", insertion=True, hint="push(env, task, start=[0.1, 0.2, 0.8], goal=[0.1, 0.3, 0.8])")
+    before, after = shown.split("<FILL>")
+    assert "for name, dx in" in before and "obj_pos" not in before and "bin_pos" not in before
+    assert after.strip() == "pick(env, task, target_pos=obj_pos)"
 
 
 def test_code_that_does_not_parse_keeps_the_whole_function():

@@ -248,9 +248,9 @@ def build_prompt(unit: RefactoringUnit, span_tokens: int, window: str = "functio
         stop = ("\n\n", "\ndef ")  # comment lines, up to the code
     prefix, suffix = unit.prefix, unit.suffix
     if window == "dataflow" and unit.span_type in WINDOWED_SPAN_TYPES:
-        prefix, suffix = dataflow_window(
-            prefix, unit.indent, unit.span, suffix, (unit.hints.original_call, unit.hints.substitute_call)
-        )
+        # a run-time patch's original call is the statement it comes before: the window shows it, not what it reads
+        code = (call,) if unit.span_type in RUNTIME_SPAN_TYPES else (unit.hints.original_call, call)
+        prefix, suffix = dataflow_window(prefix, unit.indent, unit.span, suffix, code)
     return FimPrompt(
         prefix=prefix + comments + unit.indent,
         suffix=suffix,
