@@ -31,6 +31,13 @@ def test_expected_text_is_drafted_from_and_wins_a_tie():
     assert draft_from_context([5, 6], expected=[6, 7, 8]) == [7, 8]  # found only in the expected text
 
 
+def test_a_draft_from_the_expected_text_may_run_longer():
+    """The hint's call is what a run-time patch writes: its draft runs to ``max_expected``, past ``max_draft``."""
+    expected = list(range(100, 200))
+    assert draft_from_context([1, 100], max_draft=4, expected=expected, max_expected=8) == list(range(101, 109))
+    assert draft_from_context([100, 1, 100], max_draft=4, expected=[], max_expected=8) == [1, 100]
+
+
 def _greedy(llm, text: str, max_tokens: int, stops, grammar) -> str:
     llm.reset()
     out = llm.create_completion(
