@@ -58,7 +58,7 @@ class Decoded:
 
 
 MAX_NGRAM = 6  # the longest tail matched to find a draft
-MAX_DRAFT = 48  # the longest draft (a batch of 49 costs ~370 ms on the 2-core host, one token 30 ms)
+MAX_DRAFT = 48  # the longest draft from the prompt (a batch of 49 costs ~370 ms on the 2-core host, one token 30 ms)
 # The longest draft from the expected text (the hint's call): a push sweep's call, 54 to 56 tokens, is
 # then verified in one batch, not in one of 49 and another of 5 to 7 (~90 ms: a batch of any size
 # streams all the weights once). Replaying the 67 first attempts of the dev episodes' run-time
