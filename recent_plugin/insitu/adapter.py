@@ -240,11 +240,13 @@ class InSituAdapter:
         chain = dependencies(executor.segments[: segment.index], segment.node, set(executor.primitives))
         stale = _position_reads(executor, loads(segment.node).union(*(loads(s.node) for s in chain)))
         moved = [f"{name} moved since {var} was read" for var, name, _, _ in moved_reads(stale, executor.session.obs)]
-        if not moved or not chain:
+        # what may compute another value, as a repair recomputes: not an unrolled loop's constants, nor a
+        # `lift += 0.01` that would add its offset twice
+        redo = recomputation(executor.segments[: segment.index], segment.node, set(executor.primitives))
+        if not moved or not redo:
             return False
         observation = f"{_bare(segment.source, executor).split('(')[0]} failed ({failure.message}); {'; '.join(moved)}"
         self.emit(CheckVerdict(executor.grounded.skill, segment.index, "object_unmoved", False, observation))
-        redo = tuple(s.source for s in chain)
         self._insert_copy(
             executor, segment, segment.index, redo, ("object_unmoved",), observation, shown=(*redo, segment.source)
         )
