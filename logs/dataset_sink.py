@@ -7,8 +7,9 @@ tables join on ``episode_index`` (and events on ``frame_index``).
 
 A commit is atomic, so a kill at any moment loses nothing that had ended:
 
-1. an episode is journalled to ``pending/episode_N.pkl`` (written, then renamed) as it ends, on
-   the caller's thread, before anything is queued;
+1. an episode is journalled to ``pending/episode_N.npz`` (written, then renamed) as it ends, on
+   the caller's thread, before anything is queued; a journal holds data only
+   (:mod:`~lerobot_policy_recent.logs.journal`), since a log directory can come from anywhere;
 2. they are written into ``dataset.staging/``, a copy of the dataset (files hard-linked; the few
    that LeRobot rewrites in place, ``meta/*.json`` and ``meta/tasks.parquet``, copied), which is
    renamed to ``dataset.ready/`` once finalized, and then swapped in for ``dataset/``;
@@ -24,7 +25,6 @@ from __future__ import annotations
 import json
 import logging
 import os
-import pickle
 import queue
 import shutil
 import threading
@@ -34,6 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
+from lerobot_policy_recent.logs import journal
 from lerobot_policy_recent.logs.events import EpisodeStarted, Stamped, Step
 from lerobot_policy_recent.logs.layout import LogLayout, write_atomically, write_parquet_atomically
 from lerobot_policy_recent.robosuite_envs.observation import (
@@ -239,12 +240,12 @@ def recover_pending(layout: LogLayout) -> list[int]:
     result row (written once: the dataset says which episodes it holds). The episodes recovered."""
     settle(layout.dataset_dir)
     recovered = []
-    for journal in sorted(layout.pending_dir.glob("episode_*.pkl")):
-        result, episode = pickle.loads(journal.read_bytes())
+    for path in journal.journals(layout.pending_dir):
+        result, start, frames, events = journal.load(path)  # JournalError: refused by name, nothing runs
         if not layout.results(result.episode_index).exists():
-            commit(layout, [(result, episode)])
+            commit(layout, [(result, _Episode(start, frames, events))])
             recovered.append(result.episode_index)
-        journal.unlink(missing_ok=True)
+        path.unlink(missing_ok=True)
     if recovered:
         log.warning(
             "recovered %d episode(s) of %s whose commit was cut short: %s", len(recovered), layout.root, recovered
@@ -269,7 +270,7 @@ def dataset_episode(dataset_dir: Path, log_episode: int) -> int:
 
 
 def _journal(layout: LogLayout, result: Stamped, episode: _Episode) -> None:
-    data = pickle.dumps((result, episode), protocol=pickle.HIGHEST_PROTOCOL)
+    data = journal.dumps(result, episode.start, episode.frames, episode.events)
     write_atomically(layout.journal(result.episode_index), lambda tmp: tmp.write_bytes(data))
 
 

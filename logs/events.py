@@ -221,6 +221,7 @@ class EpisodeEnded(Event):
     igt: float
     failure_category: str = ""  # the first failure's category, when the episode failed
     failure_message: str = ""
+    env_steps: int | None = None  # the env's own count of the episode's steps, where it reported one
 
     @property
     def level(self) -> str:  # type: ignore[override]

@@ -7,7 +7,7 @@ DIR/dataset/                          the LeRobotDataset (v3) of observations an
 DIR/grounding_events/episode_000003.parquet   every grounding event of the episode, one row each
 DIR/results/episode_000003.parquet    the episode's result row (SR, GC, GO, EI, IT, IGT, failure)
 DIR/interrupted/                      files of episodes that never finished (see `recent logs verify --recover`)
-DIR/pending/episode_000003.pkl        an ended episode whose dataset commit has not finished (the next run commits it)
+DIR/pending/episode_000003.npz        an ended episode whose dataset commit has not finished (the next run commits it)
 ```
 An episode is committed when its ``results`` file exists: that file is written last.
 """
@@ -59,7 +59,7 @@ class LogLayout:
         return self.root / "pending"
 
     def journal(self, episode: int) -> Path:
-        return self.pending_dir / f"{episode_name(episode)}.pkl"
+        return self.pending_dir / f"{episode_name(episode)}.npz"  # data only (logs/journal.py)
 
     def mcap(self, episode: int) -> Path:
         return self.mcap_dir / f"{episode_name(episode)}.mcap"

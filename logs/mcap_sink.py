@@ -5,9 +5,10 @@ object in ``world``), ``/log`` (``Log``: every event, by level), ``/joint_states
 the arm's joint positions and velocities, and the gripper opening), ``/camera/front`` (``CompressedImage``) — and JSON schemas with stable names
 (``recent.<event>``) for grounding events on ``/recent/<event>``, the action on ``/action`` and the
 gripper's sensors (finger contacts, object detection, vacuum, end-effector contact) on ``/gripper_sensors``.
-Messages are written unchunked and the file is flushed after every step and event, so a killed
-process loses at most the step in flight; ``recent logs verify --recover`` rewrites such a file
-with its summary.
+Messages are written in zstd-compressed chunks with the chunk and message indexes readers seek
+by. A chunk is closed and flushed after every step and event (:meth:`mcap.writer.Writer.flush`),
+so a killed process loses at most the step in flight; ``recent logs verify --recover`` rewrites
+such a file with its summary.
 """
 
 from __future__ import annotations
@@ -25,7 +26,7 @@ from foxglove_schemas_protobuf.JointState_pb2 import JointState
 from foxglove_schemas_protobuf.JointStates_pb2 import JointStates
 from foxglove_schemas_protobuf.Log_pb2 import Log
 from google.protobuf.timestamp_pb2 import Timestamp
-from mcap.writer import Writer
+from mcap.writer import CompressionType, Writer
 from mcap_protobuf.schema import build_file_descriptor_set
 
 from lerobot_policy_recent.logs.events import EVENT_TYPES, Stamped, Step, json_schema
@@ -72,8 +73,7 @@ class McapSink:
         path = self.layout.mcap(start.episode_index)
         path.parent.mkdir(parents=True, exist_ok=True)
         stream = open(path, "wb")  # noqa: SIM115 - kept open for the episode, closed in end()
-        writer = Writer(stream, use_chunking=False)
-        writer.start(profile="", library="lerobot_policy_recent")
+        writer = open_writer(stream)
         self._files[start.episode_index] = _EpisodeFile(
             stream, writer, list(start.event.object_names), arm_dof(start.event.robot, MAX_ARM_DOF)
         )
@@ -92,7 +92,7 @@ class McapSink:
             name=e.name,
         )
         self._write(f, "/log", "protobuf", message.SerializeToString(), stamped.log_time_ns, Log)
-        f.stream.flush()
+        f.writer.flush()  # the chunk so far, compressed and on disk
 
     def step(self, step: Step) -> None:
         f = self._files[step.episode_index]
@@ -115,7 +115,7 @@ class McapSink:
         if step.image is not None:
             image = CompressedImage(timestamp=stamp, frame_id="front", format="png", data=_png(step.image))
             self._write(f, "/camera/front", "protobuf", image.SerializeToString(), t, CompressedImage)
-        f.stream.flush()
+        f.writer.flush()  # one chunk per step: a kill loses only the step in flight
 
     def end(self, result: Stamped) -> None:
         f = self._files.pop(result.episode_index, None)
@@ -141,6 +141,13 @@ class McapSink:
             channel = f.channels[topic] = _register(f.writer, topic, encoding, schema)
         f.writer.add_message(channel, log_time=t, data=data, publish_time=t, sequence=f.sequence)
         f.sequence += 1
+
+
+def open_writer(stream: IO[bytes], library: str = "lerobot_policy_recent") -> Writer:
+    """An MCAP writer in the form every file of ours takes: zstd chunks, indexed (chunks are cut by ``flush()``)."""
+    writer = Writer(stream, chunk_size=4 * 1024 * 1024, compression=CompressionType.ZSTD)
+    writer.start(profile="", library=library)
+    return writer
 
 
 def _register(writer: Writer, topic: str, encoding: str, schema) -> int:

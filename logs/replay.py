@@ -16,7 +16,6 @@ import dataclasses
 import io
 import json
 import os
-import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -27,7 +26,7 @@ from lerobot_policy_recent.logs.dataset_sink import CAMERA_KEY, REPO_ID, VIDEO_B
 from lerobot_policy_recent.logs.events import EVENT_TYPES, Stamped, Step
 from lerobot_policy_recent.logs.layout import LogLayout, episode_name
 from lerobot_policy_recent.logs.readers import mcap_messages, read_table
-from lerobot_policy_recent.logs.rerun_sink import RerunSink
+from lerobot_policy_recent.logs.rerun_sink import RerunSink, rerun_executable
 from lerobot_policy_recent.robosuite_envs.observation import (
     AGENT_POS_DIM,
     ENV_STATE_DIM,
@@ -231,15 +230,6 @@ def open_viewer(path: Path, *, env: dict[str, str] | None = None) -> subprocess.
         return viewer  # still running: the window is up
     said = (viewer.stderr.read() if viewer.stderr else "").strip().splitlines()[-3:]
     raise ViewerError(f"the Rerun viewer exited with code {code} without opening {path}: {' | '.join(said)}")
-
-
-def rerun_executable() -> str:
-    """The ``rerun`` CLI installed with rerun-sdk in this environment."""
-    beside = Path(sys.executable).parent / "rerun"
-    found = str(beside) if beside.exists() else shutil.which("rerun")
-    if found is None:
-        raise FileNotFoundError("the `rerun` command was not found; it comes with rerun-sdk (pip install rerun-sdk)")
-    return found
 
 
 def _fields(payload: dict) -> dict:

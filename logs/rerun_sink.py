@@ -1,7 +1,9 @@
 """Rerun sink: one ``.rrd`` per episode with a blueprint, on the ``step`` and ``sim_time`` timelines.
 
-Layout: ``world/eef`` and ``world/objects`` (3D view), ``action``, ``gripper`` and ``joints``
-(the arm's joint positions, radians) as time series,
+Layout: the 3D view holds ``world/objects`` (each object a box at its perceived pose, with its
+perceived extents), ``world/eef`` (the end effector, a box as wide as the gripper is open) and
+``world/eef_path`` (where it has been); ``action``, ``gripper`` and ``joints``
+(the arm's joint positions, radians) are time series,
 ``grounding/lm_seconds`` (latency of every infiller call), ``events`` (text log by level),
 ``skill/code`` (the skill as it stands, with the last patch as a diff, in markdown) and
 ``camera/front`` when a camera is logged. Per-step streams are buffered and sent as columns, so
@@ -9,11 +11,18 @@ logging a step costs a few list appends; the buffer is sent and flushed to disk 
 every ``BATCH`` steps and at least every ``FLUSH_S`` seconds, so the file of a killed process
 lacks at most the steps of its last ``FLUSH_S`` (and never an event). Recovery does not depend on
 this bound: ``recent logs verify --recover`` rebuilds the recording from the episode's MCAP, which
-is flushed every step (``logs/replay.py``).
+is flushed every step (``logs/replay.py``). When an episode ends its recording is compacted
+(``rerun rrd optimize``: the many small chunks that flushing made become a few large ones), so
+viewers and tools open it fast; if that fails, the file is left as written.
 """
 
 from __future__ import annotations
 
+import logging
+import os
+import shutil
+import subprocess
+import sys
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -37,7 +46,11 @@ from lerobot_policy_recent.robosuite_envs.observation import (
 )
 from lerobot_policy_recent.robosuite_envs.primitives.session import CONTROL_FREQ
 
+log = logging.getLogger(__name__)
+
 BATCH = 64  # steps buffered before they are sent as one column chunk
+MIN_HALF_SIZE = 0.01  # an object whose extents are unknown (a recording rebuilt from MCAP) is drawn 2 cm wide
+FINGER_SPAN = 0.04  # the end effector's drawn half-width at gripper opening 1
 FLUSH_S = 0.25  # wall-clock bound on how long a step waits in the buffer
 _LEVELS = {"debug": rr.TextLogLevel.DEBUG, "info": rr.TextLogLevel.INFO, "warning": rr.TextLogLevel.WARN}
 
@@ -73,8 +86,10 @@ class _Episode:
     rec: rr.RecordingStream
     object_names: list[str]
     arm_dof: int
+    path: Path
     steps: list[Step] = field(default_factory=list)
     sent_at: float = field(default_factory=time.monotonic)
+    eef_path: list[np.ndarray] = field(default_factory=list)
 
 
 class RerunSink:
@@ -95,7 +110,7 @@ class RerunSink:
         rec.log("action", rr.SeriesLines(names=list(ACTION_NAMES)), static=True)
         rec.log("joints", rr.SeriesLines(names=list(JOINT_POS_NAMES[:joints])), static=True)
         rec.log("gripper_sensors", rr.SeriesLines(names=list(GRIPPER_SENSORS)), static=True)
-        self._episodes[start.episode_index] = _Episode(rec, list(event.object_names), joints)
+        self._episodes[start.episode_index] = _Episode(rec, list(event.object_names), joints, path)
         self.event(start)
 
     def event(self, stamped: Stamped) -> None:
@@ -139,6 +154,7 @@ class RerunSink:
         self._send_steps(episode)
         episode.rec.flush()
         episode.rec.disconnect()
+        compact(episode.path)
 
     def _send_steps(self, episode: _Episode) -> None:
         steps, episode.steps = episode.steps, []
@@ -154,20 +170,67 @@ class RerunSink:
         rec.send_columns(
             "joints", index, rr.Scalars.columns(scalars=states[:, JOINTS_AT : JOINTS_AT + episode.arm_dof])
         )
-        rec.send_columns("world/eef", index, rr.Points3D.columns(positions=states[:, 0:3]))
-        positions, labels, counts = [], [], []
+        eef = states[:, 0:3]
+        opening = np.clip(states[:, 7], 0.0, 1.0)
+        half = np.stack(
+            [MIN_HALF_SIZE / 2 + FINGER_SPAN * opening, np.full(len(steps), 0.01), np.full(len(steps), 0.02)], 1
+        )
+        rec.send_columns(
+            "world/eef",
+            index,
+            rr.Boxes3D.columns(centers=eef, half_sizes=half, quaternions=states[:, 3:7], colors=[255, 140, 0]),
+        )
+        episode.eef_path += list(eef)
+        rec.set_time("step", sequence=int(frames[-1]))
+        rec.set_time("sim_time", duration=float(frames[-1]) / CONTROL_FREQ)
+        rec.log("world/eef_path", rr.LineStrips3D([np.stack(episode.eef_path)], colors=[255, 140, 0], radii=0.002))
+        centers, halves, quats, labels, counts = [], [], [], [], []
         for s in steps:
             slots = s.environment_state.reshape(-1, SLOT_DIM)
             present = [i for i, name in enumerate(episode.object_names) if slots[i, 7] > 0.5]
-            positions += [slots[i, 0:3] for i in present]
-            labels += [episode.object_names[i] for i in present]
+            for i in present:
+                centers.append(slots[i, 0:3])
+                quats.append(slots[i, 3:7] if np.linalg.norm(slots[i, 3:7]) > 0.5 else np.array([0, 0, 0, 1.0]))
+                halves.append(np.maximum(slots[i, 8:11] / 2, MIN_HALF_SIZE))
+                labels.append(episode.object_names[i])
             counts.append(len(present))
-        if positions:
+        if centers:
             rec.send_columns(
                 "world/objects",
                 index,
-                rr.Points3D.columns(positions=np.stack(positions), labels=labels).partition(counts),
+                rr.Boxes3D.columns(
+                    centers=np.stack(centers), half_sizes=np.stack(halves), quaternions=np.stack(quats), labels=labels
+                ).partition(counts),
             )
+
+
+def rerun_executable() -> str:
+    """The ``rerun`` CLI installed with rerun-sdk in this environment."""
+    beside = Path(sys.executable).parent / "rerun"
+    found = str(beside) if beside.exists() else shutil.which("rerun")
+    if found is None:
+        raise FileNotFoundError("the `rerun` command was not found; it comes with rerun-sdk (pip install rerun-sdk)")
+    return found
+
+
+def compact(path: Path) -> bool:
+    """Rewrite a finished recording with its chunks compacted (``rerun rrd optimize``); False if that failed
+    (the file is then left as it was written, still whole)."""
+    tmp = path.with_name(path.name + ".compact")
+    try:
+        subprocess.run(
+            [rerun_executable(), "rrd", "optimize", "-o", str(tmp), str(path)],
+            check=True,
+            capture_output=True,
+            env={**os.environ, "RUST_LOG": "error"},
+            timeout=120,
+        )
+        os.replace(tmp, path)
+        return True
+    except (OSError, subprocess.SubprocessError) as exc:
+        log.warning("could not compact %s (%s); it stays as written", path, exc)
+        tmp.unlink(missing_ok=True)
+        return False
 
 
 def _code_markdown(patch: PatchApplied) -> str:

@@ -70,9 +70,9 @@ def check_repo_id(repo_id: str) -> str:
     try:
         validate_repo_id(repo_id)
     except HFValidationError as error:
-        raise ValueError(f"--repo-id {repo_id!r} is not ORG/NAME: {error}") from None
+        raise ValueError(f"--repo_id {repo_id!r} is not ORG/NAME: {error}") from None
     if "/" not in repo_id:
-        raise ValueError(f"--repo-id {repo_id!r} is not ORG/NAME (e.g. my-lab/recent-runs)")
+        raise ValueError(f"--repo_id {repo_id!r} is not ORG/NAME (e.g. my-lab/recent-runs)")
     return repo_id
 
 

@@ -1,7 +1,10 @@
 """``recent logs verify``: every file readable, the three logs agreeing episode by episode; recovery.
 
 For each committed episode (one with a results row) the MCAP, the Rerun recording, the
-grounding-event table and the LeRobotDataset must hold the same number of events and steps.
+grounding-event table and the LeRobotDataset must hold the same number of events and steps, and
+that number must be the env's own count of the episode's steps where it reported one
+(``env_steps``: a batched ``lerobot-eval`` must not log frames of an auto-reset episode).
+Journals of episodes whose commit is pending must be data this version wrote.
 ``recover`` salvages the MCAP and Rerun files of episodes a crash interrupted: an MCAP cut short
 is rewritten, record by record up to the cut, into a valid file with its summary. The Rerun
 recording is rebuilt from that episode's MCAP, which is flushed after every step, so it loses at
@@ -16,9 +19,11 @@ import subprocess
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from lerobot_policy_recent.logs import journal
 from lerobot_policy_recent.logs.layout import LogLayout, episode_number
 from lerobot_policy_recent.logs.readers import dataset_lengths, read_mcap, read_rrd, read_table, salvage_mcap_records
-from lerobot_policy_recent.logs.replay import replay_mcap, rerun_executable
+from lerobot_policy_recent.logs.replay import replay_mcap
+from lerobot_policy_recent.logs.rerun_sink import rerun_executable
 
 
 @dataclass
@@ -64,6 +69,17 @@ def verify(root: str | Path) -> VerifyReport:
             report.recovered.append(f"{path.name}: recovered as {salvaged}")
         else:
             report.problems.append(f"{path}: episode never finished (`--recover` salvages it)")
+    for path in journal.journals(layout.pending_dir):
+        try:
+            journal.load(path)  # data only: reading it runs nothing
+        except journal.JournalError as exc:
+            report.problems.append(str(exc))
+        else:
+            report.recovered.append(
+                f"{path.name}: ended, its commit pending (the next run into {layout.root} commits it)"
+            )
+    if not report.episodes and not report.problems and not report.recovered:
+        report.problems.append(f"{layout.root} holds no logged episode (a log directory has results/, mcap/ or rerun/)")
     return report
 
 
@@ -103,7 +119,14 @@ def _check_episode(layout: LogLayout, episode: int, lengths: dict[int, int]) -> 
         except Exception as exc:  # noqa: BLE001
             check.problems.append(f"{name}: unreadable ({type(exc).__name__}: {exc})")
     if "results" in contents:
-        check.steps["results"] = int(contents["results"][0]["num_frames"])
+        row = contents["results"][0]
+        check.steps["results"] = int(row["num_frames"])
+        env_steps = row.get("env_steps")
+        if env_steps is not None and int(env_steps) != check.steps["results"]:
+            check.problems.append(
+                f"the env ended this episode after {int(env_steps)} steps, but {check.steps['results']} frames were "
+                "logged (frames of another episode, or missing ones)"
+            )
     if "events" in contents:
         check.events["events"] = len(contents["events"])
     if "mcap" in contents:
@@ -162,15 +185,14 @@ def partner_mcap(layout: LogLayout, rrd: Path) -> Path | None:
 
 def recover_mcap(source: Path, target: Path) -> int:
     """Copy every intact schema, channel and message into a new, finished MCAP; returns the messages kept."""
-    from mcap.writer import Writer
+    from lerobot_policy_recent.logs.mcap_sink import open_writer
 
     records = salvage_mcap_records(source)
     kinds = {"Schema": [], "Channel": [], "Message": []}
     for record in records:
         kinds.get(type(record).__name__, []).append(record)
     with open(target, "wb") as stream:
-        writer = Writer(stream, use_chunking=False)
-        writer.start(profile="", library="lerobot_policy_recent (recovered)")
+        writer = open_writer(stream, library="lerobot_policy_recent (recovered)")
         # a file cut short while its summary was written repeats schemas and channels there: each once
         schemas = {s.id: s for s in kinds["Schema"]}.values()
         channels = {c.id: c for c in kinds["Channel"]}.values()

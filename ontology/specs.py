@@ -13,6 +13,16 @@ from lerobot_policy_recent.robosuite_envs.primitives.frames import ARM_BASE, LEN
 _LOADER = getattr(yaml, "CSafeLoader", yaml.SafeLoader)  # libyaml when available: 10x faster
 PATH_CAPABILITY, PATH_ROLE = "cartesian_motion", "motion_target"  # a move to a point, and that point
 PARAM_TYPES = ("position", "quaternion", "rotvec", "euler", "pose", "float", "int", "str", "bool", "object_name")
+# what a parameter is for: the ontology pairs a source call's argument with the target's parameter of the same
+# role, so a role outside this vocabulary would match nothing (a typo silently changes the grounding)
+PARAMETER_ROLES = frozenset(
+    {
+        "grasp_target", "grasp_object_name", "release_target", "release_receptacle", "motion_target",
+        "motion_offset", "motion_axis", "approach_direction", "approach_object_name", "handle_target",
+        "push_start", "push_goal", "target_orientation", "yaw_angle", "opening_fraction", "closing_fraction",
+        "actuation_speed", "duration_steps", "timeout",
+    }
+)  # fmt: skip
 # what the vectors of a controller mean (ontology/conversions.py renders between them): lengths in
 # m, cm or mm; an axis-angle rotation vector in rad; Euler angles in deg or rad about a named axis
 # sequence (scipy's: "ZYX" intrinsic, "xyz" extrinsic); a pose is URScript's [x, y, z, rx, ry, rz]
@@ -377,10 +387,17 @@ def _parse_parameter(raw: Any, path: Path, where: str) -> ParameterSpec:
         raise SpecError(
             path, f"{where}.sequence", f"three axes, all upper or all lower case, no two in a row, got {sequence!r}"
         )
+    role = _require(raw, "role", str, path, f"{where} ({name})")
+    if role not in PARAMETER_ROLES:
+        raise SpecError(
+            path,
+            f"{where}.role",
+            f"unknown role {role!r} of {name!r}; known roles: {', '.join(sorted(PARAMETER_ROLES))}",
+        )
     return ParameterSpec(
         name=name,
         type=ptype,
-        role=_require(raw, "role", str, path, f"{where} ({name})"),
+        role=role,
         required=required,
         default=raw.get("default"),
         unit=unit,

@@ -11,6 +11,7 @@ import json
 import logging
 import time
 import zlib
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from itertools import takewhile
 from pathlib import Path
@@ -197,9 +198,16 @@ class RecentAgent:
         return self._lm_key
 
     def start_episode(
-        self, task_id: str, robot: str, first_obs: Observation, emit: Emit = ignore, seed: int | None = None
+        self,
+        task_id: str,
+        robot: str,
+        first_obs: Observation,
+        emit: Emit = ignore,
+        seed: int | None = None,
+        on_grounded: Callable[[str], None] | None = None,
     ) -> tuple[TaskExecutor, EpisodeGrounding]:
-        """Ground the task's skills (the events of grounding go to ``emit`` once IGT is measured)."""
+        """Ground the task's skills (the events of grounding go to ``emit`` once IGT is measured;
+        ``on_grounded(skill)`` hears each skill as it is done, for a progress display)."""
         target = self.ontology.target(robot)  # resolved once: grounding, adaptation and execution share it
         target.primitives()  # a robot whose YAML and module disagree stops here, before anything is grounded
         started = time.perf_counter()
@@ -209,6 +217,8 @@ class RecentAgent:
         plan, cached = [], []
         for step in task.plan:
             grounded, hit = self.ground(step.skill, target, task, budget, seed)
+            if on_grounded is not None:
+                on_grounded(step.skill)
             cached.append(hit)
             report.skills.append(grounded)
             plan.append(PlannedSkill(grounded, dict(step.args)))
@@ -223,6 +233,7 @@ class RecentAgent:
             target,
             first_obs,
             max_steps=self.settings.max_skill_steps,
+            budget=self.settings.skill_budget,
             adapter=self.adapter(task, target, emit, budget, seed),
             emit=emit,
             calibration=calibration(robot),  # measured once per embodiment and machine, then read from the cache

@@ -37,6 +37,7 @@ class EpisodeResult:
     runtime_calls: list[LMCall] = field(default_factory=list)  # revise (in-situ) and repair calls
     adaptations: list[AdaptationEvent] = field(default_factory=list)
     unmet: str = ""  # the first subtask the env did not count as achieved, with its objects as observed at the end
+    env_steps: int | None = None  # the env's own count of the episode's steps (None: it reported none)
 
     @property
     def generated_tokens(self) -> int:
@@ -184,6 +185,7 @@ class EpisodeResult:
             "failed_segments": dict(Counter(str(f.category) for f in self.failures)),
             "backend": first.backend if first else "",
             "model": first.model if first else "",
+            "env_steps": self.env_steps,
         }
 
     def ended_event(self) -> EpisodeEnded:
@@ -247,8 +249,8 @@ def _run(
     if recorder is not None:
         started_event = agent.started_event(task_id, robot, seed, ",".join(env.episode_variations))
         episode = recorder.start_episode(started_event)
-    bar = _bar(env._max_episode_steps, progress, f"{task_id} on {robot}")
     success, steps, settled, info, done, held = False, 0, 0, {}, 0, ()
+    bar = _bar(len(env.spec_task.plan), progress, f"grounding {task_id} for {robot}", unit="skill")
     try:
         executor, grounding = agent.start_episode(
             task_id,
@@ -256,7 +258,10 @@ def _run(
             Observation.decode(raw["agent_pos"], raw["environment_state"], names),
             emit=episode.emit if episode else ignore,
             seed=seed,
+            on_grounded=lambda _skill: bar.update(1),
         )
+        bar.close()  # grounding is its own phase: the step bar (and its ETA) starts with the first action
+        bar = _bar(env._max_episode_steps, progress, f"{task_id} on {robot}")
         while True:
             action = executor.act(Observation.decode(raw["agent_pos"], raw["environment_state"], names))
             if episode is not None:
@@ -284,6 +289,7 @@ def _run(
     result = episode_result(
         executor, grounding, seed, success, float(info.get("gc", 0.0)), steps, time.perf_counter() - started
     )
+    result.env_steps = steps
     if not success:
         final = Observation.decode(raw["agent_pos"], raw["environment_state"], names)
         result.unmet = unmet_subtask(
@@ -363,7 +369,7 @@ def episode_result(
     )
 
 
-def _bar(total: int, enabled: bool, desc: str):
+def _bar(total: int, enabled: bool, desc: str, unit: str = "step"):
     from tqdm import tqdm
 
-    return tqdm(total=total, desc=desc, unit="step", disable=not enabled, leave=False)
+    return tqdm(total=total, desc=desc, unit=unit, disable=not enabled, leave=False)

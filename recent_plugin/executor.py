@@ -6,7 +6,9 @@ generator in which every primitive call becomes ``yield from primitive(...)``. L
 segment that has not started yet can still be swapped (in-situ patching) without touching the
 ones that ran. Only code that passed the security gate is ever compiled here; a wrong name or
 keyword in it fails when it is reached, with Python's own error, categorised in the paper's
-taxonomy (:func:`runtime_category`).
+taxonomy (:func:`runtime_category`). Every segment runs instrumented under the skill's
+:class:`~lerobot_policy_recent.recent_plugin.sandbox.SkillBudget`: code that runs too long
+without an action, or builds too much, is stopped as ``budget_exceeded``, whoever wrote it.
 """
 
 from __future__ import annotations
@@ -31,6 +33,7 @@ from lerobot_policy_recent.ontology.target import Target
 from lerobot_policy_recent.recent_plugin.failures import PRIMITIVE_FAILURE_CATEGORY, FailureCategory
 from lerobot_policy_recent.recent_plugin.grounding.gate import SAFE_HELPERS
 from lerobot_policy_recent.recent_plugin.grounding.grounder import GroundedSkill
+from lerobot_policy_recent.recent_plugin.sandbox import BudgetExceeded, Meter, SkillBudget, instrument
 from lerobot_policy_recent.robosuite_envs.calibration import Calibration, Nominal
 from lerobot_policy_recent.robosuite_envs.observation import Observation
 from lerobot_policy_recent.robosuite_envs.primitives import (
@@ -43,6 +46,7 @@ from lerobot_policy_recent.robosuite_envs.primitives import (
 from lerobot_policy_recent.robosuite_envs.primitives.control import servo_action
 from lerobot_policy_recent.robosuite_envs.primitives.frames import SKILL_HELPERS, frames_for
 
+DEFAULT_BUDGET = SkillBudget()
 _SAFE_BUILTINS = {name: SKILL_HELPERS.get(name) or getattr(builtins, name) for name in SAFE_HELPERS}
 
 
@@ -125,6 +129,7 @@ class SkillExecutor:
         session: RobotSession,
         *,
         max_steps: int = 3000,
+        budget: SkillBudget = DEFAULT_BUDGET,
         adapter: Adapter | None = None,
         emit: Emit = ignore,
     ):
@@ -145,8 +150,10 @@ class SkillExecutor:
         if adapter is not None:
             adapter.guard(grounded, self.segments)
         self.max_steps = max_steps
+        self.meter = Meter(budget)
         self.namespace: dict[str, object] = {
-            "__builtins__": _SAFE_BUILTINS,
+            "__builtins__": self.meter.builtins(_SAFE_BUILTINS),
+            **self.meter.names(),
             **primitives,
             "env": session,
             "task": TaskContext(session),
@@ -215,7 +222,7 @@ class SkillExecutor:
     def _compile(self, segment: Segment) -> Generator:
         template = ast.parse("def _recent_segment():\n    if False:\n        yield\n")
         fn = template.body[0]
-        stmt = _YieldFromPrimitives(set(self.primitives)).visit(copy.deepcopy(segment.node))
+        stmt = instrument(_YieldFromPrimitives(set(self.primitives)).visit(copy.deepcopy(segment.node)))
         assigned = sorted({n.id for n in ast.walk(stmt) if isinstance(n, ast.Name) and isinstance(n.ctx, ast.Store)})
         fn.body = ([ast.Global(names=assigned)] if assigned else []) + [stmt] + fn.body
         ast.fix_missing_locations(template)
@@ -225,6 +232,7 @@ class SkillExecutor:
 
     def step(self) -> np.ndarray | None:
         """Advance by one action; segments without primitive calls complete within the same step."""
+        self.meter.new_step()
         while self.failure is None and self.cursor < len(self.segments):
             if self.steps >= self.max_steps:
                 self._fail(FailureCategory.TIMEOUT, f"skill exceeded {self.max_steps} control steps", repairable=False)
@@ -238,7 +246,11 @@ class SkillExecutor:
                     self._running = self._compile(self.segments[self.cursor])
                     self._segment_start = self.steps
                     self.emit(SegmentStarted(self.grounded.skill, self.cursor, self.segments[self.cursor].source))
-                action = next(self._running)
+                self.meter.enter()
+                try:
+                    action = next(self._running)
+                finally:
+                    self.meter.leave()
                 self.steps += 1
                 return action
             except StopIteration:
@@ -249,6 +261,10 @@ class SkillExecutor:
                 self.cursor += 1
             except PrimitiveFailure as exc:
                 self._fail(PRIMITIVE_FAILURE_CATEGORY[exc.kind], str(exc))
+            except BudgetExceeded as exc:
+                self._fail(exc.category, str(exc))
+            except MemoryError:
+                self._fail(FailureCategory.BUDGET_EXCEEDED, "MemoryError: the skill ran out of memory")
             except Exception as exc:  # noqa: BLE001 - any error in skill code fails the skill, not the episode
                 self._fail(runtime_category(exc), f"{type(exc).__name__}: {exc}")
         return None
@@ -259,6 +275,7 @@ class SkillExecutor:
         self._running = None
         self.emit(SegmentFailed(failure.skill, failure.segment, failure.line, str(category), message))
         if repairable and self.adapter is not None and self.adapter.repair(self, failure):
+            self.meter.created = 0  # the repair starts afresh: at most max_repairs + 1 budgets per skill
             return  # the failed segment was replaced by a repair; it runs again from the current state
         self.failure = failure
 
@@ -300,6 +317,7 @@ class TaskExecutor:
         first_obs: Observation,
         *,
         max_steps: int = 3000,
+        budget: SkillBudget = DEFAULT_BUDGET,
         adapter: Adapter | None = None,
         emit: Emit = ignore,
         calibration: Calibration | None = None,
@@ -313,6 +331,7 @@ class TaskExecutor:
         self.plan = plan
         self.primitives: dict[str, Callable[..., Generator]] = target.primitives()  # type: ignore[assignment]
         self.max_steps = max_steps
+        self.budget = budget
         self.index = 0
         self.current: SkillExecutor | None = None
         self.failures: list[SkillFailure] = []
@@ -333,6 +352,7 @@ class TaskExecutor:
                     self.primitives,
                     self.session,
                     max_steps=self.max_steps,
+                    budget=self.budget,
                     adapter=self.adapter,
                     emit=self.emit,
                 )

@@ -16,6 +16,7 @@ class FailureCategory(StrEnum):
     UNREACHABLE_OBJECT = "unreachable_object"  # object not reachable / not found
     GRASP_LOST = "grasp_lost"
     TIMEOUT = "timeout"
+    BUDGET_EXCEEDED = "budget_exceeded"  # skill code stopped by the executor: too long without an action, or too big
     CANNOT_TRACK = "cannot_track"  # calibration, not grounding: the arm stopped short of a goal it was sent to
     SUBTASK_FAILED = "subtask_failed"  # ran to the end, success predicate false
     CRASH = "crash"  # not the method's failure: the run broke off (the LM worker died, an error); no verdict

@@ -3,11 +3,15 @@
 At the first step of an episode it grounds the task's skills for the env's robot (cached across
 episodes) and then returns one action per ``select_action`` from a per-batch-element executor.
 Each batch element's episode is logged (``log_dir``): grounding events, every observation and
-action, and at ``reset()`` its result.
+action, and its result, at the step where its env says the episode ended (the task tag's
+``end=N``) or at ``reset()``. In a batched ``lerobot-eval`` an env that ended is auto-reset while
+the others go on; LeRobot counts nothing after its end, so the policy logs nothing after it either
+and answers that element with a zero action (one the env discards or LeRobot ignores).
 """
 
 from __future__ import annotations
 
+import logging
 import threading
 import time
 from dataclasses import dataclass
@@ -23,10 +27,12 @@ from lerobot_policy_recent.recent_plugin.agent import EpisodeGrounding, RecentAg
 from lerobot_policy_recent.recent_plugin.configuration_recent import RecentConfig
 from lerobot_policy_recent.recent_plugin.episode import crashed_event, episode_result
 from lerobot_policy_recent.recent_plugin.executor import TaskExecutor
-from lerobot_policy_recent.robosuite_envs.observation import Observation
+from lerobot_policy_recent.robosuite_envs.observation import ACTION_DIM, Observation
 from lerobot_policy_recent.robosuite_envs.suites import get_task
 from lerobot_policy_recent.robosuite_envs.tasks import parse_task_string
-from lerobot_policy_recent.robosuite_envs.verdicts import take_verdict
+from lerobot_policy_recent.robosuite_envs.verdicts import Verdict, take_verdict
+
+log = logging.getLogger(__name__)
 
 
 @dataclass
@@ -40,6 +46,8 @@ class _Episode:
     seed: int  # the env's episode seed, from the task string's tag (-1 when the env had none)
     task_id: str
     robot: str
+    over: bool = False  # its result is logged
+    env_episode: int | None = None  # the env's episode count when it started (the task tag's ep=)
 
 
 class RecentPolicy(PreTrainedPolicy):
@@ -52,8 +60,10 @@ class RecentPolicy(PreTrainedPolicy):
         self.config = config
         self.agent = RecentAgent(config.agent_settings())
         self._episodes: list[_Episode | None] = []
+        self._ended: set[int] = set()  # batch elements whose env's episode ended since the last reset()
         self.groundings: list[EpisodeGrounding] = []
         self.recorder: Recorder | None = None
+        self._warned_verdicts = False
         if config.log_dir:
             self.recorder = Recorder(config.log_dir, [s.strip() for s in config.log_sinks.split(",") if s.strip()])
             # lerobot-eval never resets after the last episode: commit it when the program ends, while
@@ -77,26 +87,48 @@ class RecentPolicy(PreTrainedPolicy):
     def reset(self):
         """End every batch element's episode (its result goes to the logs) before the next begins."""
         for episode in self._episodes:
-            if episode is not None and episode.log is not None:
-                success, gc = self._verdict(episode)
-                result = episode_result(
-                    episode.executor,
-                    episode.grounding,
-                    episode.seed,
-                    success,
-                    gc,
-                    episode.log.frame_index,
-                    time.perf_counter() - episode.started,
-                )
-                episode.log.end(result.ended_event())
-        self._episodes = []
+            if episode is not None:
+                self._end(episode)
+        self._episodes, self._ended = [], set()
 
-    def _verdict(self, episode: _Episode) -> tuple[bool | None, float | None]:
-        """The env's success and GC for the ended episode, where it wrote them (``--env.verdict_dir``,
-        the same directory as ``--policy.log_dir``); the logs only, never the policy's decisions."""
+    def _end(self, episode: _Episode) -> None:
+        """Write the episode's result to its log (once), with the env's verdict where it wrote one."""
+        if episode.over:
+            return
+        episode.over = True
+        if episode.log is None:
+            return
+        verdict = self._verdict(episode)
+        result = episode_result(
+            episode.executor,
+            episode.grounding,
+            episode.seed,
+            verdict.success if verdict else None,
+            verdict.gc if verdict else None,
+            episode.log.frame_index,
+            time.perf_counter() - episode.started,
+        )
+        result.env_steps = verdict.steps if verdict else None
+        episode.log.end(result.ended_event())
+
+    def _verdict(self, episode: _Episode) -> Verdict | None:
+        """The env's verdict on the ended episode, where it wrote one (``--env.verdict_dir``, the same
+        directory as ``--policy.log_dir``); the logs only, never the policy's decisions."""
         if not self.config.log_dir or episode.seed < 0:
-            return None, None
-        return take_verdict(self.config.log_dir, episode.task_id, episode.robot, episode.seed)
+            return None
+        verdict = take_verdict(self.config.log_dir, episode.task_id, episode.robot, episode.seed)
+        if verdict is None and not self._warned_verdicts:
+            self._warned_verdicts = True
+            log.warning(
+                "no verdict from the env for %s on %s (seed %d) in %s/verdicts: the logs record success and GC "
+                "as unknown; pass --env.verdict_dir=%s (the same directory as --policy.log_dir)",
+                episode.task_id,
+                episode.robot,
+                episode.seed,
+                self.config.log_dir,
+                self.config.log_dir,
+            )
+        return verdict
 
     def forward(self, batch: dict[str, torch.Tensor]):
         raise NotImplementedError("RECENT grounds skill code at deployment time; it has nothing to train")
@@ -113,14 +145,24 @@ class RecentPolicy(PreTrainedPolicy):
         if isinstance(tasks, str):
             tasks = [tasks]
         if len(self._episodes) != len(states):
-            self._episodes = [None] * len(states)
+            self._episodes, self._ended = [None] * len(states), set()
         actions = []
         for b, (state, env_state, text) in enumerate(zip(states, env_states, tasks, strict=True)):
-            task_id, robot, seed = parse_task_string(text)
-            obs = Observation.decode(state, env_state, get_task(task_id).object_names())
-            if self._episodes[b] is None:
-                self._episodes[b] = self._start(task_id, robot, seed, obs)
+            task_id, robot, seed, ended_at, env_episode = parse_task_string(text)
             episode = self._episodes[b]
+            if ended_at is not None or (episode is not None and env_episode != episode.env_episode):
+                # its env ended at the last step (or was reset since: an auto-reset episode, which LeRobot does not
+                # count): the result goes to the logs now, and nothing more of this element until reset()
+                self._ended.add(b)
+                if episode is not None:
+                    self._end(episode)
+            if b in self._ended:
+                actions.append(np.zeros(ACTION_DIM, dtype=np.float32))  # discarded by the env, ignored by LeRobot
+                continue
+            obs = Observation.decode(state, env_state, get_task(task_id).object_names())
+            if episode is None:
+                episode = self._episodes[b] = self._start(task_id, robot, seed, obs)
+                episode.env_episode = env_episode
             try:
                 action = episode.executor.act(obs)
             except Exception as exc:  # the LM worker died, a bug: the log says so, and lerobot-eval sees the error

@@ -17,6 +17,7 @@ import draccus
 from lerobot_policy_recent.recent_plugin.infillers.configs import InfillerConfig, LlamaCppConfig
 from lerobot_policy_recent.recent_plugin.methods import Method
 from lerobot_policy_recent.recent_plugin.methods.recent import Recent
+from lerobot_policy_recent.recent_plugin.sandbox import SkillBudget
 
 
 @dataclass
@@ -35,12 +36,15 @@ class RecentSettings:
     # pass@1 temperature); 0: greedy, as the runs before 2026-11-26 were
     temperature: float = 0.2
     max_skill_steps: int = 3000  # control steps a skill may take before it is stopped
+    skill_budget: SkillBudget = field(default_factory=SkillBudget)  # Python time and memory a skill's code may use
     skill_library: str | None = None  # a directory of skills (+ validation/); None: the bundled Panda skills
 
     def __post_init__(self):
-        for name in ("max_retries", "max_repairs", "max_lm_calls", "max_skill_steps", "temperature"):
+        for name in ("max_retries", "max_repairs", "max_lm_calls", "temperature"):
             if getattr(self, name) < 0:
-                raise ValueError(f"{name} must be >= 0, got {getattr(self, name)}")
+                raise ValueError(f"--{name} must be >= 0, got {getattr(self, name)}")
+        if self.max_skill_steps < 1:
+            raise ValueError(f"--max_skill_steps must be >= 1, got {self.max_skill_steps}")
 
     def to_dict(self) -> dict:
         """The resolved tree as plain data (what a run records)."""

@@ -44,7 +44,9 @@ class RecentEnv(gym.Env):
         super().__init__()
         self.verdict_dir = verdict_dir
         self._seed: int | None = None
-        self._judged = False  # this episode's verdict is written
+        self._last_seed: int | None = None
+        self._resets = 0  # the episode count the task tag shows
+        self._judged = False  # this episode ended (its end is in the task tag, its verdict written)
         self.spec_task = get_task(task)
         if len(self.spec_task.objects) > MAX_OBJECTS:
             raise ValueError(
@@ -106,8 +108,9 @@ class RecentEnv(gym.Env):
             self._env = self._make(seed, variations)
         if seed is not None:
             self._env.rng = np.random.default_rng(seed)
-            self.task_description = self.task = task_string(self.spec_task, self.embodiment.name, seed)
         self._seed, self._judged = seed, False
+        self._resets += 1
+        self._tag(ended_at=None)
         self._env.reset()
         self._steps = 0
         return self._observation(), self._info()
@@ -124,17 +127,29 @@ class RecentEnv(gym.Env):
         self._steps += 1
         info = self._info()
         truncated = self._steps >= self._max_episode_steps
-        if (info["is_success"] or truncated) and self.verdict_dir and self._seed is not None and not self._judged:
+        if (info["is_success"] or truncated) and not self._judged:
             self._judged = True  # success is latched: the first verdict is the episode's
-            write_verdict(
-                self.verdict_dir,
-                self.spec_task.task_id,
-                self.embodiment.name,
-                self._seed,
-                info["is_success"],
-                info["gc"],
-            )
+            self._tag(ended_at=self._steps)
+            if self.verdict_dir and self._seed is not None:
+                write_verdict(
+                    self.verdict_dir,
+                    self.spec_task.task_id,
+                    self.embodiment.name,
+                    self._seed,
+                    info["is_success"],
+                    info["gc"],
+                    self._steps,
+                )
         return self._observation(), info["gc"], info["is_success"], truncated, info
+
+    def _tag(self, *, ended_at: int | None) -> None:
+        """The task string LeRobot reads each step: the task, robot, the last seed, the episode's count and
+        where it ended (:func:`~lerobot_policy_recent.robosuite_envs.tasks.parse_task_string`)."""
+        seed = self._seed if self._seed is not None else self._last_seed
+        self._last_seed = seed  # an unseeded (auto-)reset keeps the seed the tag showed
+        self.task_description = self.task = task_string(
+            self.spec_task, self.embodiment.name, seed, ended_at, self._resets
+        )
 
     def _info(self) -> dict:
         """``is_success``: every plan step achieved; ``gc``: the fraction achieved (goal-conditioned);

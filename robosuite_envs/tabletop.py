@@ -425,6 +425,28 @@ def exclude_mount_contacts(robot_model) -> None:
         visit(top, not moves(top))
 
 
+def check_robosuite_names(embodiment) -> None:
+    """The embodiment's robot and gripper classes exist in robosuite (and ours): else one line naming
+    the robot file's field, instead of robosuite's bare assertion deep in model loading."""
+    from robosuite.models.grippers import GRIPPER_MAPPING
+    from robosuite.robots import ROBOT_CLASS_MAPPING
+
+    where = (
+        f"{embodiment.spec_dir}/{embodiment.api}.yaml: robot."
+        if embodiment.spec_dir
+        else f"embodiment {embodiment.name}: "
+    )
+    for field, value, known in (
+        ("robosuite", embodiment.robot, ROBOT_CLASS_MAPPING),
+        ("gripper", embodiment.gripper, GRIPPER_MAPPING),
+    ):
+        if value not in known:
+            raise ValueError(
+                f"{where}{field}: unknown robosuite {field if field == 'gripper' else 'robot'} class {value!r}; "
+                f"known: {', '.join(sorted(k for k in known if k))}"
+            )
+
+
 def build_env(
     task: TaskSpec, embodiment, *, seed: int | None, variations: tuple[str, ...] = (), offscreen: bool = False
 ) -> RecentTabletopEnv:
@@ -432,6 +454,7 @@ def build_env(
     under operational-space control at ``CONTROL_FREQ``, never ending on its own."""
     from robosuite.controllers import load_composite_controller_config
 
+    check_robosuite_names(embodiment)
     return RecentTabletopEnv(
         task,
         variations=variations,

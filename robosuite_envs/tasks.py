@@ -69,17 +69,31 @@ class TaskSpec:
 
 # The task id, robot and episode seed travel to the policy inside LeRobot's `task` string (the one
 # channel from a vectorised env to the policy); the logs keep the plain instruction.
-_TAG_RE = re.compile(r"\[recent task=(?P<task>\S+) robot=(?P<robot>\S+)(?: seed=(?P<seed>-?\d+))?\]")
+_TAG_RE = re.compile(
+    r"\[recent task=(?P<task>\S+) robot=(?P<robot>\S+)(?: seed=(?P<seed>-?\d+))?(?: ep=(?P<ep>\d+))?(?: end=(?P<end>\d+))?\]"
+)
 
 
 class TaskTag(NamedTuple):
     task_id: str
     robot: str
     seed: int | None  # the env's episode seed (None before its first seeded reset)
+    # the env's episode ended after this many steps (terminated or truncated): in a vectorised
+    # lerobot-eval the env is auto-reset at its next step, and what follows is not this episode
+    ended_at: int | None = None
+    # the env's count of its resets: a new count is a new episode, also one auto-reset within the same
+    # step as the last one's end (LeRobot's SAME_STEP autoreset), which LeRobot does not count either
+    episode: int | None = None
 
 
-def task_string(task: TaskSpec, robot: str, seed: int | None = None) -> str:
-    tail = f" seed={seed}" if seed is not None else ""
+def task_string(
+    task: TaskSpec, robot: str, seed: int | None = None, ended_at: int | None = None, episode: int | None = None
+) -> str:
+    tail = (
+        (f" seed={seed}" if seed is not None else "")
+        + (f" ep={episode}" if episode is not None else "")
+        + (f" end={ended_at}" if ended_at is not None else "")
+    )
     return f"{task.instruction} [recent task={task.task_id} robot={robot}{tail}]"
 
 
@@ -89,4 +103,11 @@ def parse_task_string(text: str) -> TaskTag:
     if match is None:
         raise ValueError(f"task string {text!r} carries no '[recent task=... robot=...]' tag; is the env 'recent'?")
     seed = match.group("seed")
-    return TaskTag(match.group("task"), match.group("robot"), int(seed) if seed is not None else None)
+    end, episode = match.group("end"), match.group("ep")
+    return TaskTag(
+        match.group("task"),
+        match.group("robot"),
+        int(seed) if seed is not None else None,
+        int(end) if end is not None else None,
+        int(episode) if episode is not None else None,
+    )

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import os
+from dataclasses import dataclass
 from pathlib import Path
 
 
@@ -17,22 +18,32 @@ def verdict_path(log_dir: str | Path, task_id: str, robot: str, seed: int) -> Pa
     return Path(log_dir) / "verdicts" / f"{task_id.replace('/', '__')}__{robot}__s{seed}.json"
 
 
-def write_verdict(log_dir: str | Path, task_id: str, robot: str, seed: int, success: bool, gc: float) -> Path:
+@dataclass(frozen=True)
+class Verdict:
+    success: bool
+    gc: float
+    steps: int | None  # the env's own count of the episode's steps (the logs must hold as many frames)
+
+
+def write_verdict(
+    log_dir: str | Path, task_id: str, robot: str, seed: int, success: bool, gc: float, steps: int
+) -> Path:
     """Written whole or not at all (write, then rename)."""
     path = verdict_path(log_dir, task_id, robot, seed)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_suffix(".tmp")
-    tmp.write_text(json.dumps({"success": bool(success), "gc": float(gc)}))
+    tmp.write_text(json.dumps({"success": bool(success), "gc": float(gc), "steps": int(steps)}))
     os.replace(tmp, path)
     return path
 
 
-def take_verdict(log_dir: str | Path, task_id: str, robot: str, seed: int) -> tuple[bool | None, float | None]:
-    """``(success, gc)`` of that episode, removing its file; ``(None, None)`` where the env wrote none."""
+def take_verdict(log_dir: str | Path, task_id: str, robot: str, seed: int) -> Verdict | None:
+    """That episode's verdict, removing its file; None where the env wrote none (or not one of ours)."""
     path = verdict_path(log_dir, task_id, robot, seed)
     try:
-        verdict = json.loads(path.read_text())
-    except (OSError, ValueError):
-        return None, None
+        data = json.loads(path.read_text())
+        verdict = Verdict(bool(data["success"]), float(data["gc"]), int(data["steps"]) if "steps" in data else None)
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
     path.unlink(missing_ok=True)
-    return bool(verdict["success"]), float(verdict["gc"])
+    return verdict

@@ -50,30 +50,30 @@ def register(sub) -> None:
         "--workers",
         type=int,
         default=0,
-        help="Ray workers, each with its own LM (default: as many as the cluster's CPUs hold at --cpus-per-worker). "
+        help="Ray workers, each with its own LM (default: as many as the cluster's CPUs hold at --cpus_per_worker). "
         "Timings such as IT and IGT are the targets' only with 1 worker on 2 threads per 2 cores: workers compete "
         "for a machine's CPU",
     )
     parser.add_argument(
-        "--cpus-per-worker",
+        "--cpus_per_worker",
         type=float,
         default=None,
         help="CPUs a worker reserves, and its LM's threads unless --infiller.n_threads is set "
         "(default: 2, or the cluster's CPUs shared by --workers)",
     )
     parser.add_argument(
-        "--gpus-per-worker",
+        "--gpus_per_worker",
         type=float,
         default=None,
         help="GPUs a worker reserves (default: 1 for --infiller.type=transformers on a cluster with GPUs, else 0)",
     )
     parser.add_argument(
-        "--ray-address",
+        "--ray_address",
         default=None,
         help="an existing Ray cluster, e.g. 10.0.0.5:6379 (default: $RAY_ADDRESS, else a local Ray instance)",
     )
     parser.add_argument(
-        "--retry-crashed",
+        "--retry_crashed",
         action="store_true",
         help="run again the episodes an error broke off (their records say 'crash'); otherwise a rerun skips them",
     )
@@ -84,8 +84,8 @@ def register(sub) -> None:
         help="run only the dev episodes, or only the held-out test ones (test tasks on the paper's seeds; "
         "`recent envs list` marks them); the report shows each split apart either way",
     )
-    parser.add_argument("--no-log", action="store_true", help="no logs (MCAP, Rerun, the run's LeRobotDataset)")
-    parser.add_argument("--log-sinks", default="mcap,rerun,dataset", help="sinks of the run's logs in DIR/logs")
+    parser.add_argument("--no_log", action="store_true", help="no logs (MCAP, Rerun, the run's LeRobotDataset)")
+    parser.add_argument("--log_sinks", default="mcap,rerun,dataset", help="sinks of the run's logs in DIR/logs")
     from lerobot_policy_recent.scripts.common import add_settings_arguments
 
     add_settings_arguments(parser, with_method=False)
@@ -115,12 +115,12 @@ def register(sub) -> None:
         "as ratios (the host's speed). The reference's episodes the re-run lacks are listed, and the two "
         "results.json are compared: another model sha256 or backend is another experiment; another commit or "
         "settings tree is flagged. Exit status: 0 reproduced; 1 an outcome differs or the model differs; "
-        "3 every shared episode is identical but the re-run covers less than --min-coverage of the reference.",
+        "3 every shared episode is identical but the re-run covers less than --min_coverage of the reference.",
     )
     compare.add_argument("reference", help="the run to reproduce, e.g. results/snapshot")
     compare.add_argument("rerun", help="a `recent bench --out` directory re-running some of its episodes")
     compare.add_argument(
-        "--min-coverage",
+        "--min_coverage",
         type=float,
         default=1.0,
         help="fraction of the reference's episodes the re-run must hold to be called reproduced (default: 1.0); "
@@ -240,7 +240,7 @@ def _run(args) -> int:
             )
         print(
             f"{len(broken)} of {len(run.records)} episodes crashed (in no aggregate); "
-            "fix the cause, then rerun the same command with --retry-crashed",
+            "fix the cause, then rerun the same command with --retry_crashed",
             file=sys.stderr,
         )
         return 1
@@ -290,10 +290,10 @@ def command_line(config) -> str:
     words += [f"--split={config.split}"] if config.split != "all" else []
     words += settings_flags(run_settings(config))
     words += [f"--workers={config.workers}"] if config.workers else []
-    words += [f"--cpus-per-worker={config.cpus_per_worker:g}"] if config.cpus_per_worker is not None else []
-    words += [f"--gpus-per-worker={config.gpus_per_worker:g}"] if config.gpus_per_worker is not None else []
+    words += [f"--cpus_per_worker={config.cpus_per_worker:g}"] if config.cpus_per_worker is not None else []
+    words += [f"--gpus_per_worker={config.gpus_per_worker:g}"] if config.gpus_per_worker is not None else []
     words += [f"--out={config.out}"]
-    words += [f"--log-sinks={','.join(config.log_sinks)}"] if config.log_sinks else ["--no-log"]
+    words += [f"--log_sinks={','.join(config.log_sinks)}"] if config.log_sinks else ["--no_log"]
     return shlex.join(words)
 
 
@@ -334,7 +334,7 @@ def _compare(args) -> int:
     from lerobot_policy_recent.recent_plugin.evaluation.compare import compare_dirs
 
     if not 0.0 < args.min_coverage <= 1.0:
-        raise ValueError(f"--min-coverage must be in (0, 1], got {args.min_coverage}")
+        raise ValueError(f"--min_coverage must be in (0, 1], got {args.min_coverage}")
     run, text = compare_dirs(Path(args.reference), Path(args.rerun), args.min_coverage)
     print(text)
     return {"reproduced": 0, "partial": 3}.get(run.verdict, 1)

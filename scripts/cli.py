@@ -52,13 +52,30 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def underscored(argv: list[str]) -> list[str]:
+    """Options spelled with dashes, as underscores: ``--log_dir=x`` is ``--log_dir=x``.
+
+    The ``recent`` options follow LeRobot's spelling (``--policy.max_skill_steps``, ``--output_dir``);
+    the dashed one is accepted as an alias. Values, and everything after ``--``, are left alone.
+    """
+    out = []
+    for i, word in enumerate(argv):
+        if word == "--":
+            return out + argv[i:]
+        if word.startswith("--"):
+            flag, eq, value = word.partition("=")
+            word = "--" + flag[2:].replace("-", "_") + eq + value
+        out.append(word)
+    return out
+
+
 def main(argv: list[str] | None = None) -> int:
     try:
         parser = build_parser()
     except ValueError as exc:  # a robot file on RECENT_ROBOTS that cannot load, named with its field
         print(f"recent: error: {exc}", file=sys.stderr)
         return 2
-    args = parser.parse_args(argv)
+    args = parser.parse_args(underscored(sys.argv[1:] if argv is None else list(argv)))
     logging.basicConfig(
         level=logging.DEBUG if args.verbose else logging.WARNING, format="%(levelname)s %(name)s: %(message)s"
     )

@@ -69,6 +69,22 @@ def _doc(cls: type, name: str) -> str:
     return ""
 
 
+def at_least(low: int):
+    """An argparse type: an integer >= ``low`` (argparse names the option and the value when it is not)."""
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+        if value < low:
+            raise argparse.ArgumentTypeError(f"{value} is below {low}: it must be an integer >= {low}")
+        return value
+
+    parse.__name__ = f"integer >= {low}"
+    return parse
+
+
 def add_settings_arguments(parser: argparse.ArgumentParser, *, with_method: bool = True) -> None:
     """The tree's options (without ``method.*`` where the command takes methods by name: ``recent bench``)."""
     group = parser.add_argument_group("settings (the same tree as lerobot-eval's --policy.*)")

@@ -6,7 +6,7 @@ import json
 import sys
 
 from lerobot_policy_recent.recent_plugin.episode import run_episode
-from lerobot_policy_recent.scripts.common import add_settings_arguments, agent_from_args
+from lerobot_policy_recent.scripts.common import add_settings_arguments, agent_from_args, at_least
 from lerobot_policy_recent.scripts.ground_cmd import grounding_summary, print_grounding
 from lerobot_policy_recent.scripts.logs_cmd import add_log_arguments, recorder_from_args
 
@@ -19,8 +19,8 @@ def register(sub) -> None:
         help="task id, e.g. kinematic/tidy_bench (`recent envs list`; default: cube_in_bin)",
     )
     parser.add_argument("--robot", default="UR5e", help="target embodiment (default: UR5e)")
-    parser.add_argument("--seed", type=int, default=0, help="episode seed (default: 0)")
-    parser.add_argument("--max-steps", type=int, default=None, help="step limit (default: the task's)")
+    parser.add_argument("--seed", type=at_least(0), default=0, help="episode seed, >= 0 (default: 0)")
+    parser.add_argument("--max_steps", type=at_least(1), default=None, help="step limit, >= 1 (default: the task's)")
     parser.add_argument(
         "--variations", default="off", help="off, on (pose perturbation, sensing noise, obstacle), all, or a comma list"
     )

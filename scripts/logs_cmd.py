@@ -14,13 +14,13 @@ DEFAULT_LOG_DIR = "outputs/recent_logs"
 
 
 def add_log_arguments(parser: argparse.ArgumentParser) -> None:
-    """``--log-dir`` / ``--no-log`` / ``--log-sinks`` / ``--camera`` for commands that run episodes."""
+    """``--log_dir`` / ``--no_log`` / ``--log_sinks`` / ``--camera`` for commands that run episodes."""
     group = parser.add_argument_group("logging (MCAP, Rerun, LeRobotDataset)")
     group.add_argument(
-        "--log-dir", default=DEFAULT_LOG_DIR, help=f"where episodes are logged (default: {DEFAULT_LOG_DIR})"
+        "--log_dir", default=DEFAULT_LOG_DIR, help=f"where episodes are logged (default: {DEFAULT_LOG_DIR})"
     )
-    group.add_argument("--no-log", action="store_true", help="log nothing")
-    group.add_argument("--log-sinks", default=",".join(SINKS), help=f"comma list of sinks (default: {','.join(SINKS)})")
+    group.add_argument("--no_log", action="store_true", help="log nothing")
+    group.add_argument("--log_sinks", default=",".join(SINKS), help=f"comma list of sinks (default: {','.join(SINKS)})")
     group.add_argument("--camera", action="store_true", help="also log an 84x84 front camera")
 
 
@@ -60,16 +60,16 @@ def register(sub) -> None:
         default=None,
         help="write the rebuilt .rrd here (from a log directory, default DIR/replay/episode_N.rrd; from an .mcap, required)",
     )
-    replay.add_argument("--no-viewer", action="store_true", help="only write the recording")
+    replay.add_argument("--no_viewer", action="store_true", help="only write the recording")
     replay.set_defaults(handler=_replay)
 
     upload = sub.add_parser("upload", help="push a log directory's datasets to the Hugging Face Hub")
     upload.add_argument("dir", help="a log directory")
-    upload.add_argument("--repo-id", required=True, help="ORG/NAME of the dataset repository")
+    upload.add_argument("--repo_id", required=True, help="ORG/NAME of the dataset repository")
     upload.add_argument("--private", action="store_true", help="create the repository private")
-    upload.add_argument("--with-recordings", action="store_true", help="also upload the MCAP and Rerun files")
+    upload.add_argument("--with_recordings", action="store_true", help="also upload the MCAP and Rerun files")
     upload.add_argument(
-        "--dry-run", action="store_true", help="check everything and list what would be pushed; push nothing"
+        "--dry_run", action="store_true", help="check everything and list what would be pushed; push nothing"
     )
     upload.set_defaults(handler=_upload)
 
@@ -143,8 +143,18 @@ def _replay(args) -> int:
     elif args.episode is not None:
         raise ValueError(f"--episode chooses an episode of a log directory; {path} is one episode's file")
     elif path.suffix == ".mcap" and args.out:
+        from lerobot_policy_recent.logs.readers import read_mcap
+
+        contents = read_mcap(path)
         path = replay_mcap(path, Path(args.out))
         print(f"wrote {path}")
+        if not contents.complete:
+            print(
+                f"warning: {args.path} was cut short (it has no summary or footer: a crash, or a partial copy); "
+                f"the recording holds what was written before the cut, {contents.steps} steps and "
+                f"{len(contents.events)} events, and whatever came after it is lost",
+                file=sys.stderr,
+            )
     elif args.out:
         raise ValueError(
             f"{path} is a Rerun recording already: --out rebuilds one from an episode's MCAP "
@@ -153,7 +163,7 @@ def _replay(args) -> int:
         )
     elif args.no_viewer:
         raise ValueError(
-            f"nothing to do: --no-viewer opens no viewer and no --out was given to write a recording from {path}"
+            f"nothing to do: --no_viewer opens no viewer and no --out was given to write a recording from {path}"
         )
     if not args.no_viewer:
         try:

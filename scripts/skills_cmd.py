@@ -48,9 +48,9 @@ def register(sub) -> None:
         "the answer in the library only if it passes the AST policy and Validate(skill, Panda) on every seed.",
     )
     gen.add_argument("--subtask", required=True, help="a subtask (recent envs list shows them per task)")
-    gen.add_argument("--base-url", required=True, help="e.g. https://api.openai.com or http://localhost:8000")
+    gen.add_argument("--base_url", required=True, help="e.g. https://api.openai.com or http://localhost:8000")
     gen.add_argument("--model", required=True)
-    gen.add_argument("--api-key-env", default="OPENAI_API_KEY", help="environment variable holding the key")
+    gen.add_argument("--api_key_env", default="OPENAI_API_KEY", help="environment variable holding the key")
     gen.add_argument("--library", type=Path, default=LIBRARY, help="where to store the skill (default: bundled)")
     gen.add_argument("--force", action="store_true", help="replace an existing skill of that name")
     gen.set_defaults(handler=_generate)

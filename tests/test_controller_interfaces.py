@@ -116,10 +116,10 @@ def test_a_malformed_unit_frame_or_sequence_names_the_file_and_the_field(tmp_pat
         "    capabilities: []\n    preconditions: []\n    effects: []\n"
     )
     cases = {
-        "name: p, type: position, unit: furlong, role: r, required: true": r"parameters\[0\]\.unit: a position takes",
-        "name: p, type: position, frame: base, role: r, required: true": r"parameters\[0\]\.frame: unknown frame 'base'",
-        "name: a, type: euler, unit: deg, role: r, required: true": r"parameters\[0\]\.sequence: Euler angles",
-        "name: a, type: euler, unit: deg, sequence: ZZX, role: r, required: true": r"\.sequence: three axes",
+        "name: p, type: position, unit: furlong, role: motion_target, required: true": r"parameters\[0\]\.unit: a position takes",
+        "name: p, type: position, frame: base, role: motion_target, required: true": r"parameters\[0\]\.frame: unknown frame 'base'",
+        "name: a, type: euler, unit: deg, role: motion_target, required: true": r"parameters\[0\]\.sequence: Euler angles",
+        "name: a, type: euler, unit: deg, sequence: ZZX, role: motion_target, required: true": r"\.sequence: three axes",
     }
     bad = tmp_path / "bad.yaml"
     for param, message in cases.items():
@@ -128,7 +128,9 @@ def test_a_malformed_unit_frame_or_sequence_names_the_file_and_the_field(tmp_pat
             load_api_spec(bad)
         assert str(bad) in str(err.value)
     bad.write_text(
-        head + "frames:\n  base: {origin: flange}\n" + prim % "name: p, type: position, role: r, required: true"
+        head
+        + "frames:\n  base: {origin: flange}\n"
+        + prim % "name: p, type: position, role: motion_target, required: true"
     )
     with pytest.raises(SpecError, match=r"frames\.base\.origin: must be one of world, arm_base"):
         load_api_spec(bad)
@@ -184,11 +186,11 @@ def test_a_malformed_actuation_step_names_the_file_and_the_field(tmp_path):
 
     spec = (
         "embodiment: X\nmodule: m\nprimitives:\n  - name: grab\n    description: d\n    parameters:\n"
-        "      - {name: p, type: position, role: r, required: true}\n"
+        "      - {name: p, type: position, role: motion_target, required: true}\n"
         "    capabilities: []\n    preconditions: []\n    effects: []\n    path:\n      - %s\n"
     )
     bad = tmp_path / "bad.yaml"
-    bad.write_text(spec % "{effect: end_effector_engaged, role: r}")
+    bad.write_text(spec % "{effect: end_effector_engaged, role: motion_target}")
     with pytest.raises(SpecError, match=r"primitives\[0\] \(grab\)\.path\[0\]: an actuation step has 'effect' alone"):
         load_api_spec(bad)
     bad.write_text(spec % "{effect: hand_waved}")

@@ -35,9 +35,26 @@ def test_observation_layout_and_task_string(env):
     }
     assert parse_task_string(env.task_description)[:2] == ("cube_in_bin", "UR5e")
     env.reset(seed=42)  # each env of a vectorised lerobot-eval tells the policy its own seed
-    assert parse_task_string(env.task_description) == ("cube_in_bin", "UR5e", 42) and env.task == env.task_description
+    assert parse_task_string(env.task_description)[:4] == ("cube_in_bin", "UR5e", 42, None)
+    assert env.task == env.task_description
     cube_present = obs["environment_state"][7]
     assert cube_present == 1.0
+
+
+def test_the_task_tag_says_where_the_episode_ended_until_the_next_reset():
+    """A vectorised lerobot-eval auto-resets an env that ended; its tag tells the policy the episode is over."""
+    env = RecentEnv(task="cube_in_bin", robot="UR5e", render_mode="none", max_episode_steps=3)
+    try:
+        env.reset(seed=7)
+        for _ in range(3):
+            assert parse_task_string(env.task_description).ended_at is None
+            *_, truncated, _ = env.step(np.zeros(7))
+        episode = parse_task_string(env.task_description).episode
+        assert truncated and parse_task_string(env.task_description) == ("cube_in_bin", "UR5e", 7, 3, episode)
+        env.reset()  # an auto-reset: no seed; the tag keeps the last seed, forgets the end, counts a new episode
+        assert parse_task_string(env.task_description) == ("cube_in_bin", "UR5e", 7, None, episode + 1)
+    finally:
+        env.close()
 
 
 def test_arm_joint_states_are_observed_and_padded(env):

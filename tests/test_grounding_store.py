@@ -118,14 +118,38 @@ def test_a_bad_file_is_a_miss_and_the_store_stays_within_its_bound(ontology, tmp
     assert not hit and grounded.valid
     key = agent.grounding_key(agent.skill("put_in_bin"), ontology.target("UR5e"))
     path = agent.store.path(key)
-    path.write_bytes(b"not a pickle")
+    path.write_bytes(b"not a grounding")
     assert agent.store.get(key) is None and not path.exists()  # dropped, grounded again next time
 
-    size = len(__import__("pickle").dumps(grounded))
+    agent.store.put(key, grounded)
+    size = path.stat().st_size
     bounded = GroundingStore(tmp_path / "bounded", max_bytes=int(2.5 * size))
     for i in range(4):
         bounded.put(("k", str(i)), grounded)
     assert len(bounded.files()) == 2 and bounded.get(("k", "3")) is not None and bounded.get(("k", "0")) is None
+
+
+class _Planted:
+    """What a planted pickle would run on load: it touches a file."""
+
+    def __init__(self, marker: str):
+        self.marker = marker
+
+    def __reduce__(self):
+        return (open, (self.marker, "w"))
+
+
+def test_a_planted_pickle_in_the_store_runs_nothing(ontology, tmp_path, caplog):
+    import pickle
+
+    agent = RecentAgent(RecentSettings(infiller=RuleConfig()), ontology=ontology, store=GroundingStore(tmp_path))
+    key = agent.grounding_key(agent.skill("put_in_bin"), ontology.target("UR5e"))
+    marker = tmp_path / "ran"
+    agent.store.path(key).write_bytes(pickle.dumps(_Planted(str(marker))))
+    grounded, hit = agent.ground("put_in_bin", "UR5e")
+    assert not hit and grounded.valid and not marker.exists()  # a miss: grounded again, the pickle never loaded
+    assert str(agent.store.path(key)) in caplog.text  # the warning names the file
+    assert agent.store.get(key) == grounded  # the fresh grounding was stored as JSON and reads back equal
 
 
 def test_recent_cache_info_and_clear(tmp_path, monkeypatch, capsys):

@@ -14,7 +14,8 @@ NAMESPACE = "lerobot_policy_recent"
 
 # Lowest first. A module may import its own layer and the layers below it, never one above.
 LAYERS: tuple[tuple[str, ...], ...] = (
-    ("recent_plugin.failures", "recent_plugin.cache"),  # leaves: the failure taxonomy, the cache dir
+    # leaves: the failure taxonomy, the cache dir, the run-time budget of skill code, data-only files
+    ("recent_plugin.failures", "recent_plugin.cache", "recent_plugin.sandbox", "recent_plugin.typed_json"),
     ("robosuite_envs",),  # the world: embodiments, primitives, tasks and suites, envs
     ("ontology",),  # specs, the knowledge graph, diagnosis, skill-code analysis
     ("skills",),  # skill data and validation records

@@ -92,6 +92,10 @@ def test_lerobot_eval_runs_two_tasks_with_batch_size_two(tmp_path):
     for row in rows:
         by_task.setdefault(row["task_id"], []).append(row["seed"])
     assert all(len(set(seeds)) == 2 for seeds in by_task.values()), by_task  # each env its own seed
+    # each env's episode ends in the logs at its own last step, not at the batch's (verify checks it too);
+    # the two envs of a batch ended at different steps, so the auto-reset frames would show here
+    assert all(row["env_steps"] == row["num_frames"] for row in rows), rows
+    assert len({row["num_frames"] for row in rows}) > 1, rows
     # the env's verdicts fill the policy's result rows (lerobot-eval keeps them from the policy)
     assert all(row["success"] is True and row["gc"] == 1.0 for row in rows), rows
     assert not list((tmp_path / "logs" / "verdicts").glob("*.json"))  # each taken once

@@ -212,7 +212,7 @@ def test_build_writes_turtle(tmp_path, capsys):
 def test_malformed_spec_names_file_and_field(tmp_path):
     bad = tmp_path / "bad.yaml"
     bad.write_text(
-        "embodiment: X\nmodule: m\nprimitives:\n  - name: grab\n    description: d\n    parameters:\n      - {name: p, type: vector, role: r, required: true}\n"
+        "embodiment: X\nmodule: m\nprimitives:\n  - name: grab\n    description: d\n    parameters:\n      - {name: p, type: vector, role: motion_target, required: true}\n"
     )
     with pytest.raises(SpecError) as err:
         load_api_spec(bad)
@@ -221,17 +221,22 @@ def test_malformed_spec_names_file_and_field(tmp_path):
     with pytest.raises(SpecError, match=r"primitives\[0\] \(grab\)\.description: missing required field"):
         load_api_spec(bad)
     path = "    path:\n      - {role: %s, offset: %s}\n"
-    grab = "embodiment: X\nmodule: m\nprimitives:\n  - name: grab\n    description: d\n    parameters:\n      - {name: p, type: position, role: r, required: true}\n    capabilities: []\n    preconditions: []\n    effects: []\n"
+    grab = "embodiment: X\nmodule: m\nprimitives:\n  - name: grab\n    description: d\n    parameters:\n      - {name: p, type: position, role: motion_target, required: true}\n    capabilities: []\n    preconditions: []\n    effects: []\n"
     bad.write_text(grab + path % ("elsewhere", "[0, 0, 0.1]"))
     with pytest.raises(
         SpecError, match=r"primitives\[0\] \(grab\)\.path\[0\]\.role: 'elsewhere' is not the role of a position"
     ):
         load_api_spec(bad)
-    bad.write_text(grab + path % ("r", "[0, 0.1]"))
+    bad.write_text(grab + path % ("motion_target", "[0, 0.1]"))
     with pytest.raises(SpecError, match=r"primitives\[0\] \(grab\)\.path\[0\]\.offset: must be three numbers"):
         load_api_spec(bad)
     bad.write_text("embodiment: [unclosed\n")
     with pytest.raises(SpecError, match="not valid YAML"):
+        load_api_spec(bad)
+    bad.write_text(grab.replace("role: motion_target", "role: grasp_tgt"))  # a typo would match no source role
+    with pytest.raises(
+        SpecError, match=r"parameters\[0\]\.role: unknown role 'grasp_tgt' of 'p'; known roles: .*grasp_target"
+    ):
         load_api_spec(bad)
 
 

@@ -138,7 +138,7 @@ def render_comparison(run: RunComparison, reference: Path, rerun: Path) -> str:
         f"**Verdict: {run.verdict}.** {same} of {len(comparisons)} shared episodes reproduced: identical "
         f"{', '.join(OUTCOME)}. The re-run covers {len(comparisons)} of {run.reference_episodes} reference "
         f"episodes ({100 * run.coverage:.1f} %; at least {100 * run.min_coverage:.0f} % is needed to call it "
-        "reproduced, --min-coverage).",
+        "reproduced, --min_coverage).",
     ]
     for t in TIMINGS:
         ratios = [c.timing_ratios[t] for c in comparisons if t in c.timing_ratios]

@@ -163,7 +163,7 @@ class Outcome:
 
 
 def crash_record(job: Job, reason: str, seconds: float = 0.0) -> dict:
-    """The record of an episode that an error broke off: no result (``recent bench --retry-crashed`` reruns it)."""
+    """The record of an episode that an error broke off: no result (``recent bench --retry_crashed`` reruns it)."""
     return {
         **asdict(job),
         "split": split_of(job.task_id, job.seed),

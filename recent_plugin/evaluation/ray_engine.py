@@ -6,7 +6,7 @@ across episodes; it reserves the CPUs its LM threads and simulator use, and a GP
 hands each record back as it ends, so the caller writes it at once: a killed driver loses only
 the episodes in flight. A worker that dies (its process or its node) is dropped and its episode
 goes back to the queue, up to :data:`MAX_ATTEMPTS` times; after that the episode is a ``crash``
-record that ``--retry-crashed`` runs again.
+record that ``--retry_crashed`` runs again.
 """
 
 from __future__ import annotations
@@ -55,7 +55,7 @@ class EpisodeWorker:
 
 
 def plan_workers(config: BenchConfig, cluster_cpus: float, cluster_gpus: float) -> dict:
-    """How many workers, with which resources: ``--workers`` and ``--cpus-per-worker`` as given, else
+    """How many workers, with which resources: ``--workers`` and ``--cpus_per_worker`` as given, else
     as many 2-CPU workers as the cluster holds (at least one), each LM on as many threads as it reserves."""
     if config.cpus_per_worker is not None:
         cpus = config.cpus_per_worker
@@ -67,7 +67,7 @@ def plan_workers(config: BenchConfig, cluster_cpus: float, cluster_gpus: float) 
     if workers * cpus > cluster_cpus + 1e-9:  # the rest would wait for CPUs that never come
         raise ValueError(
             f"{workers} workers x {cpus:g} CPUs need {workers * cpus:g} CPUs; the Ray cluster has {cluster_cpus:g}: "
-            "lower --workers or --cpus-per-worker"
+            "lower --workers or --cpus_per_worker"
         )
     gpus = config.gpus_per_worker
     if gpus is None:

@@ -736,14 +736,14 @@ def crash_entry(record: dict) -> dict:
 
 
 def crash_lines(broken: list[dict]) -> list[str]:
-    """The report's list of crashed episodes (re-run them with ``recent bench ... --retry-crashed``)."""
+    """The report's list of crashed episodes (re-run them with ``recent bench ... --retry_crashed``)."""
     if not broken:
         return []
     lines = [
         f"## Crashed episodes ({len(broken)}, in no figure above)",
         "",
         "An error broke these off before the env gave a verdict; they are failures to investigate, not "
-        "results. `recent bench ... --retry-crashed` runs them again.",
+        "results. `recent bench ... --retry_crashed` runs them again.",
         "",
     ]
     lines += [

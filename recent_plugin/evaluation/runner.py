@@ -51,7 +51,7 @@ def pending(config: BenchConfig) -> tuple[list[Job], list[Job]]:
     done = {
         record_key(r)
         for r in load_records(config.out)
-        if not (config.retry_crashed and crashed(r))  # a crash is no result: --retry-crashed runs it again
+        if not (config.retry_crashed and crashed(r))  # a crash is no result: --retry_crashed runs it again
     }
     return jobs, [j for j in jobs if astuple(j) not in done]
 
@@ -115,7 +115,7 @@ def record_key(record: dict) -> tuple:
 
 def load_records(out: Path) -> list[dict]:
     """Every episode record of a benchmark directory: its packed file, and its ``episodes/`` files,
-    which win where both hold an episode (a packed run's crash, run again with ``--retry-crashed``)."""
+    which win where both hold an episode (a packed run's crash, run again with ``--retry_crashed``)."""
     records: dict[tuple, dict] = {}
     if (out / PACKED).is_file():
         with gzip.open(out / PACKED, "rt") as packed:

@@ -5,10 +5,14 @@ Two layers over one AST walk:
 * the **security gate** (:func:`security_gate`), which every method's code passes before it
   runs: no imports, no dunder or private names, no dynamic execution (``eval``, ``exec``,
   ``open``, ``getattr`` …), no unbounded loops or huge literals, no attribute walks into the
-  simulator (skill code reaches the world only through primitives and ``task.<query>(…)``), and
-  nothing that the executor could not run as written (a primitive used as a value, a nested
-  function). Code that passes it is *safe*: a wrong name or keyword in it fails when it is
-  reached, with the error Python gives (the paper's protocol for the baselines);
+  simulator (skill code reaches the world only through primitives and ``task.<query>(…)``), no
+  work or memory whose bound is statically too large (a sequence repeated, a nest of loops over
+  literal ranges, a huge %-format width: the static twins of the executor's run-time budget,
+  :mod:`~lerobot_policy_recent.recent_plugin.sandbox`), and nothing that the executor could not
+  run as written (a primitive used as a value, a helper or nested function: a skill is one
+  function, whose statements the executor runs one by one). Code that passes it is *safe*: a
+  wrong name or keyword in it fails when it is reached, with the error Python gives (the paper's
+  protocol for the baselines), and whatever it does at run time stays within its budget;
 * **interface validation** (:func:`validate_program`), RECENT's validation stage: on top of the
   gate, every call is one of the target robot's primitives with its declared keywords, or a task
   query or helper, and every name is defined.
@@ -22,11 +26,13 @@ from __future__ import annotations
 import ast
 import builtins
 from collections.abc import Iterable
+from contextlib import contextmanager
 from dataclasses import dataclass
 
 from lerobot_policy_recent.ontology.skill_code import name_variables, variable_kinds
 from lerobot_policy_recent.ontology.specs import ApiSpec, ParameterSpec
 from lerobot_policy_recent.recent_plugin.failures import FailureCategory
+from lerobot_policy_recent.recent_plugin.sandbox import MAX_NESTED_ITERATIONS, format_problem
 from lerobot_policy_recent.robosuite_envs.primitives.frames import SKILL_HELPERS
 from lerobot_policy_recent.robosuite_envs.primitives.session import TaskContext
 
@@ -141,6 +147,14 @@ def _check(code: str, api: ApiSpec | None, entry: str, other_apis: dict[str, Api
         )
     if entry not in {f.name for f in functions}:
         return Verdict.reject(FailureCategory.HALLUCINATED_NAME, f"entry function {entry!r} is not defined")
+    helpers = [f for f in functions if f.name != entry]
+    if helpers:
+        return Verdict.reject(
+            FailureCategory.NON_EXECUTABLE,
+            f"helper function {helpers[0].name!r} is not allowed: a skill is the one function {entry!r} "
+            "(the executor runs its statements one by one); write the helper's statements in place",
+            helpers[0],
+        )
     checker = _Checker(api, other_apis, {f.name for f in functions}, primitives)
     for func in functions:
         checker.check_function(func)
@@ -166,6 +180,7 @@ class _Checker(ast.NodeVisitor):
         self.functions = functions
         self.defined: set[str] = set()
         self.problems: list[Verdict] = []
+        self.nest = 1  # the static iteration count of the loops around the node being visited
 
     def fail(self, category: FailureCategory, message: str, node: ast.AST) -> None:
         self.problems.append(Verdict.reject(category, message, node))
@@ -255,22 +270,66 @@ class _Checker(ast.NodeVisitor):
             self.fail(
                 FailureCategory.NON_EXECUTABLE, "power and shift operators are not allowed (unbounded results)", node
             )
-        if isinstance(node.op, ast.Mult) and any(
-            isinstance(side, ast.List | ast.Tuple | ast.Constant)
-            and not isinstance(getattr(side, "value", 0), int | float)
-            for side in (node.left, node.right)
-        ):
+        if isinstance(node.op, ast.Mult) and (_is_sequence(node.left) or _is_sequence(node.right)):
             self.fail(FailureCategory.NON_EXECUTABLE, "sequence repetition is not allowed", node)
+        if isinstance(node.op, ast.Mod) and isinstance(node.left, ast.Constant) and isinstance(node.left.value, str):
+            problem = format_problem(node.left.value)
+            if problem:
+                self.fail(FailureCategory.NON_EXECUTABLE, f"{problem} is not allowed (a huge string)", node)
+        self.generic_visit(node)
+
+    def visit_AugAssign(self, node: ast.AugAssign) -> None:
+        if isinstance(node.op, ast.Mult) and _is_sequence(node.value):
+            self.fail(FailureCategory.NON_EXECUTABLE, "sequence repetition is not allowed", node)
+        if isinstance(node.op, ast.Pow | ast.LShift):
+            self.fail(
+                FailureCategory.NON_EXECUTABLE, "power and shift operators are not allowed (unbounded results)", node
+            )
         self.generic_visit(node)
 
     def visit_For(self, node: ast.For) -> None:
         self._check_iterable(node.iter, node)
-        self.generic_visit(node)
+        self.visit(node.target)
+        self.visit(node.iter)
+        with self._loop(node.iter, node):
+            for stmt in node.body + node.orelse:
+                self.visit(stmt)
 
-    def visit_comprehension(self, node: ast.comprehension) -> None:
-        """A comprehension's ``for`` is a loop too: bounded the same way (nested ones multiply)."""
-        self._check_iterable(node.iter, node.iter)
-        self.generic_visit(node)
+    def visit_ListComp(self, node: ast.ListComp) -> None:
+        """A comprehension's ``for`` clauses are loops too: bounded the same way (nested ones multiply)."""
+        outer = self.nest
+        for generator in node.generators:
+            self._check_iterable(generator.iter, generator.iter)
+            self.visit(generator.iter)
+            self._enter_loop(generator.iter, generator.iter)
+            self.visit(generator.target)
+            for condition in generator.ifs:
+                self.visit(condition)
+        self.visit(node.elt)
+        self.nest = outer
+
+    @contextmanager
+    def _loop(self, iterable: ast.expr, node: ast.AST):
+        outer = self.nest
+        self._enter_loop(iterable, node)
+        try:
+            yield
+        finally:
+            self.nest = outer
+
+    def _enter_loop(self, iterable: ast.expr, node: ast.AST) -> None:
+        """Multiply the nest by the loop's static length; refuse a nest whose product is too large."""
+        length = _static_length(iterable)
+        if length is None:
+            return
+        within = self.nest <= MAX_NESTED_ITERATIONS
+        self.nest *= max(length, 1)
+        if within and self.nest > MAX_NESTED_ITERATIONS:
+            self.fail(
+                FailureCategory.NON_EXECUTABLE,
+                f"nested loops of {self.nest:,} iterations are not allowed (at most {MAX_NESTED_ITERATIONS:,})",
+                node,
+            )
 
     def _check_iterable(self, it: ast.expr, node: ast.AST) -> None:
         """A loop runs over something of bounded size: a literal, a variable, range() and its kin, or
@@ -325,7 +384,9 @@ class _Checker(ast.NodeVisitor):
                         f"{func.id!r} is a variable; only primitives and helpers may be called",
                         node,
                     )
-            elif func.id not in SAFE_HELPERS | self.functions:
+            elif func.id in self.functions:
+                self.fail(FailureCategory.NON_EXECUTABLE, f"a skill may not call itself ({func.id}())", node)
+            elif func.id not in SAFE_HELPERS:
                 self._unknown_name(func.id, node, called=True)
         else:
             self.fail(FailureCategory.NON_EXECUTABLE, "only plain functions and task queries may be called", node)
@@ -367,6 +428,41 @@ class _Checker(ast.NodeVisitor):
                 f"{name}() missing required keyword argument(s): {', '.join(missing)}",
                 node,
             )
+
+
+def _is_sequence(expr: ast.expr) -> bool:
+    """Whether ``expr`` is a list, tuple or string by its form alone (a literal, a comprehension, a
+    copy by ``list()``/``tuple()``/``sorted()``, or a sum or repetition of one)."""
+    if isinstance(expr, ast.List | ast.Tuple | ast.ListComp | ast.JoinedStr):
+        return True
+    if isinstance(expr, ast.Constant):
+        return isinstance(expr.value, str | bytes)
+    if isinstance(expr, ast.Call) and isinstance(expr.func, ast.Name):
+        return expr.func.id in {"list", "tuple", "sorted"}
+    if isinstance(expr, ast.BinOp) and isinstance(expr.op, ast.Add | ast.Mult):
+        return _is_sequence(expr.left) or _is_sequence(expr.right)
+    return False
+
+
+def _static_length(iterable: ast.expr) -> int | None:
+    """How many items a loop's iterable yields, where its form says (``range`` of literals, a literal)."""
+    if isinstance(iterable, ast.List | ast.Tuple):
+        return len(iterable.elts)
+    if not (isinstance(iterable, ast.Call) and isinstance(iterable.func, ast.Name)):
+        return None
+    name, args = iterable.func.id, iterable.args
+    if name == "range":
+        values = [a.value for a in args if isinstance(a, ast.Constant) and isinstance(a.value, int)]
+        if len(values) != len(args) or not 1 <= len(values) <= 3 or (len(values) == 3 and values[2] == 0):
+            return None
+        return len(range(*values))
+    if name in {"enumerate", "sorted", "list", "tuple"} and args:
+        return _static_length(args[0])
+    if name == "zip" and args:
+        lengths = [_static_length(a) for a in args]
+        known = [n for n in lengths if n is not None]
+        return min(known) if known else None
+    return None
 
 
 def _variable_kind_problem(value: ast.expr, spec: ParameterSpec, kinds: dict[str, str]) -> str | None:

@@ -27,7 +27,7 @@ from lerobot_policy_recent.recent_plugin.grounding.attempts import (
     call_events,
     infill_until_valid,
 )
-from lerobot_policy_recent.recent_plugin.grounding.gate import Verdict, validate_program
+from lerobot_policy_recent.recent_plugin.grounding.gate import Verdict, security_gate, validate_program
 from lerobot_policy_recent.recent_plugin.infillers.base import Infiller
 from lerobot_policy_recent.recent_plugin.refactoring.substitution import PLACEHOLDER
 from lerobot_policy_recent.recent_plugin.refactoring.units import RefactoringUnit, apply_unit, unit_from_conflict
@@ -164,6 +164,9 @@ def ground_skill(
     if rediagnose is not None:
         diagnosis = rediagnose(diagnosis)
     result = GroundedSkill.start(skill, robot, diagnosis, infiller)
+    if refused := refused_source(skill, apis):
+        result.verdict, result.seconds = refused, time.perf_counter() - started
+        return result
     pending = list(diagnosis.conflicts)
     while pending:
         conflict = pending.pop()  # last first: earlier offsets stay valid
@@ -176,8 +179,11 @@ def ground_skill(
                 if tried > max_retries
                 else f"after {tried} attempt(s): the task's LM call budget is spent"  # no further call was made
             )
+            last = result.calls[-1].message if len(result.calls) > made and result.calls[-1].message else ""
             result.verdict = unrecoverable(
-                result, f"unrecoverable: could not ground {conflict.original!r} at line {conflict.span.line} {why}"
+                result,
+                f"unrecoverable: could not ground {conflict.original!r} at line {conflict.span.line} {why}"
+                + (f"; the last attempt was rejected: {last}" if last else ""),
             )
             result.seconds = time.perf_counter() - started
             return result
@@ -207,11 +213,29 @@ def regenerate_skill(
     robot, api, apis = target.name, target.api, onto.apis
     diagnosis = diagnose(onto, skill.name, skill.code, robot, source=skill.source_embodiment)
     result = GroundedSkill.start(skill, robot, diagnosis, infiller)
+    if refused := refused_source(skill, apis):
+        result.verdict, result.seconds = refused, time.perf_counter() - started
+        return result
     result.verdict = validate_program(skill.code, api, skill.entry, apis)
     if needed(result):
         _regenerate(result, skill, target, infiller, apis, max_retries, with_hints)
     result.seconds = time.perf_counter() - started
     return result
+
+
+def refused_source(skill: Skill, apis: dict) -> Verdict | None:
+    """The security gate's verdict on the skill as written, where it refuses it: code outside every span
+    (a user's skill with a huge loop, say) is refused before grounding, with the statement and the rule,
+    rather than blamed on each span's attempts."""
+    source = apis.get(skill.source_embodiment)
+    verdict = security_gate(skill.code, skill.entry, source.names() if source is not None else ())
+    if verdict.ok:
+        return None
+    where = f" line {verdict.line}:" if verdict.line else ""
+    return replace(
+        verdict,
+        message=f"the skill {skill.name!r} as written is refused by the security gate:{where} {verdict.message}",
+    )
 
 
 def unrecoverable(result: GroundedSkill, message: str) -> Verdict:

@@ -9,8 +9,11 @@ is another file; nothing is ever invalidated in place. The store lives under the
 dir (``$RECENT_GROUNDING_CACHE`` overrides the directory; ``off`` turns it off), is bounded in
 size (oldest-read files go first), and ``recent cache clear`` empties it.
 
-Files are pickles written by this package into the user's own cache directory; one that does not
-load (another version, a truncated write) is deleted and grounded again, never an error.
+Files are JSON, decoded by the types :class:`GroundedSkill` declares
+(:mod:`~lerobot_policy_recent.recent_plugin.typed_json`): a file holds data only, so one planted
+in the cache can at worst be a wrong grounding of its key, never code that runs on load. One that
+does not decode (another version, a truncated write, a file this package did not write) is
+dropped with a warning naming it, and the skill is grounded again.
 """
 
 from __future__ import annotations
@@ -20,16 +23,16 @@ import hashlib
 import json
 import logging
 import os
-import pickle
 from pathlib import Path
 
 from lerobot_policy_recent.recent_plugin.cache import cache_dir
 from lerobot_policy_recent.recent_plugin.grounding.grounder import GroundedSkill
+from lerobot_policy_recent.recent_plugin.typed_json import decode, encode
 
 log = logging.getLogger(__name__)
 
 ENV = "RECENT_GROUNDING_CACHE"
-FORMAT = 2  # bump when GroundedSkill's shape changes: old files then simply never match
+FORMAT = 3  # bump when GroundedSkill's shape changes: old files then simply never match (2 and before: pickles)
 MAX_BYTES = 256 * 1024 * 1024
 SUFFIX = ".grounding"
 
@@ -79,15 +82,14 @@ class GroundingStore:
     def get(self, key: tuple[str, ...]) -> GroundedSkill | None:
         path = self.path(key)
         try:
-            with open(path, "rb") as handle:
-                grounded = pickle.load(handle)
+            document = json.loads(path.read_bytes())
+            if not isinstance(document, dict) or document.get("format") != FORMAT:
+                raise ValueError(f"not a grounding of format {FORMAT}")
+            grounded = decode(GroundedSkill, document.get("grounded"))
         except FileNotFoundError:
             return None
-        except Exception as exc:  # noqa: BLE001 - a file that does not load is a miss, and is removed
-            log.warning("grounding cache: dropping %s (%s: %s)", path.name, type(exc).__name__, exc)
-            path.unlink(missing_ok=True)
-            return None
-        if not isinstance(grounded, GroundedSkill):
+        except (ValueError, TypeError, OSError) as exc:  # a file that does not decode is a miss, and is removed
+            log.warning("grounding cache: dropping %s (%s: %s)", path, type(exc).__name__, exc)
             path.unlink(missing_ok=True)
             return None
         os.utime(path)  # read recently: evicted last
@@ -98,8 +100,7 @@ class GroundingStore:
         path = self.path(key)
         tmp = path.with_suffix(f".{os.getpid()}.tmp")
         try:
-            with open(tmp, "wb") as handle:
-                pickle.dump(grounded, handle, protocol=pickle.HIGHEST_PROTOCOL)
+            tmp.write_text(json.dumps({"format": FORMAT, "grounded": encode(grounded)}))
             os.replace(tmp, path)  # whole or not at all: another process never reads half a file
         except OSError as exc:  # a full or read-only disk costs the cache, not the episode
             log.warning("grounding cache: could not write %s (%s)", path, exc)

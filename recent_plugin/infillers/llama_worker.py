@@ -27,11 +27,14 @@ import signal
 import socket
 import subprocess
 import sys
+import time
 import traceback
 import weakref
 from multiprocessing.connection import Connection
+from pathlib import Path
 from typing import NoReturn
 
+from lerobot_policy_recent.recent_plugin.cache import cache_dir
 from lerobot_policy_recent.recent_plugin.infillers.llama_runtime import VARIANT_ENV, cpu_description, wheel_description
 
 START_TIMEOUT_S = 300.0  # loading a GGUF takes 1-3 s; this only bounds a child that hangs before answering
@@ -92,12 +95,18 @@ class LlamaWorker:
         ours, theirs = socket.socketpair()
         env = {**os.environ, **self._env}
         env["PYTHONPATH"] = os.pathsep.join(p for p in [self._site, *sys.path, env.get("PYTHONPATH")] if p)
-        self._proc = subprocess.Popen(
-            [sys.executable, "-m", __name__, str(theirs.fileno()), *self._args],
-            pass_fds=(theirs.fileno(),),
-            env=env,
-            stdin=subprocess.DEVNULL,
-        )
+        notes = worker_log()
+        notes.parent.mkdir(parents=True, exist_ok=True)
+        with open(notes, "ab") as stderr:  # llama.cpp's banners go here, not to the user's terminal
+            stderr.write(f"--- LM worker started {time.strftime('%Y-%m-%d %H:%M:%S')}\n".encode())
+            stderr.flush()
+            self._proc = subprocess.Popen(
+                [sys.executable, "-m", __name__, str(theirs.fileno()), *self._args],
+                pass_fds=(theirs.fileno(),),
+                env=env,
+                stdin=subprocess.DEVNULL,
+                stderr=stderr,
+            )
         theirs.close()
         self._conn = Connection(ours.detach())
         self._finalizer = weakref.finalize(self, _stop, self._proc, self._conn)
@@ -161,7 +170,7 @@ class LlamaWorker:
                 self._proc.wait()
         info = self._info
         self.close()
-        raise LMWorkerCrashed(crash_message(returncode, doing, info))
+        raise LMWorkerCrashed(crash_message(returncode, doing, info) + _last_notes())
 
     def info(self) -> dict:
         return dict(self._info or {})
@@ -182,6 +191,20 @@ class LlamaWorker:
 
     def prompt_state_stats(self) -> dict[str, int]:
         return self._call("prompt_state_stats")
+
+
+def worker_log() -> Path:
+    """Where LM workers write their stderr (llama.cpp's notes and any crash report), appended per start."""
+    return cache_dir() / "logs" / "llm_worker.log"
+
+
+def _last_notes(lines: int = 8) -> str:
+    """The end of the workers' log, for a crash message (what llama.cpp said before it died)."""
+    try:
+        tail = worker_log().read_text(errors="replace").splitlines()[-lines:]
+    except OSError:
+        return ""
+    return f"\nthe worker's last output ({worker_log()}):\n  " + "\n  ".join(tail) if tail else ""
 
 
 def _stop(proc: subprocess.Popen, conn: Connection) -> None:

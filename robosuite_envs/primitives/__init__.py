@@ -7,6 +7,7 @@
 from __future__ import annotations
 
 import importlib
+import importlib.util
 import inspect
 from pathlib import Path
 
@@ -53,10 +54,41 @@ def api_functions(api: str) -> dict[str, object]:
     return module_functions(spec.get("module") or f"lerobot_policy_recent.robosuite_envs.primitives.{api}")
 
 
+def import_primitive_module(module_name: str):
+    """Import a primitive module, or fail in one line that names its file: a robot added from files
+    (``RECENT_ROBOTS``) brings its own module, whose errors are the user's to fix."""
+    try:
+        return importlib.import_module(module_name)
+    except SyntaxError as exc:
+        raise ValueError(
+            f"{exc.filename}:{exc.lineno}: primitive module {module_name!r} does not parse: {exc.msg}"
+        ) from None
+    except ModuleNotFoundError as exc:
+        if exc.name != module_name:
+            raise ValueError(f"{_module_file(module_name)}: primitive module {module_name!r}: {exc}") from None
+        raise ValueError(
+            f"primitive module {module_name!r} (the YAML's module:) is not importable: no file "
+            f"{module_name.replace('.', '/')}.py beside the robot's YAML or on the Python path"
+        ) from None
+    except Exception as exc:  # noqa: BLE001 - whatever the user's module raised, named with its file
+        raise ValueError(
+            f"{_module_file(module_name)}: primitive module {module_name!r} raised on import: "
+            f"{type(exc).__name__}: {exc}"
+        ) from None
+
+
+def _module_file(module_name: str) -> str:
+    try:
+        spec = importlib.util.find_spec(module_name)
+    except (ImportError, ValueError):
+        spec = None
+    return str(spec.origin) if spec is not None and spec.origin else module_name
+
+
 def module_functions(module_name: str) -> dict[str, object]:
     """The primitives of a primitive module (the ``module:`` of its YAML): its ``__all__`` if it
     re-exports shared motions, else the public generator functions it defines."""
-    module = importlib.import_module(module_name)
+    module = import_primitive_module(module_name)
     names = getattr(module, "__all__", None) or [
         name
         for name, fn in vars(module).items()
