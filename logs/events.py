@@ -289,6 +289,9 @@ class Step:
     environment_state: np.ndarray  # object slots (see robosuite_envs.observation)
     action: np.ndarray  # (7,)
     image: np.ndarray | None = None  # HxWx3 uint8 when a camera is logged
+    truth: np.ndarray | None = (
+        None  # the objects' exact poses (environment_state's layout), where the simulator is at hand
+    )
 
 
 Emit = Callable[[Event], None]

@@ -1,7 +1,8 @@
 """MCAP sink: one file per episode, readable by Foxglove, Lichtblick and Rerun.
 
 Foxglove protobuf schemas where one fits — ``/tf`` (``FrameTransforms``: end effector and every
-object in ``world``), ``/log`` (``Log``: every event, by level), ``/joint_states`` (``JointStates``:
+object in ``world``, as perceived; ``/tf_truth``: the simulator's exact object poses, where the run had the
+simulator), ``/log`` (``Log``: every event, by level), ``/joint_states`` (``JointStates``:
 the arm's joint positions and velocities, and the gripper opening), ``/camera/front`` (``CompressedImage``) — and JSON schemas with stable names
 (``recent.<event>``) for grounding events on ``/recent/<event>``, the action on ``/action`` and the
 gripper's sensors (finger contacts, object detection, vacuum, end-effector contact) on ``/gripper_sensors``.
@@ -60,6 +61,7 @@ class _EpisodeFile:
     object_names: list[str]
     arm_dof: int
     channels: dict[str, int] = field(default_factory=dict)
+    schemas: dict[str, int] = field(default_factory=dict)  # one schema record per message type, shared by topics
     sequence: int = 0
 
 
@@ -99,13 +101,13 @@ class McapSink:
         t = step.log_time_ns
         stamp = _timestamp(t)
         transforms = [_transform(stamp, "eef", step.state[0:3], step.state[3:7])]
-        for slot, name in enumerate(f.object_names):
-            row = step.environment_state[slot * SLOT_DIM : (slot + 1) * SLOT_DIM]
-            if row[7] > 0.5:  # present
-                transforms.append(_transform(stamp, name, row[0:3], row[3:7]))
+        transforms += _object_transforms(stamp, step.environment_state, f.object_names)
         self._write(
             f, "/tf", "protobuf", FrameTransforms(transforms=transforms).SerializeToString(), t, FrameTransforms
         )
+        if step.truth is not None:  # the simulator's exact poses, apart from what the robot perceived
+            truth = FrameTransforms(transforms=_object_transforms(stamp, step.truth, f.object_names))
+            self._write(f, "/tf_truth", "protobuf", truth.SerializeToString(), t, FrameTransforms)
         joints = JointStates(timestamp=stamp, joints=_joint_states(step.state, f.arm_dof))
         self._write(f, "/joint_states", "protobuf", joints.SerializeToString(), t, JointStates)
         sensors = dict(zip(GRIPPER_SENSORS, step.state[SENSORS_AT:JOINTS_AT].tolist(), strict=True))
@@ -138,7 +140,7 @@ class McapSink:
     def _write(self, f: _EpisodeFile, topic: str, encoding: str, data: bytes, t: int, schema) -> None:
         channel = f.channels.get(topic)
         if channel is None:
-            channel = f.channels[topic] = _register(f.writer, topic, encoding, schema)
+            channel = f.channels[topic] = _register(f, topic, encoding, schema)
         f.writer.add_message(channel, log_time=t, data=data, publish_time=t, sequence=f.sequence)
         f.sequence += 1
 
@@ -150,18 +152,19 @@ def open_writer(stream: IO[bytes], library: str = "lerobot_policy_recent") -> Wr
     return writer
 
 
-def _register(writer: Writer, topic: str, encoding: str, schema) -> int:
-    if encoding == "protobuf":
-        schema_id = writer.register_schema(
-            name=schema.DESCRIPTOR.full_name,
-            encoding="protobuf",
-            data=build_file_descriptor_set(schema).SerializeToString(),
-        )
-    else:
-        fixed = {"action": ACTION_SCHEMA, "gripper_sensors": SENSORS_SCHEMA}
-        body = fixed[schema] if schema in fixed else json_schema(EVENT_TYPES[schema])
-        schema_id = writer.register_schema(name=body["title"], encoding="jsonschema", data=json.dumps(body).encode())
-    return writer.register_channel(topic=topic, message_encoding=encoding, schema_id=schema_id)
+def _register(f: _EpisodeFile, topic: str, encoding: str, schema) -> int:
+    name = schema.DESCRIPTOR.full_name if encoding == "protobuf" else schema
+    if name not in f.schemas:
+        if encoding == "protobuf":
+            data = build_file_descriptor_set(schema).SerializeToString()
+            f.schemas[name] = f.writer.register_schema(name=name, encoding="protobuf", data=data)
+        else:
+            fixed = {"action": ACTION_SCHEMA, "gripper_sensors": SENSORS_SCHEMA}
+            body = fixed[schema] if schema in fixed else json_schema(EVENT_TYPES[schema])
+            f.schemas[name] = f.writer.register_schema(
+                name=body["title"], encoding="jsonschema", data=json.dumps(body).encode()
+            )
+    return f.writer.register_channel(topic=topic, message_encoding=encoding, schema_id=f.schemas[name])
 
 
 def _timestamp(ns: int) -> Timestamp:
@@ -173,6 +176,16 @@ def _transform(stamp: Timestamp, child: str, pos: np.ndarray, quat_xyzw: np.ndar
     t.translation.x, t.translation.y, t.translation.z = (float(v) for v in pos)
     t.rotation.x, t.rotation.y, t.rotation.z, t.rotation.w = (float(v) for v in quat_xyzw)
     return t
+
+
+def _object_transforms(stamp: Timestamp, environment_state: np.ndarray, names: list[str]) -> list[FrameTransform]:
+    """Each present object's pose in ``world``."""
+    out = []
+    for slot, name in enumerate(names):
+        row = environment_state[slot * SLOT_DIM : (slot + 1) * SLOT_DIM]
+        if row[7] > 0.5:  # present
+            out.append(_transform(stamp, name, row[0:3], row[3:7]))
+    return out
 
 
 def _joint_states(state: np.ndarray, arm_dof: int) -> list[JointState]:

@@ -198,8 +198,13 @@ class EpisodeLog:
     def emit(self, event: Event) -> None:
         self.recorder._fan_out("event", self.stamp(event))
 
-    def step(self, state: np.ndarray, environment_state: np.ndarray, action: np.ndarray, image=None) -> None:
-        """Record the observation acted on and the action taken; the next events belong to the next step."""
+    def step(
+        self, state: np.ndarray, environment_state: np.ndarray, action: np.ndarray, image=None, truth=None
+    ) -> None:
+        """Record the observation acted on and the action taken; the next events belong to the next step.
+
+        ``truth``: the objects' exact poses (simulator truth, ``environment_state``'s layout), where the
+        caller has the simulator; logs show it apart from what the robot perceived, and no policy reads it."""
         self.recorder._fan_out(
             "step",
             Step(
@@ -211,6 +216,7 @@ class EpisodeLog:
                 np.asarray(environment_state, dtype=np.float32),
                 np.asarray(action, dtype=np.float32),
                 image,
+                None if truth is None else np.asarray(truth, dtype=np.float32),
             ),
         )
         self.frame_index += 1

@@ -127,6 +127,7 @@ def mcap_episode(path: Path) -> tuple[list[Stamped], list[Step]]:
     stamped: list[Stamped] = []
     steps: list[Step] = []
     poses: dict[str, tuple[list[float], list[float]]] = {}
+    truth: dict[str, tuple[list[float], list[float]]] | None = None  # /tf_truth, where the run had the simulator
     joints: dict[str, tuple[float, float]] = {}
     sensors: dict[str, float] = {}
     objects: list[str] = []
@@ -137,13 +138,9 @@ def mcap_episode(path: Path) -> tuple[list[Stamped], list[Step]]:
             stamped.append(Stamped(event, payload["episode_index"], payload["frame_index"], m.log_time_ns))
             objects = list(getattr(event, "object_names", objects))
         elif m.topic == "/tf":
-            poses = {
-                t.child_frame_id: (
-                    [t.translation.x, t.translation.y, t.translation.z],
-                    [t.rotation.x, t.rotation.y, t.rotation.z, t.rotation.w],
-                )
-                for t in FrameTransforms.FromString(m.data).transforms
-            }
+            poses = _poses(FrameTransforms.FromString(m.data))
+        elif m.topic == "/tf_truth":
+            truth = _poses(FrameTransforms.FromString(m.data))
         elif m.topic == "/joint_states":
             joints = {j.name: (j.position, j.velocity) for j in JointStates.FromString(m.data).joints}
         elif m.topic == "/gripper_sensors":
@@ -160,13 +157,25 @@ def mcap_episode(path: Path) -> tuple[list[Stamped], list[Step]]:
                     state,
                     environment,
                     np.asarray(action["action"], dtype=np.float32),
+                    truth=None if truth is None else _state_vectors(truth, {}, {}, objects)[1],
                 )
             )
+            truth = None
         elif m.topic == "/camera/front" and steps and steps[-1].log_time_ns == m.log_time_ns:
             steps[-1] = dataclasses.replace(steps[-1], image=_decoded_png(CompressedImage.FromString(m.data).data))
     if not stamped or stamped[0].event.name != "episode_started":
         raise ValueError(f"{path} holds no episode_started event: it is not an episode's MCAP written by this project")
     return stamped, steps
+
+
+def _poses(transforms) -> dict[str, tuple[list[float], list[float]]]:
+    return {
+        t.child_frame_id: (
+            [t.translation.x, t.translation.y, t.translation.z],
+            [t.rotation.x, t.rotation.y, t.rotation.z, t.rotation.w],
+        )
+        for t in transforms.transforms
+    }
 
 
 def _state_vectors(

@@ -51,6 +51,8 @@ log = logging.getLogger(__name__)
 BATCH = 64  # steps buffered before they are sent as one column chunk
 MIN_HALF_SIZE = 0.01  # an object whose extents are unknown (a recording rebuilt from MCAP) is drawn 2 cm wide
 FINGER_SPAN = 0.04  # the end effector's drawn half-width at gripper opening 1
+EEF_COLOR = (255, 140, 0)
+PATH_EVERY = 10  # steps between two drawings of the end effector's path so far
 FLUSH_S = 0.25  # wall-clock bound on how long a step waits in the buffer
 _LEVELS = {"debug": rr.TextLogLevel.DEBUG, "info": rr.TextLogLevel.INFO, "warning": rr.TextLogLevel.WARN}
 
@@ -59,7 +61,12 @@ def blueprint() -> rrb.Blueprint:
     return rrb.Blueprint(
         rrb.Horizontal(
             rrb.Vertical(
-                rrb.Spatial3DView(name="robot and objects", origin="world"),
+                # world/truth: the simulator's exact poses, hidden until a user ticks it on
+                rrb.Spatial3DView(
+                    name="robot and objects",
+                    origin="world",
+                    overrides={"world/truth": rrb.EntityBehavior(visible=False)},
+                ),
                 rrb.Spatial2DView(name="camera", origin="camera"),
                 row_shares=[3, 1],
             ),
@@ -152,6 +159,8 @@ class RerunSink:
 
     def _finish(self, episode: _Episode) -> None:
         self._send_steps(episode)
+        if episode.eef_path:
+            _log_path(episode.rec, episode.eef_path, len(episode.eef_path) - 1)
         episode.rec.flush()
         episode.rec.disconnect()
         compact(episode.path)
@@ -178,30 +187,45 @@ class RerunSink:
         rec.send_columns(
             "world/eef",
             index,
-            rr.Boxes3D.columns(centers=eef, half_sizes=half, quaternions=states[:, 3:7], colors=[255, 140, 0]),
+            rr.Boxes3D.columns(
+                centers=eef, half_sizes=half, quaternions=states[:, 3:7], colors=np.tile(EEF_COLOR, (len(steps), 1))
+            ),
         )
-        episode.eef_path += list(eef)
-        rec.set_time("step", sequence=int(frames[-1]))
-        rec.set_time("sim_time", duration=float(frames[-1]) / CONTROL_FREQ)
-        rec.log("world/eef_path", rr.LineStrips3D([np.stack(episode.eef_path)], colors=[255, 140, 0], radii=0.002))
-        centers, halves, quats, labels, counts = [], [], [], [], []
-        for s in steps:
-            slots = s.environment_state.reshape(-1, SLOT_DIM)
-            present = [i for i, name in enumerate(episode.object_names) if slots[i, 7] > 0.5]
-            for i in present:
-                centers.append(slots[i, 0:3])
-                quats.append(slots[i, 3:7] if np.linalg.norm(slots[i, 3:7]) > 0.5 else np.array([0, 0, 0, 1.0]))
-                halves.append(np.maximum(slots[i, 8:11] / 2, MIN_HALF_SIZE))
-                labels.append(episode.object_names[i])
-            counts.append(len(present))
-        if centers:
-            rec.send_columns(
-                "world/objects",
-                index,
-                rr.Boxes3D.columns(
-                    centers=np.stack(centers), half_sizes=np.stack(halves), quaternions=np.stack(quats), labels=labels
-                ).partition(counts),
-            )
+        for step, point in zip(steps, eef, strict=True):  # the path so far, every PATH_EVERY steps: batching-free
+            episode.eef_path.append(point)
+            if (step.frame_index + 1) % PATH_EVERY == 0:
+                _log_path(rec, episode.eef_path, step.frame_index)
+        _send_boxes(rec, "world/objects", index, [s.environment_state for s in steps], episode.object_names)
+        if all(s.truth is not None for s in steps):
+            _send_boxes(rec, "world/truth/objects", index, [s.truth for s in steps], episode.object_names)
+
+
+def _log_path(rec: rr.RecordingStream, points: list[np.ndarray], frame: int) -> None:
+    rec.set_time("step", sequence=frame)
+    rec.set_time("sim_time", duration=frame / CONTROL_FREQ)
+    rec.log("world/eef_path", rr.LineStrips3D([np.stack(points)], colors=[EEF_COLOR], radii=0.002))
+
+
+def _send_boxes(rec: rr.RecordingStream, entity: str, index: list, states: list[np.ndarray], names: list[str]) -> None:
+    """Each present object of each step a box: its pose, and half its extents (2 cm where unknown)."""
+    centers, halves, quats, labels, counts = [], [], [], [], []
+    for state in states:
+        slots = np.asarray(state).reshape(-1, SLOT_DIM)
+        present = [i for i in range(len(names)) if slots[i, 7] > 0.5]
+        for i in present:
+            centers.append(slots[i, 0:3])
+            quats.append(slots[i, 3:7] if np.linalg.norm(slots[i, 3:7]) > 0.5 else np.array([0, 0, 0, 1.0]))
+            halves.append(np.maximum(slots[i, 8:11] / 2, MIN_HALF_SIZE))
+            labels.append(names[i])
+        counts.append(len(present))
+    if centers:
+        rec.send_columns(
+            entity,
+            index,
+            rr.Boxes3D.columns(
+                centers=np.stack(centers), half_sizes=np.stack(halves), quaternions=np.stack(quats), labels=labels
+            ).partition(counts),
+        )
 
 
 def rerun_executable() -> str:

@@ -266,7 +266,8 @@ def _run(
             action = executor.act(Observation.decode(raw["agent_pos"], raw["environment_state"], names))
             if episode is not None:
                 image = env.render() if camera else None
-                episode.step(raw["agent_pos"], raw["environment_state"], action, image)
+                truth = env.true_environment_state()
+                episode.step(raw["agent_pos"], raw["environment_state"], action, image, truth)
             raw, _, terminated, truncated, info = env.step(action)
             steps += 1
             bar.update(1)

@@ -91,6 +91,7 @@ class Meter:
         self.created = 0  # items built over the skill's run
         self.step_spent = 0.0  # seconds run since the last action, before the current advance
         self._entered = 0.0
+        self._inside = False  # within an advance of the skill (time counts only there)
         self._clock = time.perf_counter
 
     # -- the executor's side
@@ -98,12 +99,15 @@ class Meter:
         self.step_spent = 0.0
 
     def enter(self) -> None:
-        self._entered = self._clock()
+        self._entered, self._inside = self._clock(), True
 
     def leave(self) -> None:
         self.step_spent += self._clock() - self._entered
+        self._inside = False
 
     def check_time(self) -> None:
+        if not self._inside:  # an expression the executor evaluates between advances: memory is still metered
+            return
         spent = self.step_spent + self._clock() - self._entered
         if spent > self.budget.step_seconds:
             raise BudgetExceeded(
@@ -186,7 +190,7 @@ class Meter:
 
     def sum(self, values: Iterable, start: object = 0) -> object:
         if not isinstance(start, int | float) or isinstance(start, bool):
-            raise TypeError("sum() adds numbers only in skill code")
+            raise BudgetExceeded("memory", "sum() of sequences copies them over and over; skill code sums numbers only")
         total = builtins.sum(values, start)
         self.check_time()
         return total

@@ -151,6 +151,11 @@ class RecentEnv(gym.Env):
             self.spec_task, self.embodiment.name, seed, ended_at, self._resets
         )
 
+    def true_environment_state(self) -> np.ndarray:
+        """The objects' exact poses and extents, in ``environment_state``'s layout: simulator truth, for
+        logs only (the observation is what perception reports, noise included)."""
+        return self._env.observe().encode(self.spec_task.object_names())[1]
+
     def _info(self) -> dict:
         """``is_success``: every plan step achieved; ``gc``: the fraction achieved (goal-conditioned);
         ``held``: the simulator's ground truth of what the gripper holds (for logs, never the policy)."""

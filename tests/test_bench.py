@@ -320,7 +320,7 @@ def test_a_crashed_episode_is_no_result_and_is_retried_on_request(tmp_path, caps
     ]
     assert main([*one, *unreachable]) == 1
     err = capsys.readouterr().err
-    assert "1 of 1 episodes crashed" in err and "--retry-crashed" in err
+    assert "1 of 1 episodes crashed" in err and "--retry_crashed" in err
     results = json.loads((out / "results.json").read_text())
     assert results["episodes"] == 0 and results["crashed"][0]["error"].startswith("RuntimeError: cannot reach")
     assert results["by_setting"] == {}

@@ -198,6 +198,52 @@ def test_replay_rebuilds_the_live_recording_from_the_mcap_alone(run, tmp_path, c
     assert rebuilt.rows == live.rows and rebuilt.steps == good.steps
 
 
+def test_a_cut_mcap_replays_with_a_warning_of_what_was_lost(run, tmp_path, capsys):
+    from lerobot_policy_recent.scripts.cli import main
+
+    root, _ = run
+    mcap = LogLayout(root).mcap(0)
+    cut = tmp_path / "cut.mcap"
+    cut.write_bytes(mcap.read_bytes()[: mcap.stat().st_size * 2 // 3])
+    assert main(["replay", str(cut), "--out", str(tmp_path / "cut.rrd"), "--no-viewer"]) == 0
+    err = capsys.readouterr().err
+    assert f"warning: {cut} was cut short" in err and "whatever came after it is lost" in err
+
+
+class _Planted:
+    """What a planted pickle would run when loaded: it creates a file."""
+
+    def __init__(self, marker: str):
+        self.marker = marker
+
+    def __reduce__(self):
+        return (open, (self.marker, "w"))
+
+
+def test_a_planted_file_in_a_log_directory_runs_nothing(tmp_path, capsys):
+    """A journal of an earlier version (pickle), or a file made to look like one of ours, is refused by name."""
+    import pickle
+
+    from lerobot_policy_recent.logs.journal import JournalError
+    from lerobot_policy_recent.scripts.cli import main
+
+    marker = tmp_path / "ran"
+    pending = LogLayout(tmp_path / "logs").pending_dir
+    pending.mkdir(parents=True)
+    planted = pending / "episode_000005.pkl"
+    planted.write_bytes(pickle.dumps(_Planted(str(marker))))
+    with pytest.raises(JournalError, match=rf"{planted}: a journal of an earlier version \(pickle\)"):
+        Recorder(tmp_path / "logs")
+    assert main(["logs", "verify", str(tmp_path / "logs")]) == 1
+    assert f"{planted}: a journal of an earlier version" in capsys.readouterr().out
+    planted.unlink()
+    disguised = pending / "episode_000006.npz"
+    np.savez(disguised, meta=np.array([_Planted(str(marker))], dtype=object))
+    with pytest.raises(JournalError, match=rf"{disguised}: not a journal written by this version"):
+        Recorder(tmp_path / "logs")
+    assert not marker.exists()  # nothing in either file ran
+
+
 def test_failure_report_lists_the_injected_categories(run, tmp_path):
     from lerobot_policy_recent.logs.failure_report import failure_table, plot_failures
 

@@ -94,7 +94,7 @@ STOPPED = {
         "r = list(range(1000))\nbig = r + r\ncopies = [list(big) for i in r]",
         "1,000,000 over its run",
     ),
-    "summing lists": ("r = [[obj]]\ns = sum(r, [])", "TypeError"),
+    "summing lists": ("r = [[obj]]\ns = sum(r, [])", "skill code sums numbers only"),
 }
 
 
@@ -112,9 +112,6 @@ def test_code_that_passes_the_gate_is_stopped_by_name_at_run_time(case, grounded
     )
     assert executor.step() is None and executor.failed  # stopped in the hostile segment, before any action
     failure = executor.failure
-    if reason == "TypeError":
-        assert failure.category == FailureCategory.HALLUCINATED_KWARG and "numbers only" in failure.message
-        return
     assert failure.category == FailureCategory.BUDGET_EXCEEDED and failure.line >= 3 and reason in failure.message
 
 

@@ -16,6 +16,7 @@ sums over them) and every decision as an :class:`AdaptationEvent` for the logger
 from __future__ import annotations
 
 import ast
+import copy
 import logging
 import textwrap
 from collections import Counter
@@ -61,6 +62,7 @@ from lerobot_policy_recent.recent_plugin.refactoring.units import (
     at_indent,
     cut_unit,
 )
+from lerobot_policy_recent.recent_plugin.sandbox import BINOP, Meter, SkillBudget, instrument
 
 log = logging.getLogger(__name__)
 
@@ -417,9 +419,14 @@ _UNKNOWN = object()  # an expression that cannot be evaluated now
 
 
 def _evaluated(node: ast.expr, namespace: dict) -> object:
-    """The value of an expression of validated code in ``namespace`` now (``_UNKNOWN`` where it fails)."""
+    """The value of an expression of validated code in ``namespace`` now (``_UNKNOWN`` where it fails),
+    metered as the skill's own code is (the executor's namespace holds its meter)."""
     try:
-        return eval(compile(ast.Expression(node), "<skill>", "eval"), dict(namespace))  # noqa: S307
+        expression = instrument(ast.Expression(copy.deepcopy(node)))
+        scope = dict(namespace)
+        if BINOP not in scope:  # a namespace not the executor's: a meter of its own
+            scope.update(Meter(SkillBudget()).names())
+        return eval(compile(expression, "<skill>", "eval"), scope)  # noqa: S307
     except Exception:  # noqa: BLE001 - a value we cannot compute is one we cannot use
         return _UNKNOWN
 

@@ -64,12 +64,9 @@ def import_primitive_module(module_name: str):
             f"{exc.filename}:{exc.lineno}: primitive module {module_name!r} does not parse: {exc.msg}"
         ) from None
     except ModuleNotFoundError as exc:
-        if exc.name != module_name:
-            raise ValueError(f"{_module_file(module_name)}: primitive module {module_name!r}: {exc}") from None
-        raise ValueError(
-            f"primitive module {module_name!r} (the YAML's module:) is not importable: no file "
-            f"{module_name.replace('.', '/')}.py beside the robot's YAML or on the Python path"
-        ) from None
+        if exc.name and (module_name == exc.name or module_name.startswith(exc.name + ".")):
+            raise  # the module itself is missing: the caller names the YAML that asked for it
+        raise ValueError(f"{_module_file(module_name)}: primitive module {module_name!r}: {exc}") from None
     except Exception as exc:  # noqa: BLE001 - whatever the user's module raised, named with its file
         raise ValueError(
             f"{_module_file(module_name)}: primitive module {module_name!r} raised on import: "
