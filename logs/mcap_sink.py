@@ -6,17 +6,23 @@ simulator), ``/log`` (``Log``: every event, by level), ``/joint_states`` (``Join
 the arm's joint positions and velocities, and the gripper opening), ``/camera/front`` (``CompressedImage``) — and JSON schemas with stable names
 (``recent.<event>``) for grounding events on ``/recent/<event>``, the action on ``/action`` and the
 gripper's sensors (finger contacts, object detection, vacuum, end-effector contact) on ``/gripper_sensors``.
-Messages are written in zstd-compressed chunks with the chunk and message indexes readers seek
-by. A chunk is closed and flushed after every step and event (:meth:`mcap.writer.Writer.flush`),
-so a killed process loses at most the step in flight; ``recent logs verify --recover`` rewrites
-such a file with its summary.
+While an episode runs, records are written unchunked and the file is flushed after every step
+and event, so a killed process loses at most the step in flight; ``recent logs verify --recover``
+rewrites such a file with its summary. When the episode ends, the file is rewritten in large
+zstd-compressed chunks with the chunk and message indexes readers seek by (:func:`rewrite_mcap`):
+smaller, and quick for Foxglove and ``mcap`` readers to open. (Chunks cut after every step would
+keep the kill bound too, but hundreds of kilobyte-sized chunks read slower than no chunks at all:
+BENCHMARKS.md, "Logging".)
 """
 
 from __future__ import annotations
 
 import io
 import json
+import logging
+import os
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import IO
 
 import numpy as np
@@ -32,6 +38,7 @@ from mcap_protobuf.schema import build_file_descriptor_set
 
 from lerobot_policy_recent.logs.events import EVENT_TYPES, Stamped, Step, json_schema
 from lerobot_policy_recent.logs.layout import LogLayout
+from lerobot_policy_recent.logs.readers import salvage_mcap_records
 from lerobot_policy_recent.robosuite_envs.embodiments import arm_dof
 from lerobot_policy_recent.robosuite_envs.observation import (
     GRIPPER_SENSORS,
@@ -41,6 +48,10 @@ from lerobot_policy_recent.robosuite_envs.observation import (
     SLOT_DIM,
 )
 
+log = logging.getLogger(__name__)
+
+LIBRARY = "lerobot_policy_recent"
+CHUNK_BYTES = 256 * 1024  # uncompressed bytes per chunk of a finished file (a partial copy keeps its whole chunks)
 LOG_LEVELS = {"debug": Log.DEBUG, "info": Log.INFO, "warning": Log.WARNING, "error": Log.ERROR}
 ACTION_SCHEMA = {
     "title": "recent.action",
@@ -75,7 +86,8 @@ class McapSink:
         path = self.layout.mcap(start.episode_index)
         path.parent.mkdir(parents=True, exist_ok=True)
         stream = open(path, "wb")  # noqa: SIM115 - kept open for the episode, closed in end()
-        writer = open_writer(stream)
+        writer = Writer(stream, use_chunking=False)
+        writer.start(profile="", library=LIBRARY)
         self._files[start.episode_index] = _EpisodeFile(
             stream, writer, list(start.event.object_names), arm_dof(start.event.robot, MAX_ARM_DOF)
         )
@@ -94,7 +106,7 @@ class McapSink:
             name=e.name,
         )
         self._write(f, "/log", "protobuf", message.SerializeToString(), stamped.log_time_ns, Log)
-        f.writer.flush()  # the chunk so far, compressed and on disk
+        f.stream.flush()
 
     def step(self, step: Step) -> None:
         f = self._files[step.episode_index]
@@ -117,7 +129,7 @@ class McapSink:
         if step.image is not None:
             image = CompressedImage(timestamp=stamp, frame_id="front", format="png", data=_png(step.image))
             self._write(f, "/camera/front", "protobuf", image.SerializeToString(), t, CompressedImage)
-        f.writer.flush()  # one chunk per step: a kill loses only the step in flight
+        f.stream.flush()  # a kill loses only the step in flight
 
     def end(self, result: Stamped) -> None:
         f = self._files.pop(result.episode_index, None)
@@ -128,12 +140,14 @@ class McapSink:
         del self._files[result.episode_index]
         f.writer.finish()
         f.stream.close()
+        compact_mcap(self.layout.mcap(result.episode_index))
 
     def close(self) -> None:
         """Episodes still open (a run stopped early) are finished as they stand: readable, just shorter."""
-        for f in self._files.values():
+        for index, f in self._files.items():
             f.writer.finish()
             f.stream.close()
+            compact_mcap(self.layout.mcap(index))
         self._files.clear()
 
     # ------------------------------------------------------------------ helpers
@@ -145,11 +159,39 @@ class McapSink:
         f.sequence += 1
 
 
-def open_writer(stream: IO[bytes], library: str = "lerobot_policy_recent") -> Writer:
-    """An MCAP writer in the form every file of ours takes: zstd chunks, indexed (chunks are cut by ``flush()``)."""
-    writer = Writer(stream, chunk_size=4 * 1024 * 1024, compression=CompressionType.ZSTD)
-    writer.start(profile="", library=library)
-    return writer
+def rewrite_mcap(records: list, target: Path, library: str = LIBRARY) -> int:
+    """Write the schemas, channels and messages among ``records`` (an MCAP's, in file order) into a new
+    MCAP at ``target``: zstd chunks of up to ``CHUNK_BYTES``, indexed, with its summary. Returns the messages."""
+    kinds = {"Schema": [], "Channel": [], "Message": []}
+    for record in records:
+        kinds.get(type(record).__name__, []).append(record)
+    with open(target, "wb") as stream:
+        writer = Writer(stream, chunk_size=CHUNK_BYTES, compression=CompressionType.ZSTD)
+        writer.start(profile="", library=library)
+        # a file cut short while its summary was written repeats schemas and channels there: each once
+        schemas = {s.id: s for s in kinds["Schema"]}.values()
+        channels = {c.id: c for c in kinds["Channel"]}.values()
+        schema_ids = {s.id: writer.register_schema(s.name, s.encoding, s.data) for s in schemas}
+        channel_ids = {
+            c.id: writer.register_channel(c.topic, c.message_encoding, schema_ids.get(c.schema_id, 0), c.metadata)
+            for c in channels
+        }
+        for m in kinds["Message"]:
+            if m.channel_id in channel_ids:
+                writer.add_message(channel_ids[m.channel_id], m.log_time, m.data, m.publish_time, m.sequence)
+        writer.finish()
+    return len(kinds["Message"])
+
+
+def compact_mcap(path: Path) -> None:
+    """Rewrite a finished episode's MCAP in compressed, indexed chunks (whole or not at all: write, then rename)."""
+    tmp = path.with_name(path.name + ".compact")
+    try:
+        rewrite_mcap(salvage_mcap_records(path), tmp)
+        os.replace(tmp, path)
+    except OSError as exc:  # a full disk costs the compaction, not the episode: the file stays as written
+        log.warning("could not compact %s (%s); it stays as written", path, exc)
+        tmp.unlink(missing_ok=True)
 
 
 def _register(f: _EpisodeFile, topic: str, encoding: str, schema) -> int:

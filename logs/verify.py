@@ -185,27 +185,9 @@ def partner_mcap(layout: LogLayout, rrd: Path) -> Path | None:
 
 def recover_mcap(source: Path, target: Path) -> int:
     """Copy every intact schema, channel and message into a new, finished MCAP; returns the messages kept."""
-    from lerobot_policy_recent.logs.mcap_sink import open_writer
+    from lerobot_policy_recent.logs.mcap_sink import rewrite_mcap
 
-    records = salvage_mcap_records(source)
-    kinds = {"Schema": [], "Channel": [], "Message": []}
-    for record in records:
-        kinds.get(type(record).__name__, []).append(record)
-    with open(target, "wb") as stream:
-        writer = open_writer(stream, library="lerobot_policy_recent (recovered)")
-        # a file cut short while its summary was written repeats schemas and channels there: each once
-        schemas = {s.id: s for s in kinds["Schema"]}.values()
-        channels = {c.id: c for c in kinds["Channel"]}.values()
-        schema_ids = {s.id: writer.register_schema(s.name, s.encoding, s.data) for s in schemas}
-        channel_ids = {
-            c.id: writer.register_channel(c.topic, c.message_encoding, schema_ids.get(c.schema_id, 0), c.metadata)
-            for c in channels
-        }
-        for m in kinds["Message"]:
-            if m.channel_id in channel_ids:
-                writer.add_message(channel_ids[m.channel_id], m.log_time, m.data, m.publish_time, m.sequence)
-        writer.finish()
-    return len(kinds["Message"])
+    return rewrite_mcap(salvage_mcap_records(source), target, library="lerobot_policy_recent (recovered)")
 
 
 def recover_rrd(source: Path, target: Path, *, mcap: Path | None = None) -> str:

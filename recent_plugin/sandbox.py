@@ -65,9 +65,12 @@ class BudgetExceeded(Exception):  # noqa: N818 - it is what the skill did, not a
         self.budget = budget
 
 
+_SEQUENCES = (list, tuple, str, bytes, bytearray)
+
+
 def _size(value: object) -> int | None:
     """Items a value holds (characters of a string), or None where it is not a sized sequence."""
-    return len(value) if isinstance(value, str | bytes | bytearray | list | tuple) else None
+    return len(value) if isinstance(value, _SEQUENCES) else None
 
 
 def format_problem(template: str | bytes) -> str | None:
@@ -143,6 +146,12 @@ class Meter:
         return True
 
     def binop(self, op: str, left: object, right: object) -> object:
+        """``left op right``, refused before it is computed where its result would be too big.
+
+        Numbers take the short way (an integer's size is checked by its bits); time is not checked
+        here: one operation is bounded by its size, and many need a loop, whose ticks check it."""
+        if type(left) is float or type(right) is float:
+            return _OPERATORS[op](left, right)
         self._precheck(op, left, right)
         before = _size(left) if op.endswith("=") else None  # an in-place update grows ``left`` itself
         result = _OPERATORS[op](left, right)
@@ -171,7 +180,6 @@ class Meter:
             problem = format_problem(left)
             if problem:
                 raise BudgetExceeded("memory", f"the skill would build a huge string: {problem}")
-        self.check_time()
 
     def built(self, make: Callable[..., object]) -> Callable[..., object]:
         """A builtin that copies a sequence, charging what it builds."""

@@ -201,10 +201,28 @@ def test_replay_rebuilds_the_live_recording_from_the_mcap_alone(run, tmp_path, c
 def test_a_cut_mcap_replays_with_a_warning_of_what_was_lost(run, tmp_path, capsys):
     from lerobot_policy_recent.scripts.cli import main
 
+    from mcap.writer import Writer
+
+    from lerobot_policy_recent.logs.readers import salvage_mcap_records
+
     root, _ = run
-    mcap = LogLayout(root).mcap(0)
+    live = tmp_path / "live.mcap"  # the file as a running episode writes it: unchunked, flushed every step
+    with open(live, "wb") as stream:
+        writer = Writer(stream, use_chunking=False)
+        writer.start()
+        for record in salvage_mcap_records(LogLayout(root).mcap(0)):
+            kind = type(record).__name__
+            if kind == "Schema":
+                writer.register_schema(record.name, record.encoding, record.data)
+            elif kind == "Channel":
+                writer.register_channel(record.topic, record.message_encoding, record.schema_id, record.metadata)
+            elif kind == "Message":
+                writer.add_message(
+                    record.channel_id, record.log_time, record.data, record.publish_time, record.sequence
+                )
+        writer.finish()
     cut = tmp_path / "cut.mcap"
-    cut.write_bytes(mcap.read_bytes()[: mcap.stat().st_size * 2 // 3])
+    cut.write_bytes(live.read_bytes()[: live.stat().st_size * 2 // 3])
     assert main(["replay", str(cut), "--out", str(tmp_path / "cut.rrd"), "--no-viewer"]) == 0
     err = capsys.readouterr().err
     assert f"warning: {cut} was cut short" in err and "whatever came after it is lost" in err

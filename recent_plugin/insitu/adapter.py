@@ -422,10 +422,12 @@ def _evaluated(node: ast.expr, namespace: dict) -> object:
     """The value of an expression of validated code in ``namespace`` now (``_UNKNOWN`` where it fails),
     metered as the skill's own code is (the executor's namespace holds its meter)."""
     try:
-        expression = instrument(ast.Expression(copy.deepcopy(node)))
+        expression = ast.Expression(node)
         scope = dict(namespace)
-        if BINOP not in scope:  # a namespace not the executor's: a meter of its own
-            scope.update(Meter(SkillBudget()).names())
+        if any(isinstance(n, ast.BinOp | ast.comprehension) for n in ast.walk(node)):  # what could build a lot
+            expression = instrument(ast.Expression(copy.deepcopy(node)))
+            if BINOP not in scope:  # a namespace not the executor's: a meter of its own
+                scope.update(Meter(SkillBudget()).names())
         return eval(compile(expression, "<skill>", "eval"), scope)  # noqa: S307
     except Exception:  # noqa: BLE001 - a value we cannot compute is one we cannot use
         return _UNKNOWN
