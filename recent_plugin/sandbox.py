@@ -10,7 +10,10 @@ expression. Every skill the executor runs, whoever wrote it (an LM, a baseline, 
   size of the result *before* Python builds it (a list repeated, a string padded by a format
   width, an integer multiplied to thousands of digits) and refuses one over the budget;
 * the builtins that copy a sequence (``list``, ``tuple``, ``sorted``) charge what they build, and
-  ``sum`` adds numbers only (summing lists is a quadratic copy).
+  ``sum`` adds numbers only (summing lists is a quadratic copy);
+* what Python walks recursively in one C call (the operands of a comparison, a dict key, the
+  arguments of ``%``, ``min``/``max``/``sorted``) must be nested within bounds: ``x = [x, x]`` a few
+  hundred times builds a small value whose comparison, hash or repr never ends.
 
 A :class:`Meter` counts, per skill, the items it has created (elements and characters) and, per
 control step, the seconds its code has run. Going over either raises :class:`BudgetExceeded`,
@@ -180,6 +183,7 @@ class Meter:
             problem = format_problem(left)
             if problem:
                 raise BudgetExceeded("memory", f"the skill would build a huge string: {problem}")
+            self.bounded(right)
 
     def built(self, make: Callable[..., object]) -> Callable[..., object]:
         """A builtin that copies a sequence, charging what it builds."""
@@ -203,13 +207,45 @@ class Meter:
         self.check_time()
         return total
 
+    def bounded(self, value: object) -> object:
+        """``value``, once it is known to hold at most ``max_value_items`` nested sequences, counted with
+        repeats (what a comparison, hash or repr of it walks); else :class:`BudgetExceeded`."""
+        if not isinstance(value, _CONTAINERS):
+            return value
+        todo, seen = [value], 0
+        while todo:
+            item = todo.pop()
+            seen += 1
+            if seen > self.budget.max_value_items:
+                raise BudgetExceeded(
+                    "time",
+                    f"the skill compares, hashes or formats a value nested over {self.budget.max_value_items:,} "
+                    "sequences deep and wide (one C call would walk it for minutes)",
+                )
+            todo.extend(v for v in (item.values() if isinstance(item, dict) else item) if isinstance(v, _CONTAINERS))
+        return value
+
+    def bounded_all(self, make: Callable[..., object]) -> Callable[..., object]:
+        """A builtin that compares its arguments' items (``min``, ``max``, ``sorted``), on bounded arguments."""
+
+        def checked(*args, **kwargs):
+            for arg in args:
+                self.bounded(arg)
+            return make(*args, **kwargs)
+
+        checked.__name__ = make.__name__
+        return checked
+
     def names(self) -> dict[str, object]:
         """What instrumented code calls, by the names :func:`instrument` writes."""
-        return {TICK: self.tick, BINOP: self.binop}
+        return {TICK: self.tick, BINOP: self.binop, BOUNDED: self.bounded}
 
     def builtins(self, base: dict[str, object]) -> dict[str, object]:
         """``base`` (a skill's builtins) with the copying ones charged."""
         out = dict(base)
+        for name in ("min", "max", "sorted"):
+            if name in out:
+                out[name] = self.bounded_all(out[name])  # type: ignore[arg-type]
         for name in ("list", "tuple", "sorted"):
             if name in out:
                 out[name] = self.built(out[name])  # type: ignore[arg-type]
@@ -220,6 +256,8 @@ class Meter:
 
 TICK = "_recent_tick"  # names the gate would refuse in skill code, so a skill cannot shadow them
 BINOP = "_recent_binop"
+BOUNDED = "_recent_bounded"
+_CONTAINERS = (list, tuple, dict)
 _OPERATORS: dict[str, Callable[[object, object], object]] = {
     "*": operator.mul,
     "+": operator.add,
@@ -258,6 +296,23 @@ class _Instrument(ast.NodeTransformer):
         if symbol is None:
             return node
         return ast.copy_location(_call(BINOP, ast.Constant(symbol), node.left, node.right), node)
+
+    def visit_Compare(self, node: ast.Compare) -> ast.AST:
+        self.generic_visit(node)
+        node.left = _call(BOUNDED, node.left)
+        node.comparators = [_call(BOUNDED, c) for c in node.comparators]
+        return node
+
+    def visit_Dict(self, node: ast.Dict) -> ast.AST:
+        self.generic_visit(node)
+        node.keys = [k if k is None else _call(BOUNDED, k) for k in node.keys]
+        return node
+
+    def visit_Subscript(self, node: ast.Subscript) -> ast.AST:
+        self.generic_visit(node)
+        if not isinstance(node.slice, ast.Constant | ast.Slice):  # a key that may be hashed
+            node.slice = _call(BOUNDED, node.slice)
+        return node
 
     def visit_AugAssign(self, node: ast.AugAssign) -> ast.AST:
         self.generic_visit(node)

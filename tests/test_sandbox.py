@@ -94,6 +94,10 @@ STOPPED = {
         "r = list(range(1000))\nbig = r + r\ncopies = [list(big) for i in r]",
         "1,000,000 over its run",
     ),
+    "a nested value compared": ("x = [obj]\nfor i in range(200):\n    x = [x, x]\nsame = x == [x, x]", "nested over"),
+    "a nested tuple hashed": ("t = (obj,)\nfor i in range(200):\n    t = (t, t)\nd = {t: 1}", "nested over"),
+    "a nested value formatted": ("x = [obj]\nfor i in range(200):\n    x = [x, x]\ns = '%s' % (x,)", "nested over"),
+    "the largest of nested values": ("x = [obj]\nfor i in range(200):\n    x = [x, x]\nm = max(x, [x])", "nested over"),
     "summing lists": ("r = [[obj]]\ns = sum(r, [])", "skill code sums numbers only"),
 }
 
