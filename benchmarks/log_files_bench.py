@@ -44,7 +44,7 @@ def mcap_figures(path: Path) -> dict:
     window = stats.message_end_time - (stats.message_end_time - stats.message_start_time) // 10
     started = time.perf_counter()
     with open(path, "rb") as stream:  # what a viewer does when the user jumps to the end: the last tenth
-        last = sum(1 for _ in make_reader(stream).iter_messages(start_time=window))
+        last = sum(1 for _ in make_reader(stream).iter_messages(starting_at=window))
     return {
         "mcap_kib": path.stat().st_size / 1024,
         "mcap_chunks": len(summary.chunk_indexes),
