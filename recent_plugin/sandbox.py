@@ -11,9 +11,10 @@ expression. Every skill the executor runs, whoever wrote it (an LM, a baseline, 
   width, an integer multiplied to thousands of digits) and refuses one over the budget;
 * the builtins that copy a sequence (``list``, ``tuple``, ``sorted``) charge what they build, and
   ``sum`` adds numbers only (summing lists is a quadratic copy);
-* what Python walks recursively in one C call (the operands of a comparison, a dict key, the
-  arguments of ``%``, ``min``/``max``/``sorted``) must be nested within bounds: ``x = [x, x]`` a few
-  hundred times builds a small value whose comparison, hash or repr never ends.
+* what Python or numpy walks recursively in one C call (the operands of a comparison, a dict key,
+  the arguments of ``%``, of ``min``/``max``/``sorted`` and of every call: a primitive turns its
+  arguments into arrays) must be nested within bounds: ``x = [x, x]`` a few hundred times builds a
+  small value whose comparison, hash or conversion never ends.
 
 A :class:`Meter` counts, per skill, the items it has created (elements and characters) and, per
 control step, the seconds its code has run. Going over either raises :class:`BudgetExceeded`,
@@ -153,7 +154,7 @@ class Meter:
 
         Numbers take the short way (an integer's size is checked by its bits); time is not checked
         here: one operation is bounded by its size, and many need a loop, whose ticks check it."""
-        if type(left) is float or type(right) is float:
+        if (type(left) is float and type(right) in _NUMBERS) or (type(right) is float and type(left) in _NUMBERS):
             return _OPERATORS[op](left, right)
         self._precheck(op, left, right)
         before = _size(left) if op.endswith("=") else None  # an in-place update grows ``left`` itself
@@ -258,6 +259,7 @@ TICK = "_recent_tick"  # names the gate would refuse in skill code, so a skill c
 BINOP = "_recent_binop"
 BOUNDED = "_recent_bounded"
 _CONTAINERS = (list, tuple, dict)
+_NUMBERS = (int, float)
 _OPERATORS: dict[str, Callable[[object, object], object]] = {
     "*": operator.mul,
     "+": operator.add,
@@ -296,6 +298,13 @@ class _Instrument(ast.NodeTransformer):
         if symbol is None:
             return node
         return ast.copy_location(_call(BINOP, ast.Constant(symbol), node.left, node.right), node)
+
+    def visit_Call(self, node: ast.Call) -> ast.AST:
+        self.generic_visit(node)
+        node.args = [a if isinstance(a, ast.Starred) else _call(BOUNDED, a) for a in node.args]
+        for keyword in node.keywords:
+            keyword.value = _call(BOUNDED, keyword.value)
+        return node
 
     def visit_Compare(self, node: ast.Compare) -> ast.AST:
         self.generic_visit(node)

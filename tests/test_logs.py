@@ -199,11 +199,10 @@ def test_replay_rebuilds_the_live_recording_from_the_mcap_alone(run, tmp_path, c
 
 
 def test_a_cut_mcap_replays_with_a_warning_of_what_was_lost(run, tmp_path, capsys):
-    from lerobot_policy_recent.scripts.cli import main
-
     from mcap.writer import Writer
 
     from lerobot_policy_recent.logs.readers import salvage_mcap_records
+    from lerobot_policy_recent.scripts.cli import main
 
     root, _ = run
     live = tmp_path / "live.mcap"  # the file as a running episode writes it: unchunked, flushed every step

@@ -86,6 +86,11 @@ STOPPED = {
     "a number squared 64 times": ("n = 3\nfor i in range(64):\n    n = n * n", "an integer of"),
     "a list doubled 64 times": ("xs = [obj]\nfor i in range(64):\n    xs = xs + xs", "a value of 1,048,576 items"),
     "a format width from a variable": ("f = '%0999999999d'\ns = f % 0", "a huge string"),
+    "a format width with a float": ("f = '%0999999999f'\ns = f % 1.5", "a huge string"),
+    "a nested value handed to a primitive": (
+        "x = [obj]\nfor i in range(200):\n    x = [x, x]\nur5_move_to(env, task, target_pos=x)",
+        "nested over",
+    ),
     "a comprehension over variables": (
         "r = list(range(1000))\ngrid = [[[a for a in r] for b in r] for c in r]",
         "without an action",
