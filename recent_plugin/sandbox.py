@@ -160,7 +160,8 @@ class Meter:
         before = _size(left) if op.endswith("=") else None  # an in-place update grows ``left`` itself
         result = _OPERATORS[op](left, right)
         size = _size(result)
-        if size is not None:
+        if size is not None:  # what no precheck sizes (a %-format's output) is held to the same bound once built
+            self.limit(size)
             self.charge(size - before if result is left and before is not None else size)
         return result
 
@@ -237,9 +238,16 @@ class Meter:
         checked.__name__ = make.__name__
         return checked
 
+    def spliced(self, value: object) -> object:
+        """What a slice assignment inserts (``x[0:0] = x`` grows ``x`` in place), counted as built."""
+        items = value if isinstance(value, _SEQUENCES) else list(value)  # Python materialises it anyway
+        self.limit(len(items))
+        self.charge(len(items))
+        return items
+
     def names(self) -> dict[str, object]:
         """What instrumented code calls, by the names :func:`instrument` writes."""
-        return {TICK: self.tick, BINOP: self.binop, BOUNDED: self.bounded}
+        return {TICK: self.tick, BINOP: self.binop, BOUNDED: self.bounded, SPLICED: self.spliced}
 
     def builtins(self, base: dict[str, object]) -> dict[str, object]:
         """``base`` (a skill's builtins) with the copying ones charged."""
@@ -258,6 +266,7 @@ class Meter:
 TICK = "_recent_tick"  # names the gate would refuse in skill code, so a skill cannot shadow them
 BINOP = "_recent_binop"
 BOUNDED = "_recent_bounded"
+SPLICED = "_recent_spliced"
 _CONTAINERS = (list, tuple, dict)
 _NUMBERS = (int, float)
 _OPERATORS: dict[str, Callable[[object, object], object]] = {
@@ -304,6 +313,12 @@ class _Instrument(ast.NodeTransformer):
         node.args = [a if isinstance(a, ast.Starred) else _call(BOUNDED, a) for a in node.args]
         for keyword in node.keywords:
             keyword.value = _call(BOUNDED, keyword.value)
+        return node
+
+    def visit_Assign(self, node: ast.Assign) -> ast.AST:
+        self.generic_visit(node)
+        if any(isinstance(t, ast.Subscript) and isinstance(t.slice, ast.Slice) for t in node.targets):
+            node.value = _call(SPLICED, node.value)
         return node
 
     def visit_Compare(self, node: ast.Compare) -> ast.AST:

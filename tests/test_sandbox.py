@@ -84,6 +84,14 @@ STOPPED = {
     "a loop that grows the list it walks": ("xs = [obj]\nfor v in xs:\n    xs += [v]", "without an action"),
     "a list multiplied in place": ("xs = [obj, obj]\nxs *= 9999\nxs *= 9999", "a value of 199,960,002 items"),
     "a number squared 64 times": ("n = 3\nfor i in range(64):\n    n = n * n", "an integer of"),
+    "a list doubled in place by slices": (
+        "xs = [obj]\nfor i in range(64):\n    xs[0:0] = xs",
+        "a value of 1,048,576 items",
+    ),
+    "a string doubled by formatting": (
+        "s = obj\nfor i in range(64):\n    s = '%s%s' % (s, s)",
+        "a value of 1,048,576 items",
+    ),
     "a list doubled 64 times": ("xs = [obj]\nfor i in range(64):\n    xs = xs + xs", "a value of 1,048,576 items"),
     "a format width from a variable": ("f = '%0999999999d'\ns = f % 0", "a huge string"),
     "a format width with a float": ("f = '%0999999999f'\ns = f % 1.5", "a huge string"),
