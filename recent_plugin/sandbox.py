@@ -8,7 +8,8 @@ expression. Every skill the executor runs, whoever wrote it (an LM, a baseline, 
 * every loop iteration, a comprehension's included, calls :meth:`Meter.tick`;
 * ``*``, ``+``, ``%`` and their augmented forms go through :meth:`Meter.binop`, which computes the
   size of the result *before* Python builds it (a list repeated, a string padded by a format
-  width, an integer multiplied to thousands of digits) and refuses one over the budget;
+  width, an integer multiplied to thousands of digits) and refuses one over the budget; a slice
+  assignment counts what it inserts (``x[0:0] = x`` grows ``x`` in place);
 * the builtins that copy a sequence (``list``, ``tuple``, ``sorted``) charge what they build, and
   ``sum`` adds numbers only (summing lists is a quadratic copy);
 * what Python or numpy walks recursively in one C call (the operands of a comparison, a dict key,
