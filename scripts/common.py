@@ -49,6 +49,8 @@ def settings_options(
             for sub, names in owners.items():
                 owner = choices[names[0]]
                 yield SettingsOption(f"{path}.{sub}", f"[{_owners(names, list(choices))}] {_doc(owner, sub)}")
+        elif dataclasses.is_dataclass(kind):  # a subtree of plain fields (``--skill_budget.step_seconds``)
+            yield from settings_options(kind, f"{path}.")
         else:
             yield SettingsOption(path, f"{doc} (default: {f.default})")
 

@@ -40,6 +40,30 @@ def test_a_zero_skill_step_budget_is_refused_by_name(capsys):
     assert code == 2 and "--max_skill_steps must be >= 1, got 0" in capsys.readouterr().err
 
 
+def test_the_skill_budget_is_set_by_option_and_refused_out_of_range(capsys):
+    from lerobot_policy_recent.scripts.cli import build_parser
+    from lerobot_policy_recent.scripts.common import settings_from_args
+
+    args = build_parser().parse_args(
+        ["ground", "--skill", "put_in_bin", "--robot", "UR5e", "--skill_budget.step_seconds", "0.5"]
+    )
+    assert settings_from_args(args).skill_budget.step_seconds == 0.5
+    code = main(
+        [
+            "ground",
+            "--skill",
+            "put_in_bin",
+            "--robot",
+            "UR5e",
+            "--infiller.type",
+            "rule",
+            "--skill_budget.max_value_items",
+            "0",
+        ]
+    )
+    assert code == 2 and "--skill_budget.max_value_items must be > 0, got 0" in capsys.readouterr().err
+
+
 def test_dashes_and_underscores_name_the_same_option():
     assert underscored(["run", "--log-dir=x", "--max-steps", "3", "--task", "a-b", "--", "--keep-me"]) == [
         "run",
