@@ -12,7 +12,7 @@ rewrites such a file with its summary. When the episode ends, the file is rewrit
 zstd-compressed chunks with the chunk and message indexes readers seek by (:func:`rewrite_mcap`):
 smaller, and quick for Foxglove and ``mcap`` readers to open. (Chunks cut after every step would
 keep the kill bound too, but hundreds of kilobyte-sized chunks read slower than no chunks at all:
-BENCHMARKS.md, "Logging".)
+BENCHMARKS.md, "Safe runtime and logs".)
 """
 
 from __future__ import annotations
