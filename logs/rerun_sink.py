@@ -54,6 +54,7 @@ MIN_HALF_SIZE = 0.01  # an object whose extents are unknown (a recording rebuilt
 FINGER_SPAN = 0.04  # the end effector's drawn half-width at gripper opening 1
 EEF_COLOR = (255, 140, 0)
 PATH_EVERY = 10  # steps between two drawings of the end effector's path so far
+PATH_POINTS = 200  # points in one drawing of it
 FLUSH_S = 0.25  # wall-clock bound on how long a step waits in the buffer
 _LEVELS = {"debug": rr.TextLogLevel.DEBUG, "info": rr.TextLogLevel.INFO, "warning": rr.TextLogLevel.WARN}
 
@@ -202,6 +203,10 @@ class RerunSink:
 
 
 def _log_path(rec: rr.RecordingStream, points: list[np.ndarray], frame: int) -> None:
+    """The path so far, at most ``PATH_POINTS`` points (every k-th, and the last): a long episode's
+    recording grows linearly with its steps, not with their square."""
+    stride = max(1, len(points) // PATH_POINTS)
+    points = points[::stride] + ([points[-1]] if (len(points) - 1) % stride else [])
     rec.set_time("step", sequence=frame)
     rec.set_time("sim_time", duration=frame / CONTROL_FREQ)
     rec.log("world/eef_path", rr.LineStrips3D([np.stack(points)], colors=[EEF_COLOR], radii=0.002))
