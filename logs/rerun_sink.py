@@ -236,7 +236,7 @@ def _send_boxes(rec: rr.RecordingStream, entity: str, index: list, states: list[
 
 def rerun_executable() -> str:
     """The ``rerun`` CLI installed with rerun-sdk in this environment: the binary itself where it is found
-    (the ``rerun`` script only starts Python to launch it, ~0.3 s a call), else that script."""
+    (the ``rerun`` script starts a Python interpreter only to launch it), else that script."""
     spec = importlib.util.find_spec("rerun_cli")
     if spec is not None and spec.submodule_search_locations:
         binary = Path(spec.submodule_search_locations[0]) / "rerun"
