@@ -14,9 +14,9 @@ from __future__ import annotations
 import argparse
 import sys
 
+from lerobot_policy_recent.descriptions.embodiments import EMBODIMENTS, SOURCE_EMBODIMENT
 from lerobot_policy_recent.robosuite_envs.calibrate import calibration
 from lerobot_policy_recent.robosuite_envs.calibration import Calibration
-from lerobot_policy_recent.robosuite_envs.embodiments import EMBODIMENTS, SOURCE_EMBODIMENT
 
 HEADER = (
     "| embodiment | robot + gripper | DoF | reach (m) | close / open (s) | grasp point off site (mm) "

@@ -20,7 +20,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from lerobot_policy_recent.recent_plugin.evaluation.runner import BenchConfig, machine, run_bench
+from lerobot_policy_recent.evaluation.runner import BenchConfig, machine, run_bench
 from lerobot_policy_recent.recent_plugin.infillers.configs import RuleConfig
 from lerobot_policy_recent.recent_plugin.settings import RecentSettings
 from lerobot_policy_recent.scripts.bench_cmd import git_commit

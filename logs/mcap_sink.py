@@ -36,10 +36,10 @@ from google.protobuf.timestamp_pb2 import Timestamp
 from mcap.writer import CompressionType, Writer
 from mcap_protobuf.schema import build_file_descriptor_set
 
+from lerobot_policy_recent.descriptions.embodiments import arm_dof
 from lerobot_policy_recent.logs.events import EVENT_TYPES, Stamped, Step, json_schema
 from lerobot_policy_recent.logs.layout import LogLayout
 from lerobot_policy_recent.logs.readers import salvage_mcap_records
-from lerobot_policy_recent.robosuite_envs.embodiments import arm_dof
 from lerobot_policy_recent.robosuite_envs.observation import (
     GRIPPER_SENSORS,
     JOINTS_AT,

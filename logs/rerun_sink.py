@@ -33,9 +33,9 @@ import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
 
+from lerobot_policy_recent.descriptions.embodiments import arm_dof
 from lerobot_policy_recent.logs.events import EpisodeStarted, InfillCall, PatchApplied, Stamped, Step
 from lerobot_policy_recent.logs.layout import episode_name
-from lerobot_policy_recent.robosuite_envs.embodiments import arm_dof
 from lerobot_policy_recent.robosuite_envs.observation import (
     ACTION_NAMES,
     GRIPPER_SENSORS,

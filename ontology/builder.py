@@ -157,8 +157,8 @@ class Ontology:
 
 
 def default_embodiment_sources() -> list[EmbodimentSource]:
-    from lerobot_policy_recent.robosuite_envs.embodiments import EMBODIMENTS, SOURCE_EMBODIMENTS
-    from lerobot_policy_recent.robosuite_envs.primitives import api_spec_path
+    from lerobot_policy_recent.descriptions.apis import api_spec_path
+    from lerobot_policy_recent.descriptions.embodiments import EMBODIMENTS, SOURCE_EMBODIMENTS
 
     return [
         EmbodimentSource(

@@ -17,8 +17,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from lerobot_policy_recent.descriptions.frames import LENGTH_UNITS
 from lerobot_policy_recent.ontology.specs import PATH_ROLE, WORLD_FRAME, ApiSpec, ParameterSpec
-from lerobot_policy_recent.robosuite_envs.primitives.frames import LENGTH_UNITS
 
 ROTATIONS = ("quaternion", "rotvec", "euler")
 POINTS = ("position", "pose")

@@ -34,7 +34,7 @@ class GripperFacts:
 
 def resolve_mjcf(path: str) -> Path:
     """A path relative to robosuite's package (``models/assets/...``), or an absolute/relative file path."""
-    from lerobot_policy_recent.robosuite_envs.embodiments import resolve_model_file
+    from lerobot_policy_recent.descriptions.embodiments import resolve_model_file
 
     try:
         return resolve_model_file(path)

@@ -8,7 +8,7 @@ from typing import Any
 
 import yaml
 
-from lerobot_policy_recent.robosuite_envs.primitives.frames import ARM_BASE, LENGTH_UNITS, WORLD
+from lerobot_policy_recent.descriptions.frames import ARM_BASE, LENGTH_UNITS, WORLD
 
 _LOADER = getattr(yaml, "CSafeLoader", yaml.SafeLoader)  # libyaml when available: 10x faster
 PATH_CAPABILITY, PATH_ROLE = "cartesian_motion", "motion_target"  # a move to a point, and that point

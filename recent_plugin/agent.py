@@ -29,6 +29,7 @@ from lerobot_policy_recent.recent_plugin.methods import Adaptation, Grounding
 from lerobot_policy_recent.recent_plugin.settings import RecentSettings
 from lerobot_policy_recent.robosuite_envs.calibrate import calibration
 from lerobot_policy_recent.robosuite_envs.observation import Observation
+from lerobot_policy_recent.robosuite_envs.primitives.binding import bind_primitives
 from lerobot_policy_recent.robosuite_envs.suites import get_task
 from lerobot_policy_recent.robosuite_envs.tasks import TaskSpec
 from lerobot_policy_recent.skills.repository import LIBRARY, Skill, serve_skill, task_calls
@@ -209,7 +210,7 @@ class RecentAgent:
         """Ground the task's skills (the events of grounding go to ``emit`` once IGT is measured;
         ``on_grounded(skill)`` hears each skill as it is done, for a progress display)."""
         target = self.ontology.target(robot)  # resolved once: grounding, adaptation and execution share it
-        target.primitives()  # a robot whose YAML and module disagree stops here, before anything is grounded
+        bind_primitives(target)  # a robot whose YAML and module disagree stops here, before anything is grounded
         started = time.perf_counter()
         task = get_task(task_id)
         report = EpisodeGrounding(task_id=task_id, robot=robot)

@@ -25,6 +25,7 @@ from typing import Protocol
 
 import numpy as np
 
+from lerobot_policy_recent.descriptions.apis import api_spec_path, available_apis
 from lerobot_policy_recent.logs.events import Emit, SegmentEnded, SegmentFailed, SegmentStarted, ignore
 from lerobot_policy_recent.ontology.diagnosis import Warning
 from lerobot_policy_recent.ontology.skill_code import entry_function, segment_statements
@@ -36,13 +37,8 @@ from lerobot_policy_recent.recent_plugin.grounding.grounder import GroundedSkill
 from lerobot_policy_recent.recent_plugin.sandbox import BudgetExceeded, Meter, SkillBudget, instrument
 from lerobot_policy_recent.robosuite_envs.calibration import Calibration, Nominal
 from lerobot_policy_recent.robosuite_envs.observation import Observation
-from lerobot_policy_recent.robosuite_envs.primitives import (
-    PrimitiveFailure,
-    RobotSession,
-    TaskContext,
-    api_spec_path,
-    available_apis,
-)
+from lerobot_policy_recent.robosuite_envs.primitives import PrimitiveFailure, RobotSession, TaskContext
+from lerobot_policy_recent.robosuite_envs.primitives.binding import bind_primitives
 from lerobot_policy_recent.robosuite_envs.primitives.control import servo_action
 from lerobot_policy_recent.robosuite_envs.primitives.frames import SKILL_HELPERS, frames_for
 
@@ -329,7 +325,7 @@ class TaskExecutor:
         self.emit = emit
         self.adapter = adapter
         self.plan = plan
-        self.primitives: dict[str, Callable[..., Generator]] = target.primitives()  # type: ignore[assignment]
+        self.primitives: dict[str, Callable[..., Generator]] = bind_primitives(target)  # type: ignore[assignment]
         self.max_steps = max_steps
         self.budget = budget
         self.index = 0

@@ -1,6 +1,5 @@
-"""The world RECENT is tested in: robosuite embodiments, their primitive APIs, tasks, and envs."""
+"""The world RECENT is tested in: robosuite tasks and envs, the simulator side of the primitive APIs.
 
-from lerobot_policy_recent.robosuite_envs.runtime import configure_headless_gl, quiet_robosuite
-
-configure_headless_gl()
-quiet_robosuite()
+Importing this package changes nothing in the process. The modules that load robosuite import
+``runtime`` first, which picks a headless OpenGL backend and quiets robosuite before it loads.
+"""

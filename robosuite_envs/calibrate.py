@@ -8,6 +8,9 @@ simulator's versions and the procedure's code. ``recent envs show-embodiment NAM
 
 from __future__ import annotations
 
+from lerobot_policy_recent.robosuite_envs import runtime  # noqa: F401  (headless GL before robosuite loads)
+
+# isort: split
 import hashlib
 import os
 import time
@@ -15,8 +18,8 @@ from pathlib import Path
 
 import numpy as np
 
+from lerobot_policy_recent.descriptions.embodiments import Embodiment, get_embodiment, resolve_model_file
 from lerobot_policy_recent.robosuite_envs.calibration import CALIBRATION_VERSION, Calibration
-from lerobot_policy_recent.robosuite_envs.embodiments import Embodiment, get_embodiment, resolve_model_file
 from lerobot_policy_recent.robosuite_envs.primitives import control
 from lerobot_policy_recent.robosuite_envs.primitives.session import CONTROL_FREQ, RobotSession
 

@@ -14,7 +14,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from lerobot_policy_recent.robosuite_envs.embodiments import get_embodiment
+from lerobot_policy_recent.descriptions.embodiments import get_embodiment
 from lerobot_policy_recent.robosuite_envs.observation import ACTION_DIM, AGENT_POS_DIM, ENV_STATE_DIM, MAX_OBJECTS
 from lerobot_policy_recent.robosuite_envs.primitives.session import CONTROL_FREQ
 from lerobot_policy_recent.robosuite_envs.suites import get_task

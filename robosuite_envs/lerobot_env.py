@@ -51,7 +51,7 @@ class RecentEnvConfig(EnvConfig):
                 type=FeatureType.VISUAL, shape=(self.visualization_height, self.visualization_width, 3)
             )
             self.features_map["pixels"] = OBS_IMAGE
-        from lerobot_policy_recent.robosuite_envs.embodiments import get_embodiment
+        from lerobot_policy_recent.descriptions.embodiments import get_embodiment
         from lerobot_policy_recent.robosuite_envs.suites import get_task
 
         for task_id in self.task_ids:

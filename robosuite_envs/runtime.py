@@ -1,4 +1,9 @@
-"""Process setup that must happen before robosuite is imported: an OpenGL backend, quiet logs."""
+"""Process setup that must happen before robosuite is imported: an OpenGL backend, quiet logs.
+
+robosuite picks its rendering backend from ``MUJOCO_GL`` when it is first imported, so this
+module configures the process on import, and every module of this package that loads robosuite
+(the simulator is built from them) imports it first. Nothing else in the project does.
+"""
 
 from __future__ import annotations
 
@@ -30,3 +35,7 @@ def quiet_robosuite() -> None:
         return
     logging.getLogger("robosuite_logs").addFilter(lambda record: record.levelno >= logging.ERROR)
     warnings.filterwarnings("ignore", message="invalid escape sequence", category=SyntaxWarning)
+
+
+configure_headless_gl()
+quiet_robosuite()

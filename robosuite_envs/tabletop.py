@@ -8,6 +8,9 @@ goal-conditioned success (GC) survives later subtasks that change the scene agai
 
 from __future__ import annotations
 
+from lerobot_policy_recent.robosuite_envs import runtime  # noqa: F401  (headless GL before robosuite loads)
+
+# isort: split
 from collections import Counter
 from dataclasses import replace
 
@@ -450,7 +453,7 @@ def check_robosuite_names(embodiment) -> None:
 def build_env(
     task: TaskSpec, embodiment, *, seed: int | None, variations: tuple[str, ...] = (), offscreen: bool = False
 ) -> RecentTabletopEnv:
-    """The tabletop env for ``task`` with ``embodiment`` (an :class:`~lerobot_policy_recent.robosuite_envs.embodiments.Embodiment`),
+    """The tabletop env for ``task`` with ``embodiment`` (an :class:`~lerobot_policy_recent.descriptions.embodiments.Embodiment`),
     under operational-space control at ``CONTROL_FREQ``, never ending on its own."""
     from robosuite.controllers import load_composite_controller_config
 

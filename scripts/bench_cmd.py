@@ -10,8 +10,8 @@ import sys
 from collections import Counter
 from pathlib import Path
 
-from lerobot_policy_recent.recent_plugin.evaluation.methods import METHODS, model_of, parse_methods
-from lerobot_policy_recent.recent_plugin.evaluation.runner import PACKED
+from lerobot_policy_recent.evaluation.methods import METHODS, model_of, parse_methods
+from lerobot_policy_recent.evaluation.runner import PACKED
 from lerobot_policy_recent.robosuite_envs.suites import SEEDS, SUITES
 
 
@@ -146,9 +146,10 @@ def _csv(text: str) -> tuple[str, ...]:
 def _run(args) -> int:
     from tqdm import tqdm
 
-    from lerobot_policy_recent.recent_plugin.evaluation.metrics import crashed
-    from lerobot_policy_recent.recent_plugin.evaluation.report import render_report, results_document
-    from lerobot_policy_recent.recent_plugin.evaluation.runner import (
+    from lerobot_policy_recent.evaluation.metrics import crashed
+    from lerobot_policy_recent.evaluation.report.document import render_report
+    from lerobot_policy_recent.evaluation.report.provenance import results_document
+    from lerobot_policy_recent.evaluation.runner import (
         BenchConfig,
         load_records,
         machine,
@@ -298,7 +299,7 @@ def command_line(config) -> str:
 
 
 def _report(args) -> int:
-    from lerobot_policy_recent.recent_plugin.evaluation.report import render_report
+    from lerobot_policy_recent.evaluation.report.document import render_report
 
     dirs = [Path(d) for d in args.dirs]
     path = render_report(dirs, Path(args.report_out) if args.report_out else dirs[0])
@@ -308,7 +309,7 @@ def _report(args) -> int:
 
 
 def _headline(args) -> int:
-    from lerobot_policy_recent.recent_plugin.evaluation.headline import render_headline
+    from lerobot_policy_recent.evaluation.headline import render_headline
 
     path = render_headline(Path(args.dir))
     print(path.read_text())
@@ -317,7 +318,7 @@ def _headline(args) -> int:
 
 
 def _pack(args) -> int:
-    from lerobot_policy_recent.recent_plugin.evaluation.runner import LM_CALLS, has_records, pack_lm_calls, pack_records
+    from lerobot_policy_recent.evaluation.runner import LM_CALLS, has_records, pack_lm_calls, pack_records
 
     out = Path(args.dir)
     if not has_records(out):
@@ -331,7 +332,7 @@ def _pack(args) -> int:
 
 
 def _compare(args) -> int:
-    from lerobot_policy_recent.recent_plugin.evaluation.compare import compare_dirs
+    from lerobot_policy_recent.evaluation.compare import compare_dirs
 
     if not 0.0 < args.min_coverage <= 1.0:
         raise ValueError(f"--min_coverage must be in (0, 1], got {args.min_coverage}")

@@ -16,6 +16,7 @@ from typing import get_type_hints
 import draccus
 from draccus.wrappers.docstring import get_attribute_docstring
 
+from lerobot_policy_recent.evaluation import methods as _methods  # noqa: F401  (registers ablations, baselines)
 from lerobot_policy_recent.recent_plugin.agent import RecentAgent
 from lerobot_policy_recent.recent_plugin.settings import RecentSettings, parse_settings
 

@@ -8,8 +8,9 @@ import sys
 
 from tqdm import tqdm
 
-from lerobot_policy_recent.robosuite_envs.embodiments import EMBODIMENTS, get_embodiment
-from lerobot_policy_recent.robosuite_envs.primitives import api_functions, api_spec_path
+from lerobot_policy_recent.descriptions.apis import api_spec_path
+from lerobot_policy_recent.descriptions.embodiments import EMBODIMENTS, get_embodiment
+from lerobot_policy_recent.robosuite_envs.primitives import api_functions
 from lerobot_policy_recent.robosuite_envs.splits import split_of, split_table
 from lerobot_policy_recent.robosuite_envs.subtasks import SUBTASKS, get_subtask
 from lerobot_policy_recent.robosuite_envs.suites import SEEDS, SUITES, get_task
@@ -150,13 +151,13 @@ def _show_embodiment(args) -> int:
 def _check(args) -> int:
     from pathlib import Path
 
-    from lerobot_policy_recent.recent_plugin.evaluation.embodiment_check import (
+    from lerobot_policy_recent.evaluation.embodiment_check import (
         CANONICAL_TASKS,
         check_config,
         markdown,
         summarize,
     )
-    from lerobot_policy_recent.recent_plugin.evaluation.runner import load_records, pending, run_bench
+    from lerobot_policy_recent.evaluation.runner import load_records, pending, run_bench
     from lerobot_policy_recent.robosuite_envs.calibrate import calibration
     from lerobot_policy_recent.scripts.common import settings_from_args
 

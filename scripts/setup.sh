@@ -50,15 +50,15 @@ log "syncing the locked environment (.venv)"
 export CMAKE_BUILD_PARALLEL_LEVEL=${CMAKE_BUILD_PARALLEL_LEVEL:-$(nproc 2>/dev/null || echo 2)}
 # Offline first: an online sync may re-validate the llama-cpp-python sdist, which gives it a new
 # cache revision and throws away the wheel uv built from it (~11 min to rebuild on 2 cores).
-if ! "$PYTHON" -m uv sync --locked --offline --python "$PYTHON" >/dev/null 2>&1; then
-  "$PYTHON" -m uv sync --locked --python "$PYTHON"
+if ! "$PYTHON" -m uv sync --locked --offline --extra bench --python "$PYTHON" >/dev/null 2>&1; then
+  "$PYTHON" -m uv sync --locked --extra bench --python "$PYTHON"
 fi
 
 # A .venv made before the portable build keeps its llama-cpp-python (same version, so uv leaves it):
 # one built for the CPU of whatever host made it. Replace it with the wheel of run-time variants.
 if ! .venv/bin/python -c 'import sys; from lerobot_policy_recent.recent_plugin.infillers.llama_runtime import variant_libraries as v; sys.exit(not v())' 2>/dev/null; then
   log "replacing a llama-cpp-python built for one CPU with the portable build"
-  "$PYTHON" -m uv sync --locked --python "$PYTHON" --reinstall-package llama-cpp-python
+  "$PYTHON" -m uv sync --locked --extra bench --python "$PYTHON" --reinstall-package llama-cpp-python
 fi
 
 log "provisioning the default code LM (Qwen2.5-Coder-1.5B, GGUF)"

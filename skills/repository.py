@@ -13,10 +13,10 @@ from pathlib import Path
 
 import yaml
 
+from lerobot_policy_recent.descriptions.apis import api_spec_path
+from lerobot_policy_recent.descriptions.embodiments import get_embodiment
 from lerobot_policy_recent.ontology.skill_code import CallCount, CallSite, call_sites, count_calls, parse_skill
 from lerobot_policy_recent.ontology.specs import ApiSpec, load_api_spec
-from lerobot_policy_recent.robosuite_envs.embodiments import get_embodiment
-from lerobot_policy_recent.robosuite_envs.primitives import api_spec_path
 from lerobot_policy_recent.skills.records import LIBRARY, load_record, records_dir
 
 

@@ -10,7 +10,7 @@ import pytest
 # subprocesses and Ray workers of the tests inherit this). tests/test_grounding_store.py turns it on.
 os.environ["RECENT_GROUNDING_CACHE"] = "off"
 
-import lerobot_policy_recent.robosuite_envs  # noqa: F401  (headless GL and quiet robosuite before anything imports it)
+import lerobot_policy_recent.evaluation.methods  # noqa: E402, F401  (registers the harness's methods: baselines, ablations)
 
 
 def pytest_addoption(parser):

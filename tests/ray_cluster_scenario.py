@@ -20,9 +20,9 @@ os.environ.pop("RAY_ADDRESS", None)
 
 from ray.cluster_utils import Cluster  # noqa: E402
 
-from lerobot_policy_recent.recent_plugin.evaluation.compare import compare_records  # noqa: E402
-from lerobot_policy_recent.recent_plugin.evaluation.report import results_document  # noqa: E402
-from lerobot_policy_recent.recent_plugin.evaluation.runner import BenchConfig, record_key, run_bench  # noqa: E402
+from lerobot_policy_recent.evaluation.compare import compare_records  # noqa: E402
+from lerobot_policy_recent.evaluation.report.provenance import results_document  # noqa: E402
+from lerobot_policy_recent.evaluation.runner import BenchConfig, record_key, run_bench  # noqa: E402
 from lerobot_policy_recent.recent_plugin.infillers.configs import RuleConfig  # noqa: E402
 from lerobot_policy_recent.recent_plugin.settings import RecentSettings  # noqa: E402
 

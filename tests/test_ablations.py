@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import pytest
 
+from lerobot_policy_recent.evaluation.ablations import body_span, name_similarity_conflicts
 from lerobot_policy_recent.recent_plugin.agent import RecentAgent
 from lerobot_policy_recent.recent_plugin.episode import run_episode
-from lerobot_policy_recent.recent_plugin.grounding.ablations import body_span, name_similarity_conflicts
 from lerobot_policy_recent.recent_plugin.grounding.grounder import ground_skill
 from lerobot_policy_recent.recent_plugin.infillers.configs import RuleConfig
 from lerobot_policy_recent.recent_plugin.infillers.rule import RuleInfiller

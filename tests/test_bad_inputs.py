@@ -105,7 +105,7 @@ def test_a_primitive_module_that_does_not_import_is_named(tmp_path, monkeypatch)
 
 
 def test_an_unknown_robosuite_gripper_names_the_robot_file_field():
-    from lerobot_policy_recent.robosuite_envs.embodiments import get_embodiment
+    from lerobot_policy_recent.descriptions.embodiments import get_embodiment
     from lerobot_policy_recent.robosuite_envs.tabletop import check_robosuite_names
 
     lab = dataclasses.replace(

@@ -9,8 +9,8 @@ from __future__ import annotations
 import pytest
 from doubles import ScriptedInfiller
 
+from lerobot_policy_recent.evaluation.baselines.program_prompt import PROGRAM, STATEMENT
 from lerobot_policy_recent.recent_plugin.agent import RecentAgent
-from lerobot_policy_recent.recent_plugin.baselines.program_prompt import PROGRAM, STATEMENT
 from lerobot_policy_recent.recent_plugin.episode import run_episode
 from lerobot_policy_recent.recent_plugin.grounding.budget import CallBudget
 from lerobot_policy_recent.recent_plugin.infillers.configs import RuleConfig
@@ -362,7 +362,7 @@ def _program(*lines: str) -> str:
     ],
 )
 def test_the_behaviour_detector_sorts_programs_into_roboinspectors_taxonomy(ontology, lines, behaviours):
-    from lerobot_policy_recent.recent_plugin.baselines.inspector import inspect_program
+    from lerobot_policy_recent.evaluation.baselines.inspector import inspect_program
 
     code = _program(*(line.strip() for line in lines))
     assert [f.behaviour for f in inspect_program(code, "put_in_bin", ontology.api("UR5e"))] == behaviours

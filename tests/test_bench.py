@@ -6,9 +6,9 @@ import json
 
 import pytest
 
-from lerobot_policy_recent.recent_plugin.evaluation.methods import parse_methods
-from lerobot_policy_recent.recent_plugin.evaluation.metrics import seed_metrics, summarize
-from lerobot_policy_recent.recent_plugin.evaluation.runner import load_records
+from lerobot_policy_recent.evaluation.methods import parse_methods
+from lerobot_policy_recent.evaluation.metrics import seed_metrics, summarize
+from lerobot_policy_recent.evaluation.runner import load_records
 from lerobot_policy_recent.scripts.cli import main
 
 RUN = [
@@ -138,7 +138,7 @@ def test_metrics_follow_the_papers_definitions():
 
 
 def test_a_run_can_take_only_the_held_out_split_and_records_say_which_split():
-    from lerobot_policy_recent.recent_plugin.evaluation.jobs import BenchConfig
+    from lerobot_policy_recent.evaluation.jobs import BenchConfig
     from lerobot_policy_recent.robosuite_envs.splits import TEST_SEEDS, TEST_TASKS
 
     test = BenchConfig(out="/tmp/x", suites=("end_effector",), seeds=(3, *TEST_SEEDS), split="test").jobs()
@@ -154,7 +154,7 @@ def test_a_run_can_take_only_the_held_out_split_and_records_say_which_split():
 
 
 def test_a_run_goes_episode_by_episode_so_a_stopped_one_has_every_method_on_the_same_episodes():
-    from lerobot_policy_recent.recent_plugin.evaluation.jobs import BenchConfig
+    from lerobot_policy_recent.evaluation.jobs import BenchConfig
 
     methods = ("recent", "cap", "oracle-rule")
     jobs = BenchConfig(out="/tmp/x", suites=("end_effector",), methods=methods, seeds=(0, 1)).jobs()
@@ -197,7 +197,7 @@ def test_parallel_workers_write_the_same_records_and_one_dataset(tmp_path):
 
 def test_the_headline_targets_are_checked_for_recent_and_its_fast_path():
     """The fast path renders what a check or the ontology decides: no tokens, so its GO against cap's reads as 0."""
-    from lerobot_policy_recent.recent_plugin.evaluation.report import target_checks
+    from lerobot_policy_recent.evaluation.report.tables import target_checks
 
     def record(method: str, go: float, success: bool, ei: int, it: float, patches: int | None = None) -> dict:
         r = {"method": method, "suite": "kinematic", "seed": 0, "success": success, "go": go, "ei": ei, "it": it}
@@ -248,7 +248,7 @@ def test_a_packed_run_keeps_what_each_lm_was_asked_and_answered(bench_dir, tmp_p
     import json
     import shutil
 
-    from lerobot_policy_recent.recent_plugin.evaluation.runner import LM_CALLS, LM_EVENTS, load_records
+    from lerobot_policy_recent.evaluation.runner import LM_CALLS, LM_EVENTS, load_records
     from lerobot_policy_recent.scripts.cli import main
 
     packed = tmp_path / "with_logs"
@@ -271,7 +271,7 @@ def test_a_committed_run_extended_without_its_logs_keeps_what_each_lm_was_asked(
     import gzip
     import shutil
 
-    from lerobot_policy_recent.recent_plugin.evaluation.runner import LM_CALLS, lm_call_episode
+    from lerobot_policy_recent.evaluation.runner import LM_CALLS, lm_call_episode
 
     def lm_rows(out):
         with gzip.open(out / LM_CALLS, "rt") as lines:
@@ -337,8 +337,8 @@ def test_a_crashed_episode_is_no_result_and_is_retried_on_request(tmp_path, caps
 
 
 def test_workers_share_the_cluster_and_never_wait_for_cpus_that_do_not_exist():
-    from lerobot_policy_recent.recent_plugin.evaluation.jobs import BenchConfig
-    from lerobot_policy_recent.recent_plugin.evaluation.ray_engine import plan_workers
+    from lerobot_policy_recent.evaluation.jobs import BenchConfig
+    from lerobot_policy_recent.evaluation.ray_engine import plan_workers
 
     def plan(**fields):
         return plan_workers(BenchConfig(out="/tmp/x", **fields), cluster_cpus=2.0, cluster_gpus=0.0)
@@ -359,7 +359,7 @@ def test_methods_on_several_models_are_rows_of_their_own(tmp_path):
     from loopback import json_server
     from test_openai_backend import ANSWERS
 
-    from lerobot_policy_recent.recent_plugin.evaluation.methods import settings_for
+    from lerobot_policy_recent.evaluation.methods import settings_for
     from lerobot_policy_recent.recent_plugin.infillers.configs import RuleConfig
     from lerobot_policy_recent.recent_plugin.settings import RecentSettings
 
@@ -412,7 +412,7 @@ def test_records_name_the_commit_that_ran_them_and_results_json_says_whether_it_
 
 
 def test_a_directory_of_several_commits_or_local_edits_is_no_one_commit_snapshot():
-    from lerobot_policy_recent.recent_plugin.evaluation.report import commit_line, episode_commits, single_clean_commit
+    from lerobot_policy_recent.evaluation.report.provenance import commit_line, episode_commits, single_clean_commit
 
     assert single_clean_commit(episode_commits([{"commit": "a" * 40}] * 3)) == "a" * 40
     assert single_clean_commit(episode_commits([{"commit": "a" * 40}, {"commit": "b" * 40}])) is None

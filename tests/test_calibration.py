@@ -12,14 +12,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from lerobot_policy_recent.robosuite_envs.calibrate import cache_path, calibration, calibration_key, measure
-from lerobot_policy_recent.robosuite_envs.calibration import Calibration
-from lerobot_policy_recent.robosuite_envs.embodiments import (
+from lerobot_policy_recent.descriptions.embodiments import (
     EMBODIMENTS,
     RobotFileError,
     get_embodiment,
     load_robot_file,
 )
+from lerobot_policy_recent.robosuite_envs.calibrate import cache_path, calibration, calibration_key, measure
+from lerobot_policy_recent.robosuite_envs.calibration import Calibration
 
 ROOT = Path(__file__).parents[1]
 
@@ -228,7 +228,7 @@ def test_the_arm_check_compares_a_robot_with_the_reference(tmp_path, capsys):
 
 def test_the_arm_check_defaults_to_the_rule_backend_and_never_mixes_backends(tmp_path, capsys):
     """Plain `recent envs check` tests motion (rule); a resumed directory of another backend is refused."""
-    from lerobot_policy_recent.recent_plugin.evaluation.jobs import Job
+    from lerobot_policy_recent.evaluation.jobs import Job
     from lerobot_policy_recent.scripts.cli import build_parser, main
 
     args = build_parser().parse_args(["envs", "check", "Jaco"])

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import pytest
 
-from lerobot_policy_recent.recent_plugin.evaluation.compare import RunComparison, setup_differences
-from lerobot_policy_recent.recent_plugin.evaluation.confidence import paired_difference, rate_intervals
-from lerobot_policy_recent.recent_plugin.evaluation.metrics import fmt, summarize
+from lerobot_policy_recent.evaluation.compare import RunComparison, setup_differences
+from lerobot_policy_recent.evaluation.confidence import paired_difference, rate_intervals
+from lerobot_policy_recent.evaluation.metrics import fmt, summarize
 
 
 def episodes(method: str, successes: list[bool], subtasks: int = 1) -> list[dict]:
@@ -61,7 +61,7 @@ def test_another_model_is_another_experiment_and_a_small_slice_is_only_partial()
     }
     assert setup_differences({"backend": "llamacpp"}, rerun)["config"] == ("(not recorded)", "recorded")
 
-    from lerobot_policy_recent.recent_plugin.evaluation.compare import EpisodeComparison
+    from lerobot_policy_recent.evaluation.compare import EpisodeComparison
 
     same = [EpisodeComparison(("recent",), {}, {})]
     assert RunComparison(same, [], 1, 1.0, differences).verdict == "different setup"
@@ -72,7 +72,7 @@ def test_another_model_is_another_experiment_and_a_small_slice_is_only_partial()
 
 
 def test_lm_necessity_says_when_a_suite_does_not_test_the_lm():
-    from lerobot_policy_recent.recent_plugin.evaluation.report import lm_necessity_lines
+    from lerobot_policy_recent.evaluation.report.tables import lm_necessity_lines
 
     same = lm_necessity_lines(episodes("recent", [True] * 6) + episodes("oracle-rule", [True] * 6))
     assert any("**kinematic**: +0.0 pp SR" in line and "does not test the LM" in line for line in same)
@@ -95,7 +95,7 @@ def test_lm_necessity_says_when_a_suite_does_not_test_the_lm():
 
 
 def test_the_report_orders_the_methods_against_the_papers_table_and_names_each_inversion():
-    from lerobot_policy_recent.recent_plugin.evaluation.report import paper_ordering_lines
+    from lerobot_policy_recent.evaluation.report.tables import paper_ordering_lines
 
     # the paper: repair (42 % SR) > progprompt (31.5 %) > cap (17 %), on kinematic
     ran = (
@@ -116,7 +116,7 @@ def test_the_report_orders_the_methods_against_the_papers_table_and_names_each_i
 
 
 def test_rule_coverage_is_reported_for_the_methods_that_ground_through_the_ontology_only():
-    from lerobot_policy_recent.recent_plugin.evaluation.report import lm_necessity_lines
+    from lerobot_policy_recent.evaluation.report.tables import lm_necessity_lines
 
     ran = [{**r, "rule_coverage": 0.0} for r in episodes("cap", [False] * 2)]
     ran += [{**r, "rule_coverage": 90.0} for r in episodes("oracle-rule", [True] * 2)]

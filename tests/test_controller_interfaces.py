@@ -425,7 +425,7 @@ def test_a_bare_vacuum_cup_added_by_data_picks_as_approach_suction_on_and_lift(t
     effects of a pick or a place, so the ontology traces the Panda's (approach, down until the cup
     rests, suction on, lift; above, down, suction off, up), the rule backend grounds it, and the
     object ends up in the bin in simulation."""
-    from lerobot_policy_recent.robosuite_envs.embodiments import get_embodiment
+    from lerobot_policy_recent.descriptions.embodiments import get_embodiment
 
     cup = get_embodiment("Suction").gripper_mjcf  # the bundled cup's MJCF, by its path
     cli = _cli_with_robot(

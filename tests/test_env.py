@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from lerobot_policy_recent.robosuite_envs.embodiments import get_embodiment
+from lerobot_policy_recent.descriptions.embodiments import get_embodiment
 from lerobot_policy_recent.robosuite_envs.gym_env import RecentEnv
 from lerobot_policy_recent.robosuite_envs.observation import (
     AGENT_POS_DIM,

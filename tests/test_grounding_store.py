@@ -90,7 +90,9 @@ def test_the_key_changes_with_the_code_that_prompts_the_lm(ontology, tmp_path):
     same, edited, reworded = tmp_path / "same", tmp_path / "edited", tmp_path / "reworded"
     for copy in (same, edited, reworded):
         for folder in GROUNDING_CODE:
-            shutil.copytree(package / folder, copy / folder, ignore=shutil.ignore_patterns("__pycache__"))
+            shutil.copytree(
+                package / folder, copy / folder, ignore=shutil.ignore_patterns("__pycache__"), dirs_exist_ok=True
+            )
     prompt = edited / "recent_plugin" / "refactoring" / "chat_prompt.py"
     prompt.write_text(prompt.read_text().replace("Answer with code only", "Answer with code"))
     facts = reworded / "ontology" / "conversions.py"  # the ontology writes hints too (a conversion's facts)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import gzip
 import json
 
-from lerobot_policy_recent.recent_plugin.evaluation.runner import PACKED
+from lerobot_policy_recent.evaluation.runner import PACKED
 from lerobot_policy_recent.scripts.cli import main
 
 TASK = "kinematic/panel_peg_lid_zone"  # a held-out task: 24 primitive calls, so 48 LM calls at two per call

@@ -9,6 +9,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from lerobot_policy_recent.descriptions.apis import api_spec_path
 from lerobot_policy_recent.ontology.specs import load_api_spec
 from lerobot_policy_recent.recent_plugin.agent import RecentAgent
 from lerobot_policy_recent.recent_plugin.episode import run_episode
@@ -36,7 +37,6 @@ from lerobot_policy_recent.recent_plugin.methods import method_named
 from lerobot_policy_recent.recent_plugin.refactoring.units import RefactoringUnit
 from lerobot_policy_recent.recent_plugin.settings import RecentSettings
 from lerobot_policy_recent.robosuite_envs.observation import POSITION_SIGMA, ObjectState, Observation
-from lerobot_policy_recent.robosuite_envs.primitives import api_spec_path
 
 
 class CountingInfiller(RuleInfiller):

@@ -7,6 +7,9 @@ The layers, lowest first, follow the method's data flow (ontology → diagnosis 
 from __future__ import annotations
 
 import ast
+import json
+import subprocess
+import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -14,29 +17,38 @@ NAMESPACE = "lerobot_policy_recent"
 
 # Lowest first. A module may import its own layer and the layers below it, never one above.
 LAYERS: tuple[tuple[str, ...], ...] = (
-    # leaves: the failure taxonomy, the cache dir, the run-time budget of skill code, data-only files
-    ("recent_plugin.failures", "recent_plugin.cache", "recent_plugin.sandbox", "recent_plugin.typed_json"),
-    ("robosuite_envs",),  # the world: embodiments, primitives, tasks and suites, envs
+    # leaves: the failure taxonomy, the cache dir, the run-time budget of skill code, data-only files, optional deps
+    (
+        "recent_plugin.failures",
+        "recent_plugin.cache",
+        "recent_plugin.sandbox",
+        "recent_plugin.typed_json",
+        "recent_plugin.extras",
+    ),
+    ("descriptions",),  # robot descriptions: data (robot files, API files, the frames vocabulary)
     ("ontology",),  # specs, the knowledge graph, diagnosis, skill-code analysis
+    ("robosuite_envs",),  # the world: the simulator side of the primitives, tasks and suites, envs
     ("skills",),  # skill data and validation records
     ("logs",),  # typed events and the sinks that observe them
     ("recent_plugin.refactoring",),  # the unit cut around a conflict, its FIM prompt
     ("recent_plugin.models", "recent_plugin.infillers"),  # what fills a unit
     ("recent_plugin.grounding",),  # the gate, the retry loop, pre-execution grounding
     ("recent_plugin.executor",),
-    ("recent_plugin.insitu", "recent_plugin.baselines"),  # run-time adaptation, RECENT's and the baselines'
-    ("recent_plugin.methods",),  # RECENT, its ablations and the baselines as registered strategies
+    ("recent_plugin.insitu",),  # run-time adaptation
+    ("recent_plugin.methods",),  # RECENT as a registered strategy (the harness registers the others)
     ("recent_plugin.settings", "recent_plugin.agent"),  # the settings tree; the agent that takes it
     ("recent_plugin.episode",),
     ("recent_plugin.configuration_recent", "recent_plugin.modeling_recent", "recent_plugin.processor_recent"),
-    ("recent_plugin.evaluation", "recent_plugin.authoring"),  # run many episodes: benchmarks, skill validation
+    ("recent_plugin.authoring",),  # skill validation and generation: episodes of the policy
+    ("evaluation",),  # the benchmark harness: runner, Ray engine, report, headline, baselines, ablations
     ("scripts",),  # the `recent` command line
 )
+FOLDERS = ("descriptions", "recent_plugin", "ontology", "skills", "robosuite_envs", "logs", "evaluation", "scripts")
 
 
 def _modules() -> dict[str, Path]:
     out = {}
-    for top in ("recent_plugin", "ontology", "skills", "robosuite_envs", "logs", "scripts"):
+    for top in FOLDERS:
         for path in (ROOT / top).rglob("*.py"):
             if "library" in path.relative_to(ROOT).parts:  # skill programs import nothing
                 continue
@@ -102,6 +114,34 @@ def test_the_import_graph_has_no_cycles():
         if name not in state:
             visit(name, [name])
     assert cycles == []
+
+
+def test_no_module_imports_a_folder_by_a_second_top_level_name():
+    """``import logs`` would load a module a second time (or someone else's ``logs``): only the namespace."""
+    second = []
+    for name, path in _modules().items():
+        for node in ast.walk(ast.parse(path.read_text())):
+            modules = [a.name for a in node.names] if isinstance(node, ast.Import) else []
+            if isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+                modules = [node.module]
+            second += [f"{name} imports {m}" for m in modules if m.split(".")[0] in FOLDERS]
+    assert second == []
+
+
+def test_reading_the_robot_descriptions_and_the_ontology_changes_nothing_in_the_process():
+    """No simulator import and no environment variable set: the knowledge layer is data and queries."""
+    code = (
+        "import json, os, sys\n"
+        "before = dict(os.environ)\n"
+        "from lerobot_policy_recent.ontology.builder import build_ontology\n"
+        "build_ontology()\n"
+        "loaded = sorted(m for m in ('robosuite', 'mujoco') if m in sys.modules)\n"
+        "changed = sorted(k for k in set(os.environ) | set(before) if os.environ.get(k) != before.get(k))\n"
+        "print(json.dumps([loaded, changed]))"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd="/")
+    assert done.returncode == 0, done.stderr
+    assert json.loads(done.stdout.splitlines()[-1]) == [[], []]
 
 
 def test_every_module_has_a_layer():

@@ -13,6 +13,7 @@ from lerobot_policy_recent.ontology.builder import EmbodimentSource, build_ontol
 from lerobot_policy_recent.ontology.diagnosis import diagnose
 from lerobot_policy_recent.ontology.mjcf import read_gripper
 from lerobot_policy_recent.ontology.specs import SpecError, load_api_spec
+from lerobot_policy_recent.robosuite_envs.primitives.binding import bind_primitives
 
 EXPECTED_UR5E = [
     (5, "open_gripper(env, task)", "open_ur5_ee", {}, ()),
@@ -383,7 +384,7 @@ def test_a_data_only_robot_is_checked_against_its_module_before_it_runs(tmp_path
     spec = onto.api("Kuka")
     target = dataclasses.replace(onto.target("Kuka"), api=dataclasses.replace(spec, module="kuka_prims"))
     with pytest.raises(SpecError) as refused:
-        target.primitives()
+        bind_primitives(target)
     message = str(refused.value)
     assert "kuka.yaml against" in message and "kuka_prims.py" in message
     assert "kuka_align: declared in the YAML, not a function of the module" in message
@@ -393,7 +394,7 @@ def test_a_data_only_robot_is_checked_against_its_module_before_it_runs(tmp_path
         KUKA_MODULE.format(rest="\n\ndef kuka_align(env, task):\n    yield from ()\n")
     )
     good = dataclasses.replace(target, api=dataclasses.replace(spec, module="kuka_good"))
-    assert sorted(good.primitives()) == ["kuka_align", "kuka_open", "kuka_put", "kuka_take"]
+    assert sorted(bind_primitives(good)) == ["kuka_align", "kuka_open", "kuka_put", "kuka_take"]
 
 
 def test_a_target_is_resolved_once_with_its_api_arm_and_primitives(ontology):
@@ -405,9 +406,9 @@ def test_a_target_is_resolved_once_with_its_api_arm_and_primitives(ontology):
 
     target = ontology.target("UR5e")
     assert target.api is ontology.api("UR5e") and target.arm.reach == ontology.arms["UR5e"].reach
-    assert set(target.primitives()) == {p.name for p in target.api.primitives}
+    assert set(bind_primitives(target)) == {p.name for p in target.api.primitives}
     with pytest.raises(KeyError, match="known robots"):
         ontology.target("Kuka")
     broken = dataclasses.replace(target, api=dataclasses.replace(target.api, module="no.such.module"))
     with pytest.raises(SpecError, match="ur5e.yaml: module: 'no.such.module' cannot be imported"):
-        broken.primitives()
+        bind_primitives(broken)

@@ -110,6 +110,43 @@ def test_lerobot_discovers_the_installed_plugin_and_the_console_script_runs(inst
     assert done.returncode == 0 and "ground" in done.stdout
 
 
+FOLDERS = ("recent_plugin", "evaluation", "descriptions", "ontology", "skills", "robosuite_envs", "logs", "scripts")
+
+
+def test_the_editable_install_exposes_no_project_module_under_a_second_name():
+    """Only ``src`` is on the path: ``logs`` or ``scripts`` would shadow (or be shadowed by) any other
+    package of those generic names, and one module loaded twice has two copies of its state."""
+    code = (
+        "import importlib.util, json, sys\n"
+        f"folders = {FOLDERS!r}\n"
+        "print(json.dumps({'second_names': [n for n in folders if importlib.util.find_spec(n)],"
+        " 'ours': [importlib.util.find_spec('lerobot_policy_recent.' + n) is not None for n in folders]}))"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd="/")
+    assert done.returncode == 0, done.stderr
+    report = json.loads(done.stdout)
+    assert report["second_names"] == []
+    assert all(report["ours"])
+
+
+def test_a_static_analyser_resolves_every_project_import():
+    """basedpyright (configured in pyproject.toml to check imports only) follows the package's links."""
+    done = subprocess.run(
+        [Path(sys.executable).parent / "basedpyright", "--outputjson", "src", *FOLDERS],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+    )
+    report = json.loads(done.stdout)
+    unresolved = [
+        f"{d['file']}:{d['range']['start']['line'] + 1}: {d['message']}"
+        for d in report["generalDiagnostics"]
+        if d.get("rule") == "reportMissingImports"
+    ]
+    assert report["summary"]["filesAnalyzed"] > 150
+    assert unresolved == []
+
+
 def test_a_subpackage_import_does_not_load_lerobot_or_torch():
     """The LM worker and the log readers start in a fraction of a second (LeRobot + torch: ~12 s)."""
     code = "import sys, lerobot_policy_recent.logs.events, lerobot_policy_recent.recent_plugin.infillers.llama_worker; print('torch' in sys.modules, 'lerobot' in sys.modules)"

@@ -5,10 +5,10 @@ from __future__ import annotations
 import gzip
 import json
 
-from lerobot_policy_recent.recent_plugin.baselines.program_prompt import PROGRAM
-from lerobot_policy_recent.recent_plugin.evaluation.programs import called_names, program_counts
-from lerobot_policy_recent.recent_plugin.evaluation.report import render_report
-from lerobot_policy_recent.recent_plugin.evaluation.runner import LM_CALLS, PACKED
+from lerobot_policy_recent.evaluation.baselines.program_prompt import PROGRAM
+from lerobot_policy_recent.evaluation.programs import called_names, program_counts
+from lerobot_policy_recent.evaluation.report.document import render_report
+from lerobot_policy_recent.evaluation.runner import LM_CALLS, PACKED
 
 RIGHT = "obj_pos = task.get_object_position(obj)\n    ur5_grasp_at(env, task, grasp_pos=obj_pos)\n    n = len(obj_pos)"
 COPIED = "open_gripper(env, task)\n    ur5_grasp_at(env, task, grasp_pos=task.get_object_position(obj))"

@@ -8,9 +8,9 @@ import json
 
 import pytest
 
+from lerobot_policy_recent.evaluation.jobs import BenchConfig, Job, episode_record
 from lerobot_policy_recent.recent_plugin.agent import RecentAgent
 from lerobot_policy_recent.recent_plugin.episode import run_episode
-from lerobot_policy_recent.recent_plugin.evaluation.jobs import BenchConfig, Job, episode_record
 from lerobot_policy_recent.recent_plugin.infillers.configs import InfillerConfig, RuleConfig, TransformersConfig
 from lerobot_policy_recent.recent_plugin.methods import Method, method_named
 from lerobot_policy_recent.recent_plugin.settings import RecentSettings, parse_settings, settings_flags

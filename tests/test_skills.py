@@ -7,8 +7,8 @@ import shutil
 
 import pytest
 
+from lerobot_policy_recent.descriptions.embodiments import SOURCE_EMBODIMENTS
 from lerobot_policy_recent.recent_plugin.authoring.sim_validation import validate
-from lerobot_policy_recent.robosuite_envs.embodiments import SOURCE_EMBODIMENTS
 from lerobot_policy_recent.robosuite_envs.splits import DEV_SEEDS
 from lerobot_policy_recent.robosuite_envs.suites import SEEDS
 from lerobot_policy_recent.skills.records import load_record

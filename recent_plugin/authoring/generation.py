@@ -18,11 +18,12 @@ from pathlib import Path
 
 import yaml
 
+from lerobot_policy_recent.descriptions.apis import api_spec_path, available_apis
 from lerobot_policy_recent.ontology.specs import load_api_spec
 from lerobot_policy_recent.recent_plugin.authoring.sim_validation import validate
 from lerobot_policy_recent.recent_plugin.grounding.gate import validate_program
 from lerobot_policy_recent.recent_plugin.infillers.http import post_json
-from lerobot_policy_recent.robosuite_envs.primitives import TaskContext, api_spec_path, available_apis
+from lerobot_policy_recent.robosuite_envs.primitives import TaskContext
 from lerobot_policy_recent.robosuite_envs.subtasks import get_subtask
 from lerobot_policy_recent.robosuite_envs.suites import SEEDS, validation_task
 from lerobot_policy_recent.skills.records import ValidationRecord, save_record

@@ -13,7 +13,7 @@ import time
 from lerobot_policy_recent.recent_plugin.agent import RecentAgent
 from lerobot_policy_recent.recent_plugin.episode import run_episode
 from lerobot_policy_recent.recent_plugin.infillers.configs import RuleConfig
-from lerobot_policy_recent.recent_plugin.methods import method_named
+from lerobot_policy_recent.recent_plugin.methods.recent import Recent
 from lerobot_policy_recent.recent_plugin.settings import RecentSettings
 from lerobot_policy_recent.robosuite_envs.gym_env import RecentEnv
 from lerobot_policy_recent.robosuite_envs.observation import Observation
@@ -42,9 +42,7 @@ def validate(skill: Skill, seeds: tuple[int, ...] = SEEDS, *, agent=None, on_epi
     """Run ``skill`` unmodified on its source robot in its subtask's task, once per seed."""
     library = str(skill.path.parent)  # the agent must serve this very file
     agent = agent or RecentAgent(
-        RecentSettings(
-            infiller=RuleConfig(), method=method_named("recent-no-offline-validation"), skill_library=library
-        )
+        RecentSettings(infiller=RuleConfig(), method=Recent(offline_validation=False), skill_library=library)
     )
     task = validation_task(skill.subtask)
     objects = list(task.plan[0].args.values())

@@ -143,7 +143,7 @@ def infill_until_valid(
                 category=None if verdict.ok else str(verdict.category),
                 message=verdict.message,
                 span=unit.span,
-                hints=tuple(hint_lines(unit.span_type, unit.hints)),
+                hints=tuple(hint_lines(unit)),
                 prompt=completion.prompt or build_prompt(unit, 0).shown(),
                 rendered=completion.rendered,
                 attempt=attempt,

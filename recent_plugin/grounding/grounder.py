@@ -21,7 +21,6 @@ from lerobot_policy_recent.ontology.diagnosis import Conflict, Diagnosis, Warnin
 from lerobot_policy_recent.ontology.skill_code import CodeSpan
 from lerobot_policy_recent.ontology.target import Target
 from lerobot_policy_recent.recent_plugin.failures import FailureCategory
-from lerobot_policy_recent.recent_plugin.grounding.ablations import whole_skill_unit
 from lerobot_policy_recent.recent_plugin.grounding.attempts import (
     LMCall,
     call_events,
@@ -194,35 +193,6 @@ def ground_skill(
     return result
 
 
-def regenerate_skill(
-    skill: Skill,
-    target: Target,
-    onto: Ontology,
-    infiller: Infiller,
-    *,
-    max_retries: int = 2,
-    with_hints: bool,
-    needed: Callable[[GroundedSkill], bool],
-) -> GroundedSkill:
-    """The whole-body ablations: one span, the entire skill, regenerated until it validates.
-
-    ``with_hints``: every conflict's ontology hint in the prompt (else only the target's API);
-    ``needed(result)``, asked once the original is diagnosed and validated, says whether to regenerate.
-    """
-    started = time.perf_counter()
-    robot, api, apis = target.name, target.api, onto.apis
-    diagnosis = diagnose(onto, skill.name, skill.code, robot, source=skill.source_embodiment)
-    result = GroundedSkill.start(skill, robot, diagnosis, infiller)
-    if refused := refused_source(skill, apis):
-        result.verdict, result.seconds = refused, time.perf_counter() - started
-        return result
-    result.verdict = validate_program(skill.code, api, skill.entry, apis)
-    if needed(result):
-        _regenerate(result, skill, target, infiller, apis, max_retries, with_hints)
-    result.seconds = time.perf_counter() - started
-    return result
-
-
 def refused_source(skill: Skill, apis: dict) -> Verdict | None:
     """The security gate's verdict on the skill as written, where it refuses it: code outside every span
     (a user's skill with a huge loop, say) is refused before grounding, with the statement and the rule,
@@ -242,38 +212,6 @@ def unrecoverable(result: GroundedSkill, message: str) -> Verdict:
     """The verdict of a skill no attempt could ground: the category of its last rejected call."""
     category = result.calls[-1].category if result.calls else None
     return Verdict.reject(FailureCategory(category or FailureCategory.EMPTY_CONTINUATION), message)
-
-
-def _regenerate(result: GroundedSkill, skill: Skill, target: Target, infiller, apis, max_retries, with_hints) -> None:
-    def judge(unit: RefactoringUnit, text: str) -> tuple[Verdict, str]:
-        candidate = apply_unit(skill.code, unit, text)
-        if not text:
-            return Verdict.reject(FailureCategory.EMPTY_CONTINUATION, "the regenerated body is empty"), candidate
-        return validate_program(candidate, target.api, skill.entry, apis), candidate
-
-    accepted = infill_until_valid(
-        infiller,
-        lambda feedback, attempt: whole_skill_unit(
-            skill.code,
-            skill.entry,
-            result.diagnosis,
-            target,
-            with_hints=with_hints,
-            feedback=feedback,
-            attempt=attempt,
-        ),
-        judge,
-        kind="ground",
-        max_retries=max_retries,
-        calls=result.calls,
-    )
-    if accepted is None:
-        result.verdict = unrecoverable(
-            result, f"unrecoverable: the regenerated skill did not validate after {max_retries + 1} attempts"
-        )
-        return
-    result.code, result.verdict = accepted.candidate, accepted.verdict
-    result.edits = [(accepted.unit.span_start, accepted.unit.span_end, len(accepted.text))]
 
 
 def _resolve(

@@ -38,13 +38,14 @@ SUFFIX = ".grounding"
 
 
 # What shapes a grounding besides its inputs: the diagnosis and the conversions it renders, how units
-# are cut and prompted, how each backend and baseline asks, and how answers are validated (package
+# are cut and prompted, how each backend, baseline and ablation asks, and how answers are validated (package
 # folders, relative to the package root).
 GROUNDING_CODE = (
     "ontology",
     "recent_plugin/refactoring",
     "recent_plugin/infillers",
-    "recent_plugin/baselines",
+    "evaluation/baselines",
+    "evaluation",
     "recent_plugin/grounding",
 )
 

@@ -1,10 +1,9 @@
-"""The registered methods: RECENT, its variants and ablations, and the baselines.
-
-Importing this package registers every method; adding one means adding a module here that
-registers a :class:`Method` subclass, and importing it below.
+"""The registered methods: how a skill is grounded and adapted. The policy registers RECENT and its
+fast-path variant; the benchmark harness registers the ablations and the baselines
+(``lerobot_policy_recent.evaluation``), so the policy never imports them.
 """
 
-from lerobot_policy_recent.recent_plugin.methods import baselines, recent  # noqa: F401  (registers the methods)
+from lerobot_policy_recent.recent_plugin.methods import recent  # noqa: F401  (registers RECENT)
 from lerobot_policy_recent.recent_plugin.methods.base import Adaptation, Grounding, Method, method_named
 
 __all__ = ["Adaptation", "Grounding", "Method", "method_named", "methods_of"]

@@ -15,7 +15,6 @@ from dataclasses import dataclass
 
 from lerobot_policy_recent.recent_plugin.refactoring.fim_prompt import (
     FILL,
-    WHOLE_BODY_SPAN_TYPES,
     approximate_tokens,
     build_prompt,
 )
@@ -35,7 +34,7 @@ class ChatPrompt:
 
 def writes_whole_body(unit: RefactoringUnit) -> bool:
     """A whole function body is written, not a span edited: what an instruct model gets as a chat."""
-    return unit.span_type in WHOLE_BODY_SPAN_TYPES
+    return unit.style is not None and unit.style.whole_body
 
 
 def build_chat(unit: RefactoringUnit, span_tokens: int) -> ChatPrompt:

@@ -14,12 +14,12 @@ from dataclasses import dataclass
 from lerobot_policy_recent.ontology.diagnosis import SPAN_TYPES, ParameterMapping
 from lerobot_policy_recent.ontology.skill_code import name_variables, variable_kinds
 from lerobot_policy_recent.recent_plugin.refactoring.substitution import PLACEHOLDER, has_placeholders
-from lerobot_policy_recent.recent_plugin.refactoring.units import Hints, RefactoringUnit, at_indent
+from lerobot_policy_recent.recent_plugin.refactoring.units import RefactoringUnit, at_indent
 from lerobot_policy_recent.recent_plugin.refactoring.window import WINDOWS, dataflow_window
 
 # GBNF grammars for RECENT's localized spans: code statements, never comments (a small model
 # otherwise sometimes copies a hint line instead of writing the call). Whole programs and a
-# baseline's statement rewrites get none (WRITTEN_FREELY): a grammar that forbids comments or a
+# baseline's statement rewrites (a unit with a style) get none: a grammar that forbids comments or a
 # line starting with a closing bracket cuts ordinary Python short. Backends without grammar
 # support ignore them.
 # The span may end where the model ends it (end of the FIM middle) or at a line break: a grammar
@@ -67,10 +67,6 @@ def patch_grammar(statements: str) -> str | None:
 
 
 RUNTIME_SPAN_TYPES = ("in_situ_revision", "reactive_repair")  # spans patched while the skill runs
-BASELINE_SPAN_TYPES = ("program_synthesis", "localized_repair", "structured_plan")  # the baselines' (baselines/)
-NOT_CONFLICT_SPAN_TYPES = (*RUNTIME_SPAN_TYPES, *BASELINE_SPAN_TYPES, "full_regeneration")
-WHOLE_BODY_SPAN_TYPES = ("program_synthesis", "full_regeneration")  # a function body, blank lines and all
-WRITTEN_FREELY = (*BASELINE_SPAN_TYPES, "full_regeneration")  # no grammar: the model writes Python as it would
 # The spans a ``dataflow`` window applies to: RECENT's localized edits before and during execution.
 # A reactive repair once kept the whole function before the span: shown only the definitions of the
 # values it recomputes (an unrolled loop defines them twice), the 1.5B wrote them over and over to
@@ -145,30 +141,23 @@ class FimPrompt:
         return self.prefix + FILL + self.suffix
 
 
-def hint_lines(span_type: str, hints: Hints) -> list[str]:
+def hint_lines(unit: RefactoringUnit) -> list[str]:
     """Comment lines for one edit; the substitute's call comes last, nearest the span.
 
     A retry narrows the cues to the original call, the rejection and the call to write: a small
     model that copied a hint line instead of writing code gets less to copy the second time.
+    A span of another method's (``unit.style``) has the lines that method writes.
     """
+    span_type, hints = unit.span_type, unit.hints
+    if unit.style is not None:
+        return unit.style.comments(hints)
     if span_type in RUNTIME_SPAN_TYPES:  # an insertion: what was observed and the edit in words
         rejected = [f"Rejected before: {hints.feedback}"] if hints.feedback else []
         return [*rejected, f"{hints.observation}: {hints.reason}"]
-    if span_type == "structured_plan":  # SCoT's plan continues the header's own comment lines
-        return []
-    if span_type in BASELINE_SPAN_TYPES:  # the prompt header holds the API; hints carry only the error
-        failed = [f"Failed before: {hints.feedback}"] if hints.feedback else []
-        observed = [f"Observed: {hints.observation}"] if hints.observation else []
-        if span_type == "program_synthesis":
-            return [*failed, f"Program for {hints.robot}:"]
-        return [f"Was: {_one_line(hints.original_call)}", *failed, *observed, f"Rewrite it for {hints.robot}:"]
-    if span_type == "full_regeneration":  # the whole body: every conflict's cue (or only the API)
-        rejected = [f"Rejected before: {hints.feedback}"] if hints.feedback else []
-        return [*rejected, f"{hints.robot}: {hints.reason}"]
     if hints.attempt > 0:
-        call = [f"Call exactly: {_one_line(hints.substitute_call)}"] if hints.substitute_call else []
-        return [f"Was: {_one_line(hints.original_call)}", f"Rejected before: {hints.feedback}", *call]
-    lines = [f"{hints.robot} ({span_type.replace('_', ' ')}): {hints.reason}", f"Was: {_one_line(hints.original_call)}"]
+        call = [f"Call exactly: {one_line(hints.substitute_call)}"] if hints.substitute_call else []
+        return [f"Was: {one_line(hints.original_call)}", f"Rejected before: {hints.feedback}", *call]
+    lines = [f"{hints.robot} ({span_type.replace('_', ' ')}): {hints.reason}", f"Was: {one_line(hints.original_call)}"]
     edits = []
     if hints.mapping:
         edits.append("map " + ", ".join(_render_mapping(m) for m in hints.mapping))
@@ -183,11 +172,11 @@ def hint_lines(span_type: str, hints: Hints) -> list[str]:
         lines += hints.facts
         if hints.unfilled:
             lines.append("Replace each <...> with a variable or literal from the code above")
-        lines.append(f"Call exactly: {_one_line(hints.substitute_call)}")
+        lines.append(f"Call exactly: {one_line(hints.substitute_call)}")
     return lines
 
 
-def _one_line(code: str | None) -> str:
+def one_line(code: str | None) -> str:
     """Statements on one comment line, joined by "; then ".
 
     A call written over several lines becomes one statement: its later lines, put into the
@@ -224,9 +213,11 @@ def build_prompt(unit: RefactoringUnit, span_tokens: int, window: str = "functio
     to :data:`WINDOWED_SPAN_TYPES`; whole bodies and the baselines' rewrites show the whole function."""
     if window not in WINDOWS:
         raise ValueError(f"unknown prompt window {window!r}; choose one of: {', '.join(WINDOWS)}")
-    comments = "".join(f"{unit.indent}# {line}\n" for line in hint_lines(unit.span_type, unit.hints))
+    comments = "".join(f"{unit.indent}# {line}\n" for line in hint_lines(unit))
     call = unit.hints.substitute_call
-    if call and unit.span_type not in NOT_CONFLICT_SPAN_TYPES:  # what replaces the span, however the call was written
+    if (
+        call and unit.style is None and unit.span_type not in RUNTIME_SPAN_TYPES
+    ):  # what replaces the span, however the call was written
         single_line = "\n" not in call
     else:
         single_line = "\n" not in unit.span and "\n" not in (call or "")
@@ -235,17 +226,13 @@ def build_prompt(unit: RefactoringUnit, span_tokens: int, window: str = "functio
         grammar = patch_grammar(call) or (grammar if single_line else statement_lines(call.count("\n") + 1))
     forced = None
     draft = call and at_indent(call, unit.indent)[len(unit.indent) :]  # its later lines at the body's indentation
-    if unit.hints.attempt > 0 and call and unit.span_type not in WRITTEN_FREELY:
+    if unit.hints.attempt > 0 and call and unit.style is None:
         grammar = call_grammar(call, unit_name_variables(unit))  # a retry of what the ontology or a check wrote
         forced = None if has_placeholders(call) else call + "\n"
         draft = call  # the grammar holds the retry to the call's own lines
     stop = ("\n", "  #") if single_line else ("\n\n",)
-    if unit.span_type in WRITTEN_FREELY:
-        grammar = None
-    if unit.span_type in WHOLE_BODY_SPAN_TYPES:
-        stop = ("\ndef ", "\nclass ")  # the body ends where the model ends the middle, or at the next definition
-    if unit.span_type == "structured_plan":
-        stop = ("\n\n", "\ndef ")  # comment lines, up to the code
+    if unit.style is not None:  # no grammar: the model writes Python as it would
+        grammar, stop = None, unit.style.stop or stop
     prefix, suffix = unit.prefix, unit.suffix
     if window == "dataflow" and unit.span_type in WINDOWED_SPAN_TYPES:
         # a run-time patch's original call is the statement it comes before: the window shows it, not what it reads

@@ -7,6 +7,7 @@ ontology's cues for this one edit, rendered later as comments before the span.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 from lerobot_policy_recent.ontology.conversions import undetermined_facts
@@ -41,6 +42,9 @@ class Hints:
 
 @dataclass(frozen=True)
 class RefactoringUnit:
+    """One span to fill and its context. ``style`` is None for RECENT's spans, whose prompts the
+    product's builder knows; a method of the benchmark harness (a baseline, an ablation) brings its own."""
+
     span_start: int  # character offsets of m in the whole code
     span_end: int
     span: str  # m
@@ -50,6 +54,17 @@ class RefactoringUnit:
     span_type: str  # ρ
     hints: Hints  # κ
     substitute: str | None = None
+    style: SpanStyle | None = None
+
+
+@dataclass(frozen=True)
+class SpanStyle:
+    """How a span that is none of RECENT's is prompted: its comment lines, where the LM stops, and
+    whether it is a whole function body. Such spans are written freely (no grammar)."""
+
+    comments: Callable[[Hints], list[str]]  # the lines before the span, from its hints
+    stop: tuple[str, ...] | None = None  # None: the builder's, by the span's shape (one line or several)
+    whole_body: bool = False  # a function body, blank lines and all (an instruct model writes it as a chat)
 
 
 def unit_from_conflict(
@@ -75,7 +90,14 @@ def unit_from_conflict(
 
 
 def cut_unit(
-    code: str, start: int, end: int, span_type: str, hints: Hints, *, substitute: str | None = None
+    code: str,
+    start: int,
+    end: int,
+    span_type: str,
+    hints: Hints,
+    *,
+    substitute: str | None = None,
+    style: SpanStyle | None = None,
 ) -> RefactoringUnit:
     """The unit for ``code[start:end]``: prefix and suffix reach to the enclosing function's ends.
 
@@ -96,6 +118,7 @@ def cut_unit(
         span_type=span_type,
         hints=hints,
         substitute=substitute,
+        style=style,
     )
 
 

@@ -6,13 +6,13 @@ the actuator's [0, 1] range, and a second rescale would leave suction half on, n
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 from robosuite.models.grippers import register_gripper
 from robosuite.models.grippers.gripper_model import GripperModel
 
-ASSET = Path(__file__).with_name("assets") / "suction_gripper.xml"
+from lerobot_policy_recent.descriptions.embodiments import BUNDLED_DIR
+
+ASSET = BUNDLED_DIR / "assets" / "suction_gripper.xml"  # a robot description: the ontology reads it too
 
 
 @register_gripper

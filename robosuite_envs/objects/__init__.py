@@ -8,6 +8,9 @@ observed (a drawer is observed at its knob) and which joint, if any, is its arti
 
 from __future__ import annotations
 
+from lerobot_policy_recent.robosuite_envs import runtime  # noqa: F401  (headless GL before robosuite loads)
+
+# isort: split
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path

@@ -1,7 +1,7 @@
-"""Primitive APIs, one module + one metadata file per embodiment API.
+"""Primitive APIs: the modules of primitives the executor binds into skill code.
 
-``api_functions("ur5e")`` returns the callables the executor binds into skill code;
-``api_spec_path("ur5e")`` is the metadata file the ontology builder reads.
+``api_functions("ur5e")`` returns the callables of the module that ``descriptions/robots/ur5e.yaml``
+names (``module:``); the file itself is data the ontology reads (``descriptions/apis.py``).
 """
 
 from __future__ import annotations
@@ -9,40 +9,17 @@ from __future__ import annotations
 import importlib
 import importlib.util
 import inspect
-from pathlib import Path
 
+from lerobot_policy_recent.descriptions.apis import api_spec_path
 from lerobot_policy_recent.robosuite_envs.primitives.session import PrimitiveFailure, RobotSession, TaskContext
-
-SPEC_DIR = Path(__file__).parent
 
 __all__ = [
     "PrimitiveFailure",
     "RobotSession",
     "TaskContext",
     "api_functions",
-    "api_spec_path",
-    "available_apis",
     "module_functions",
 ]
-
-
-def spec_dirs() -> list[Path]:
-    """Where primitive-API files are: the bundled ones, then the robot directories of ``RECENT_ROBOTS``."""
-    from lerobot_policy_recent.robosuite_envs.embodiments import robot_dirs
-
-    return [SPEC_DIR, *robot_dirs()]
-
-
-def available_apis() -> list[str]:
-    return sorted({p.stem for folder in spec_dirs() for p in folder.glob("*.yaml")})
-
-
-def api_spec_path(api: str) -> Path:
-    for folder in spec_dirs():
-        path = folder / f"{api}.yaml"
-        if path.is_file():
-            return path
-    raise KeyError(f"no primitive API {api!r}; known APIs: {', '.join(available_apis())}")
 
 
 def api_functions(api: str) -> dict[str, object]:

@@ -6,6 +6,9 @@ behaviour a skill relies on is identical across robots and only the bindings dif
 
 from __future__ import annotations
 
+from lerobot_policy_recent.robosuite_envs import runtime  # noqa: F401  (headless GL before robosuite loads)
+
+# isort: split
 from collections import deque
 from collections.abc import Generator, Sequence
 

@@ -20,12 +20,10 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from lerobot_policy_recent.descriptions.frames import LENGTH_UNITS, WORLD
+
 if TYPE_CHECKING:
     from scipy.spatial.transform import Rotation
-
-LENGTH_UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001}  # metres per unit
-WORLD = "world"
-ARM_BASE = "arm_base"  # a frame's origin: where the arm's base body sits (the calibration's base_xyz)
 
 
 @dataclass(frozen=True)

@@ -10,9 +10,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from lerobot_policy_recent.descriptions.frames import WORLD
 from lerobot_policy_recent.robosuite_envs.calibration import Calibration, Nominal
 from lerobot_policy_recent.robosuite_envs.observation import Observation
-from lerobot_policy_recent.robosuite_envs.primitives.frames import WORLD, WORLD_AT_ORIGIN, Frame
+from lerobot_policy_recent.robosuite_envs.primitives.frames import WORLD_AT_ORIGIN, Frame
 
 CONTROL_FREQ = 20  # Hz; one yielded action = one env step
 
