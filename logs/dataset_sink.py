@@ -119,9 +119,9 @@ WRITER_NICENESS = 19  # the least CPU priority: the writer runs where the robot 
 def _yield_the_cpu() -> None:
     """Put the calling thread (and the threads it starts: the video encoder's) at :data:`WRITER_NICENESS`.
 
-    A commit encodes the episode's video and writes its files, ~10 s of one core for a dev episode.
-    At the default priority, on a 2-core host, it took half the CPU of the next episode's LM calls
-    (prompt evaluation at 13 to 21 ms a token instead of 6, 2026-11-27). Linux sets a thread's own
+    A commit encodes the episode's video and writes its files, seconds of one core per episode. At
+    the default priority, on a 2-core host, it slows the next episode's LM calls, whose timings are
+    measurements (IT, IGT). Linux sets a thread's own
     priority this way; elsewhere it raises and the writer keeps the process's.
     """
     try:

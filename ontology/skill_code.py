@@ -468,3 +468,40 @@ def definition_indices(earlier: list[ast.stmt], primitives: set[str]) -> list[in
         chosen.append(index)
         defined |= always_assigned([stmt])
     return chosen[::-1]
+
+
+def plain_assignments(statements: list[ast.stmt]) -> dict[str, ast.expr]:
+    """``targets -> value`` of the plain assignments among ``statements`` (the last one of each)."""
+    return {
+        ", ".join(ast.unparse(t) for t in s.targets): s.value
+        for s in statements
+        if isinstance(s, ast.Assign) and not any(isinstance(t, ast.Subscript | ast.Attribute) for t in s.targets)
+    }
+
+
+def assigned_names(code: str) -> list[str]:
+    """The variables ``code``'s statements assign, in the order they assign them."""
+    names = [
+        n.id
+        for statement in parse_statements(code)
+        for n in ast.walk(statement)
+        if isinstance(n, ast.Name) and isinstance(n.ctx, ast.Store)
+    ]
+    return list(dict.fromkeys(names))
+
+
+def parse_statements(code: str) -> list[ast.stmt]:
+    """``code``'s statements (none where it does not parse: what it calls or assigns is then unknown)."""
+    try:
+        return ast.parse(textwrap.dedent(code)).body
+    except SyntaxError:
+        return []
+
+
+def called_names(code: str) -> set[str]:
+    """Names of the functions and task queries ``code`` calls."""
+    return {
+        n.func.id if isinstance(n.func, ast.Name) else n.func.attr
+        for n in ast.walk(ast.Module(parse_statements(code), []))
+        if isinstance(n, ast.Call) and isinstance(n.func, ast.Name | ast.Attribute)
+    }

@@ -28,6 +28,7 @@ from lerobot_policy_recent.recent_plugin.infillers.base import samples
 from lerobot_policy_recent.recent_plugin.methods import Adaptation, Grounding
 from lerobot_policy_recent.recent_plugin.settings import RecentSettings
 from lerobot_policy_recent.robosuite_envs.calibrate import calibration
+from lerobot_policy_recent.robosuite_envs.calibration import Calibration
 from lerobot_policy_recent.robosuite_envs.observation import Observation
 from lerobot_policy_recent.robosuite_envs.primitives.binding import bind_primitives
 from lerobot_policy_recent.robosuite_envs.suites import get_task
@@ -229,15 +230,16 @@ class RecentAgent:
             for event in grounded.events(cached=hit):
                 emit(event)
         runnable = list(takewhile(lambda p: p.grounded.valid, plan))  # run what can run, then hold still
+        measured = calibration(robot)  # measured once per embodiment and machine, then read from the cache
         executor = TaskExecutor(
             runnable,
             target,
             first_obs,
             max_steps=self.settings.max_skill_steps,
             budget=self.settings.skill_budget,
-            adapter=self.adapter(task, target, emit, budget, seed),
+            adapter=self.adapter(task, target, measured, emit, budget, seed),
             emit=emit,
-            calibration=calibration(robot),  # measured once per embodiment and machine, then read from the cache
+            calibration=measured,
         )
         return executor, report
 
@@ -268,6 +270,7 @@ class RecentAgent:
         self,
         task: TaskSpec,
         target: Target,
+        measured: Calibration,
         emit: Emit = ignore,
         budget: CallBudget | None = None,
         seed: int | None = None,
@@ -277,6 +280,7 @@ class RecentAgent:
         return self.settings.method.adapter(
             Adaptation(
                 target=target,
+                calibration=measured,
                 ontology=self.ontology,
                 infiller=self.episode_lm(budget, seed),
                 task=task,

@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import ast
 import builtins
+import copy
 import operator
 import re
 import time
@@ -351,3 +352,21 @@ class _Instrument(ast.NodeTransformer):
 def instrument(node: ast.AST) -> ast.AST:
     """``node`` (a statement of skill code, modified in place) with its loops and operators metered."""
     return ast.fix_missing_locations(_Instrument().visit(node))
+
+
+UNKNOWN = object()  # an expression that cannot be evaluated now
+
+
+def evaluate_now(node: ast.expr, namespace: dict) -> object:
+    """The value of an expression of validated code in ``namespace`` now (``UNKNOWN`` where it fails),
+    metered as the skill's own code is (the executor's namespace holds its meter)."""
+    try:
+        expression = ast.Expression(node)
+        scope = dict(namespace)
+        if any(isinstance(n, ast.BinOp | ast.comprehension) for n in ast.walk(node)):  # what could build a lot
+            expression = instrument(ast.Expression(copy.deepcopy(node)))
+            if BINOP not in scope:  # a namespace not the executor's: a meter of its own
+                scope.update(Meter(SkillBudget()).names())
+        return eval(compile(expression, "<skill>", "eval"), scope)  # noqa: S307
+    except Exception:  # noqa: BLE001 - a value we cannot compute is one we cannot use
+        return UNKNOWN

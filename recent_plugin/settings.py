@@ -33,7 +33,7 @@ class RecentSettings:
     max_lm_calls: int = 24
     lm_seed: int = 0  # the LM's sampling seed (the episode seed is the env's)
     # seeded sampling, each episode seeded by lm_seed and its own seed, so seeds are real repetitions (0.2: Codex's
-    # pass@1 temperature); 0: greedy, as the runs before 2026-11-26 were
+    # pass@1 temperature); 0: greedy
     temperature: float = 0.2
     max_skill_steps: int = 3000  # control steps a skill may take before it is stopped
     skill_budget: SkillBudget = field(default_factory=SkillBudget)  # Python time and memory a skill's code may use

@@ -2,8 +2,7 @@
 
 * **Test tasks** are compositions of the subtasks in orders and argument bindings that no dev task
   of their suite has. They were checked only for feasibility, with the Panda reference skills on
-  dev seeds; no fix may be motivated by one of their episodes. The paper-length suites' test tasks
-  were written with the suites on 2026-11-25, after the sensing and the checks they run under.
+  dev seeds; no fix may be motivated by one of their episodes.
 * **Test seeds** are the paper's five (0, 1, 42, 123, 2024); **dev seeds** are others.
 * A test episode is a test task on a test seed; every other episode is dev. The ``-v1`` suites'
   first 20 + 12 tasks were developed against the paper's seeds, so they are dev tasks whatever the

@@ -38,7 +38,7 @@ class LMConfig(InfillerConfig):
     """What every code-LM backend shares."""
 
     # How much of a span's enclosing function its FIM prompt shows: ``dataflow`` (what the edit
-    # reads and writes) or ``function`` (all of it, the default before 2026-11-25); docs/llm_runtime.md
+    # reads and writes) or ``function`` (all of it); docs/llm_runtime.md
     prompt_window: str = "dataflow"
 
     def __post_init__(self) -> None:

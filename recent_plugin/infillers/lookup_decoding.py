@@ -5,25 +5,18 @@ signature from the hint comments, argument names from the surrounding code). Aft
 decoder looks up the last few generated tokens in the prompt and proposes what followed them
 there; one batched forward pass scores the whole draft, and greedy sampling (with the span's
 grammar) keeps the prefix the model itself would have produced. The output is the same as plain
-greedy decoding. A rejected draft still costs its batch (on the 2-core AMD EPYC, one token 30 ms,
-a batch of 16 tokens 150 ms, of 32 260 ms, of 48 365 ms), so the draft length adapts: it doubles
+greedy decoding. A rejected draft still costs its batch, so the draft length adapts: it doubles
 after a draft the model took whole and shrinks to what it took after one it refused. The longest
-match (up to 6 tokens) picks the draft: replaying the 30 LM calls of two dev groundings and one dev
-episode, that decoded the same text in 22 % less time than 3-token matches and 8-token drafts
-(2026-11-27, BENCHMARKS.md "Decoding on a CPU"). The hint's call is a draft source too: a run-time
-patch writes it out with line breaks where the hint has "; then "; over 59 dev calls, 14 % less
-decoding time. With it, longer drafts pay: replaying the 54 LM calls of four dev episodes (their
-groundings and patches), drafts of up to 48 tokens decoded the same text in 17 % less time than
-16 (24 and 32: 10 %, 64: 14 %; two interleaved rounds each). The call is drafted as the span
-writes it, its later lines at the body's indentation (``FimPrompt.draft``): drafted without, every
-line break refused the draft, and a repair that copies four lines of its skill decoded in 1.7 s,
-slower than with no drafts (1.2 s); indented, in 0.9 s. Over the 8 calls with multi-line drafts of
-four recorded dev episodes: 20 % less decoding time (2026-11-27). A draft from the hint's call may
-run to 64 tokens (``MAX_EXPECTED_DRAFT``), so a push sweep's call is verified in one batch.
+match (up to 6 tokens) picks the draft. The hint's call is a draft source too: a run-time patch
+writes it out with line breaks where the hint has "; then ", and it is drafted as the span writes
+it, its later lines at the body's indentation (``FimPrompt.draft``; drafted without, every line
+break refused the draft). A draft from the hint's call may run to 64 tokens
+(``MAX_EXPECTED_DRAFT``), so a push sweep's call is verified in one batch. What each choice saved
+in decoding time is in docs/history.md ("Decoding on a CPU", "Run-time patches").
 
 The grammar is checked the way llama.cpp's own common sampler does it: the unconstrained argmax
 is tested alone, and only when the grammar refuses it are more candidates constrained, the best
-ones first (a grammar pass over all 150k costs ~30 ms on this CPU, the argmax well under one).
+ones first (a grammar pass over the whole vocabulary costs far more than testing the argmax alone).
 Seeded sampling (a temperature above 0) asks the grammar only about the tokens whose weight can
 show in a float64 draw, those within ``NEGLIGIBLE`` of the best admitted one: at temperature 0.2
 a few dozen instead of 150k, and the same token is drawn.
@@ -58,11 +51,9 @@ class Decoded:
 
 
 MAX_NGRAM = 6  # the longest tail matched to find a draft
-MAX_DRAFT = 48  # the longest draft from the prompt (a batch of 49 costs ~370 ms on the 2-core host, one token 30 ms)
+MAX_DRAFT = 48  # the longest draft from the prompt: a refused batch costs about as much as a dozen single tokens
 # The longest draft from the expected text (the hint's call): a push sweep's call, 54 to 56 tokens, is
-# then verified in one batch, not in one of 49 and another of 5 to 7 (~90 ms: a batch of any size
-# streams all the weights once). Replaying the 67 first attempts of the dev episodes' run-time
-# patches (two seeds each), 64 decoded the same text in 10 % less time than 48; 160 (no cap): 8 %.
+# then verified in one batch, not two (a batch of any size streams all the weights once).
 MAX_EXPECTED_DRAFT = 64
 
 

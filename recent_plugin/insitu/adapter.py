@@ -16,7 +16,6 @@ sums over them) and every decision as an :class:`AdaptationEvent` for the logger
 from __future__ import annotations
 
 import ast
-import copy
 import logging
 import textwrap
 from collections import Counter
@@ -27,9 +26,13 @@ import numpy as np
 from lerobot_policy_recent.logs.events import CheckVerdict, Emit, PatchApplied, ignore
 from lerobot_policy_recent.ontology.diagnosis import Warning
 from lerobot_policy_recent.ontology.skill_code import (
+    assigned_names,
+    called_names,
     definition_indices,
     dependency_indices,
     loads,
+    parse_statements,
+    plain_assignments,
     recomputed_indices,
     stores,
 )
@@ -62,7 +65,7 @@ from lerobot_policy_recent.recent_plugin.refactoring.units import (
     at_indent,
     cut_unit,
 )
-from lerobot_policy_recent.recent_plugin.sandbox import BINOP, Meter, SkillBudget, instrument
+from lerobot_policy_recent.recent_plugin.sandbox import UNKNOWN, evaluate_now
 
 log = logging.getLogger(__name__)
 
@@ -218,10 +221,9 @@ class InSituAdapter:
         if self.insitu and self._rerun_if_stale(executor, segment, failure):
             return True
         # The usual cause is a world that moved on: recompute what the statement uses, then retry it.
-        # Worded as an object_unmoved check's patch is ("read obj_pos again"). Replaying the first
-        # attempts of the 17 repairs of the dev episodes (three seeds each, 2026-11-27), the 1.5B wrote
-        # the recomputation in 51 of 51 this way, in 40 as "recompute obj_pos before retrying", and in
-        # 28 when the recomputation also held the unrolled loop's constants (it wrote the next item).
+        # Worded as an object_unmoved check's patch is ("read obj_pos again"): a small model writes
+        # the recomputation from this wording more reliably than from "recompute ... before retrying",
+        # or from one that also shows the unrolled loop's constants (docs/history.md, "Run-time patches").
         statements = recomputation(executor.segments[: failure.segment], segment.node, set(executor.primitives))
         return self._patch(
             executor,
@@ -230,7 +232,7 @@ class InSituAdapter:
             "repair",
             "reactive_repair",
             (str(failure.category),),
-            f"read {', '.join(_assigned(statements, executor.indent))} again before retrying",
+            f"read {', '.join(assigned_names(at_indent('\n'.join(statements), executor.indent)))} again before retrying",
             f"{_bare(segment.source, executor).split('(')[0]} failed ({failure.message})",
             statements,
         )
@@ -309,8 +311,8 @@ class InSituAdapter:
     ) -> tuple[str | None, int]:
         code, start = executor.source(), executor.segment_offsets(at)[0]
         suggestion = "\n".join(statements)  # nested lines at the body's indentation, as segments keep them
-        wanted = _called(at_indent(suggestion, executor.indent))
-        suggested = _statements(at_indent(suggestion, executor.indent))  # the skill's or a check's code
+        wanted = called_names(at_indent(suggestion, executor.indent))
+        suggested = parse_statements(at_indent(suggestion, executor.indent))  # the skill's or a check's code
 
         def make_unit(feedback: str | None, attempt: int) -> RefactoringUnit:
             hints = Hints(
@@ -329,14 +331,14 @@ class InSituAdapter:
             if not text:
                 return Verdict.reject(FailureCategory.EMPTY_CONTINUATION, "the patch is empty"), candidate
             body = at_indent(text, unit.indent)
-            called = _called(body)
+            called = called_names(body)
             if called != wanted:
                 message = f"the patch must call {sorted(wanted)}, it calls {sorted(called)}"
                 return Verdict.reject(FailureCategory.HALLUCINATED_API, message), candidate
             verdict = validate_program(candidate, self.target.api, executor.grounded.entry, self.apis)
             if not verdict.ok:
                 return verdict, candidate
-            written = _statements(body)  # validated: it parses
+            written = parse_statements(body)  # validated: it parses
             kept = changed_argument(written, suggestion, "the check wrote") or changed_assignment(
                 written, suggested, executor.namespace
             )
@@ -363,7 +365,7 @@ def changed_assignment(written: list[ast.stmt], suggested: list[ast.stmt], names
     ``'cube'`` it holds). Unchecked, an unrolled loop's next item (``name = second`` for ``first``)
     would pass validation and move the wrong object.
     """
-    wanted, got = _assignments(suggested), _assignments(written)
+    wanted, got = plain_assignments(suggested), plain_assignments(written)
     missing = [targets for targets in wanted if targets not in got]
     if missing:
         return Verdict.reject(FailureCategory.HALLUCINATED_KWARG, f"the patch must assign {', '.join(missing)} as well")
@@ -375,15 +377,6 @@ def changed_assignment(written: list[ast.stmt], suggested: list[ast.stmt], names
                 f"{targets} = {ast.unparse(value)}",
             )
     return None
-
-
-def _assignments(statements: list[ast.stmt]) -> dict[str, ast.expr]:
-    """``targets -> value`` of the plain assignments among ``statements`` (the last one of each)."""
-    return {
-        ", ".join(ast.unparse(t) for t in s.targets): s.value
-        for s in statements
-        if isinstance(s, ast.Assign) and not any(isinstance(t, ast.Subscript | ast.Attribute) for t in s.targets)
-    }
 
 
 def _same_value(node: ast.expr, wanted: ast.expr, namespace: dict) -> bool:
@@ -406,31 +399,13 @@ def _same_value(node: ast.expr, wanted: ast.expr, namespace: dict) -> bool:
         )
     if any(isinstance(n, ast.Call) for n in (*ast.walk(node), *ast.walk(wanted))):
         return False
-    mine, theirs = _evaluated(node, namespace), _evaluated(wanted, namespace)
-    if mine is _UNKNOWN or theirs is _UNKNOWN:
+    mine, theirs = evaluate_now(node, namespace), evaluate_now(wanted, namespace)
+    if mine is UNKNOWN or theirs is UNKNOWN:
         return False
     try:
         return bool(np.array_equal(mine, theirs))  # positions may be arrays on one side, lists on the other
     except (TypeError, ValueError):  # ragged or incomparable values: not shown to be the same
         return False
-
-
-_UNKNOWN = object()  # an expression that cannot be evaluated now
-
-
-def _evaluated(node: ast.expr, namespace: dict) -> object:
-    """The value of an expression of validated code in ``namespace`` now (``_UNKNOWN`` where it fails),
-    metered as the skill's own code is (the executor's namespace holds its meter)."""
-    try:
-        expression = ast.Expression(node)
-        scope = dict(namespace)
-        if any(isinstance(n, ast.BinOp | ast.comprehension) for n in ast.walk(node)):  # what could build a lot
-            expression = instrument(ast.Expression(copy.deepcopy(node)))
-            if BINOP not in scope:  # a namespace not the executor's: a meter of its own
-                scope.update(Meter(SkillBudget()).names())
-        return eval(compile(expression, "<skill>", "eval"), scope)  # noqa: S307
-    except Exception:  # noqa: BLE001 - a value we cannot compute is one we cannot use
-        return _UNKNOWN
 
 
 def _guards(warning: Warning, node: ast.stmt) -> bool:
@@ -447,40 +422,12 @@ def _bare(source: str, executor: SkillExecutor) -> str:
     return source.replace("\n" + executor.indent, "\n")
 
 
-def _assigned(statements: tuple[str, ...], indent: str) -> list[str]:
-    """The variables ``statements`` assign, in the order they assign them."""
-    names = [
-        n.id
-        for statement in _statements(at_indent("\n".join(statements), indent))
-        for n in ast.walk(statement)
-        if isinstance(n, ast.Name) and isinstance(n.ctx, ast.Store)
-    ]
-    return list(dict.fromkeys(names))
-
-
-def _statements(code: str) -> list[ast.stmt]:
-    """``code``'s statements (none where it does not parse: what it calls or assigns is then unknown)."""
-    try:
-        return ast.parse(textwrap.dedent(code)).body
-    except SyntaxError:
-        return []
-
-
-def _called(code: str) -> set[str]:
-    """Names of the functions and task queries ``code`` calls."""
-    return {
-        n.func.id if isinstance(n.func, ast.Name) else n.func.attr
-        for n in ast.walk(ast.Module(_statements(code), []))
-        if isinstance(n, ast.Call) and isinstance(n.func, ast.Name | ast.Attribute)
-    }
-
-
 def _value(node: ast.expr, executor: SkillExecutor) -> object | None:
     """Evaluate an argument expression now (validated code; calls other than task queries are skipped)."""
     if any(isinstance(n, ast.Call) and isinstance(n.func, ast.Name) for n in ast.walk(node)):
         return None
-    value = _evaluated(node, executor.namespace)
-    return None if value is _UNKNOWN else value
+    value = evaluate_now(node, executor.namespace)
+    return None if value is UNKNOWN else value
 
 
 def recomputation(earlier: list[Segment], node: ast.AST, primitives: set[str]) -> tuple[str, ...]:

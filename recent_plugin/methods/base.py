@@ -19,6 +19,7 @@ from lerobot_policy_recent.ontology.target import Target
 from lerobot_policy_recent.recent_plugin.executor import Adapter
 from lerobot_policy_recent.recent_plugin.grounding.grounder import GroundedSkill
 from lerobot_policy_recent.recent_plugin.infillers.base import Infiller
+from lerobot_policy_recent.robosuite_envs.calibration import Calibration
 from lerobot_policy_recent.robosuite_envs.tasks import TaskSpec
 from lerobot_policy_recent.skills.repository import Skill
 
@@ -40,6 +41,7 @@ class Adaptation:
     """What a method adapts with during one episode (its calls and events are that episode's)."""
 
     target: Target
+    calibration: Calibration  # the target's, measured once: read here, never looked up again by name
     ontology: Ontology
     infiller: Infiller
     task: TaskSpec

@@ -16,7 +16,6 @@ from lerobot_policy_recent.recent_plugin.infillers.base import Infiller
 from lerobot_policy_recent.recent_plugin.insitu.adapter import InSituAdapter
 from lerobot_policy_recent.recent_plugin.insitu.checks import SceneFacts
 from lerobot_policy_recent.recent_plugin.methods.base import Adaptation, Grounding, Method
-from lerobot_policy_recent.robosuite_envs.calibrate import calibration
 from lerobot_policy_recent.robosuite_envs.objects import get_kind
 
 
@@ -49,7 +48,7 @@ class Recent(Method):
             loose=frozenset(o.name for o in a.task.objects if not get_kind(o.kind).fixed),
             sizes={o.name: tuple(o.size) for o in a.task.objects if o.size is not None},
             task_objects=frozenset(v for step in a.task.plan for v in step.args.values()),
-            base_xy=calibration(a.target.name).base_xyz[:2],  # where the mount puts this arm, measured
+            base_xy=a.calibration.base_xyz[:2],  # where the mount puts this arm, measured
             reach=a.target.arm.reach,
             push_path=a.ontology.path_of("push_object"),
         )

@@ -32,8 +32,8 @@ STATEMENT_LINES = r'root ::= line ("\n" line)* "\n"?' + "\n" + LINE
 
 def statement_lines(most: int) -> str:
     """:data:`STATEMENT_LINES`, at most ``most`` lines: a run-time patch as long as the statements its
-    check or repair wrote. Uncapped, the 1.5B went on past a repair's recomputation into the rest of
-    the skill, to the length cap, on every first attempt of the dev episodes (17 of 17, 2026-11-27)."""
+    check or repair wrote. Uncapped, a small model goes on past a repair's recomputation into the rest
+    of the skill, to the length cap."""
     return f'root ::= line ("\\n" line){{0,{most - 1}}} "\\n"?' + "\n" + LINE
 
 
@@ -43,9 +43,8 @@ def patch_grammar(statements: str) -> str | None:
     rest of each line is the LM's. None where a statement spans lines or is not an assignment or a call.
 
     A repair recomputes what the failed statement uses and a check's patch calls what it named, so
-    validation rejects a patch that does anything else. Given only a line count, the 1.5B wrote the
-    retried call, copied from the suffix, in 9 of the 17 repairs' first attempts of the dev episodes
-    (2026-11-27), and the one sweep a check asked for on the end-effector setting began with the grasp.
+    validation rejects a patch that does anything else. Given only a line count, a small model often
+    writes the retried call, copied from the suffix, instead of the recomputation.
     """
     heads = []
     for line in statements.splitlines():

@@ -10,16 +10,12 @@ after a span are re-evaluated by every call (the KV cache only keeps a shared *s
   unrolled loop's earlier items, or a value a patch read again, no longer reach the span). Before
   an insertion (a run-time patch): what its own statements read, and the latest definition of what
   they assign again (a re-read copies it), not what the statement after it reads. A sweep's
-  literals read nothing, so it shows none of the body: replayed on the 67 first attempts of the
-  dev episodes' run-time patches (two seeds each), all 134 wrote the same text, from 13 fewer
-  prompt tokens on average (170 → 157 evaluated from nothing, 2026-11-27);
+  literals read nothing, so it shows none of the body;
 * after it: the statements that read a name the span assigns, up to the first that assigns it
-  again. Not simply the next statement: with the next, already grounded call in view, the 1.5B
-  wrote a copy of it in most spans of a long skill (dev task ``plate_clear_switch`` on UR5e,
-  2026-11-25) and each span needed a grammar-held retry. An insertion (a run-time patch) shows
-  only the statement it comes before, what it serves: the readers further on cost a repair or a
-  re-read up to 85 prompt tokens, and without them the 67 first attempts of the dev episodes'
-  run-time patches, replayed with two seeds each, were judged the same (2026-11-27).
+  again. Not simply the next statement: with the next, already grounded call in view, a small
+  model copies it into the span. An insertion (a run-time patch) shows only the statement it comes
+  before, what it serves: the readers further on cost prompt tokens and did not change what was
+  written (docs/history.md, "Prompt cost" and "Run-time patches").
 
 Whatever cannot be parsed keeps the whole function.
 """
