@@ -8,8 +8,14 @@ from __future__ import annotations
 
 from dataclasses import replace
 
-from lerobot_policy_recent.evaluation import ablations  # noqa: F401  (registers the ablations and oracle-rule)
-from lerobot_policy_recent.evaluation.baselines.methods import Baseline  # (and registers the baselines)
+# Importing a method's module registers it; tables list a family's methods in this order.
+# A new baseline is one module in evaluation/baselines/ and one line here (docs/benchmark.md).
+# isort: off
+from lerobot_policy_recent.evaluation import ablations  # noqa: F401  (RECENT's ablations and oracle-rule)
+from lerobot_policy_recent.evaluation.baselines import cap, repair, scot, progprompt, roboinspector, agentless  # noqa: F401
+
+# isort: on
+from lerobot_policy_recent.evaluation.baselines.base import Baseline
 from lerobot_policy_recent.recent_plugin.methods import Method, method_named, methods_of
 from lerobot_policy_recent.recent_plugin.settings import RecentSettings
 

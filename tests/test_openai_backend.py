@@ -85,7 +85,7 @@ def test_cap_llm_asks_a_served_chat_model_and_runs_its_program(ontology):
     the reply's code block (the whole function, repeated) is cut back to the body, and it runs."""
     from test_baselines import UR5E_BODY
 
-    from lerobot_policy_recent.evaluation.baselines.methods import CodeAsPoliciesLLM
+    from lerobot_policy_recent.evaluation.baselines.cap import CodeAsPoliciesLLM
     from lerobot_policy_recent.recent_plugin.agent import RecentAgent
     from lerobot_policy_recent.recent_plugin.episode import run_episode
     from lerobot_policy_recent.recent_plugin.infillers.configs import RuleConfig

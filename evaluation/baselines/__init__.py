@@ -1,4 +1,6 @@
-"""The baselines RECENT is compared with (registered as methods in ``evaluation/baselines/methods.py``).
+"""The baselines RECENT is compared with, one module each (``cap.py``, ``repair.py``, ``scot.py``,
+``progprompt.py``, ``roboinspector.py``, ``agentless.py``), each a registered method with its prompt
+strategy (a :class:`~.program_prompt.BaselineStyle`); ``base.py`` is what they share.
 
 They share RECENT's FIM infiller, validation gate and executor, and differ in what the LM is asked
 and in how failures are handled (the paper's appendix "Baseline Implementations"):

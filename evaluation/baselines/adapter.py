@@ -11,10 +11,8 @@ was: it runs until it fails.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
-from lerobot_policy_recent.evaluation.baselines.generate import plan_of
-from lerobot_policy_recent.evaluation.baselines.inspector import categorised
 from lerobot_policy_recent.evaluation.baselines.program_prompt import (
     EMPTY,
     BaselineStyle,
@@ -36,7 +34,6 @@ from lerobot_policy_recent.recent_plugin.grounding.gate import Verdict
 from lerobot_policy_recent.recent_plugin.grounding.grounder import GroundedSkill
 from lerobot_policy_recent.recent_plugin.infillers.base import Infiller
 from lerobot_policy_recent.recent_plugin.refactoring.units import RefactoringUnit, apply_unit
-from lerobot_policy_recent.robosuite_envs.observation import Observation
 from lerobot_policy_recent.skills.repository import Skill
 
 
@@ -73,15 +70,15 @@ class BaselineAdapter:
             return False
         skill = self.skills[name]
         error = f"line {failure.line}: {failure.category}: {failure.message}"
-        if self.style.inspect:  # RoboInspector's feedback names the behaviour
-            error = f"{categorised(str(failure.category)).capitalize()} ({error})"
-        observation = describe_scene(executor.session.obs, raw=self.style.raw_state)
+        error = self.style.error_feedback(str(failure.category), error)
+        observation = self.style.scene(executor.session.obs)
         whole = self.style.rewrites_whole(self._budget.used[name])
         code = executor.source()
         segment = executor.segments[failure.segment]
 
-        context = replace(self.context, plan=plan_of(executor.grounded)) if self.style.structured_plan else self.context
-        prompt = ProgramPrompt(skill, self.target, self.style, context)
+        prompt = ProgramPrompt(
+            skill, self.target, self.style, self.style.repair_context(self.context, executor.grounded)
+        )
 
         def feedback(rejected: str | None) -> str:
             return error if rejected is None else f"{error}; then rejected: {rejected}"
@@ -126,20 +123,3 @@ class BaselineAdapter:
             executor.replace_segment(failure.segment, accepted.text)
         self.emit(PatchApplied(name, "repair", source_diff(code, executor.source()), executor.source()))
         return True
-
-
-def describe_scene(obs: Observation, *, raw: bool = False) -> str:
-    """The observed scene in one line, as a baseline's repair prompt shows it (``raw``: with each
-    object's orientation quaternion, and the end effector's pose)."""
-
-    def numbers(values) -> str:
-        return ", ".join(f"{v:.3f}" for v in values)
-
-    parts = [
-        f"{name} at [{numbers(state.pos)}]" + (f" quat [{numbers(state.quat)}]" if raw else "")
-        for name, state in obs.objects.items()
-    ]
-    if raw:
-        parts.append(f"end effector at [{numbers(obs.eef_pos)}] quat [{numbers(obs.eef_quat)}]")
-    held = obs.held()
-    return "; ".join(parts) + (f"; holding {held}" if held else "")

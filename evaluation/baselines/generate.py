@@ -12,11 +12,9 @@ error points at (the whole program where it points at none). These retries are g
 from __future__ import annotations
 
 import time
-from dataclasses import replace
 
 from lerobot_policy_recent.evaluation.baselines.program_prompt import (
     EMPTY,
-    PLAN,
     BaselineStyle,
     ProgramContext,
     ProgramPrompt,
@@ -45,10 +43,7 @@ def generate_skill(
     started = time.perf_counter()
     robot = target.name
     result = GroundedSkill.start(skill, robot, Diagnosis(skill.name, robot), infiller)  # no ontology consulted
-    if style.structured_plan:  # SCoT: the plan first, then the code written under it
-        context = replace(
-            context, plan=write_plan(ProgramPrompt(skill, target, style, context), infiller, result, max_retries)
-        )
+    context = style.before_program(ProgramPrompt(skill, target, style, context), infiller, result, max_retries)
     prompt = ProgramPrompt(skill, target, style, context)
     last: dict[str, object] = {"code": None, "verdict": None}  # the previous candidate and why it failed
 
@@ -80,32 +75,3 @@ def generate_skill(
         result.code, result.verdict = accepted.candidate, accepted.verdict
     result.seconds = time.perf_counter() - started
     return result
-
-
-def write_plan(prompt: ProgramPrompt, infiller: Infiller, result: GroundedSkill, max_retries: int) -> str:
-    """SCoT's structured plan, one line per substitution (empty where none came); its calls are grounding calls."""
-
-    def judge(unit: RefactoringUnit, text: str) -> tuple[Verdict, str]:
-        return (Verdict(True) if text else EMPTY), text
-
-    accepted = infill_until_valid(
-        infiller,
-        lambda feedback, attempt: prompt.plan_unit(feedback=feedback, attempt=attempt),
-        judge,
-        kind="ground",
-        max_retries=max_retries,
-        calls=result.calls,
-        clean=plan_lines,
-    )
-    return accepted.text if accepted is not None else ""
-
-
-def plan_lines(text: str, unit: RefactoringUnit) -> str:
-    """A plan as the model wrote it, without its comment and list markers."""
-    lines = (line.strip().lstrip("#").strip().lstrip("-*").strip() for line in text.splitlines())
-    return "\n".join(line for line in lines if line)
-
-
-def plan_of(grounded: GroundedSkill) -> str:
-    """The structured plan a SCoT grounding wrote (empty for any other)."""
-    return next((c.text for c in reversed(grounded.calls) if c.span_type == PLAN and c.accepted), "")

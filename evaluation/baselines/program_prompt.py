@@ -14,14 +14,17 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass, replace
 
-from lerobot_policy_recent.evaluation.baselines.inspector import inspection_verdict
 from lerobot_policy_recent.ontology.conversions import api_notes
 from lerobot_policy_recent.ontology.skill_code import body_span
+from lerobot_policy_recent.ontology.specs import ApiSpec
 from lerobot_policy_recent.ontology.target import Target
 from lerobot_policy_recent.recent_plugin.failures import FailureCategory
 from lerobot_policy_recent.recent_plugin.grounding.gate import Verdict, security_gate
+from lerobot_policy_recent.recent_plugin.grounding.grounder import GroundedSkill
+from lerobot_policy_recent.recent_plugin.infillers.base import Infiller
 from lerobot_policy_recent.recent_plugin.refactoring.fim_prompt import one_line
 from lerobot_policy_recent.recent_plugin.refactoring.units import Hints, RefactoringUnit, SpanStyle, cut_unit
+from lerobot_policy_recent.robosuite_envs.observation import Observation
 from lerobot_policy_recent.robosuite_envs.primitives.session import TaskContext
 from lerobot_policy_recent.robosuite_envs.subtasks import TABLE_Z
 from lerobot_policy_recent.robosuite_envs.tabletop import TABLE_SIZE
@@ -53,22 +56,40 @@ PLAN_STYLE = SpanStyle(lambda hints: [], stop=("\n\n", "\ndef "))
 
 @dataclass(frozen=True)
 class BaselineStyle:
-    """Where the baselines differ: what the prompt shows, and how much of the program an error rewrites."""
+    """A baseline's strategy: what its prompt shows, what a program must pass, and how a failure is
+    answered. This class is the shared default (CaP's); a baseline overrides the hooks it changes,
+    in its own module (``evaluation/baselines/<name>.py``)."""
 
     name: str
-    constraints: bool = False  # describe each primitive, the scene's objects and the workspace bounds
     # Failures of a skill answered by rewriting the failing statement before the whole program is
     # regenerated: 0 regenerates at once (cap), None never does (repair).
     statement_repairs: int | None = 0
-    pythonic: bool = False  # ProgPrompt's header: the actions imported with their parameters, the objects a list
-    inspect: bool = False  # RoboInspector: a behaviour detector before execution, categorised feedback
-    structured_plan: bool = False  # SCoT: a plan of substitutions and parameter mappings, then the code
-    raw_state: bool = False  # CaP-Codex: repair prompts show object positions and quaternions
 
-    def judge(self, candidate: str, entry: str, api) -> Verdict:
-        """What a program must pass before it runs: the security gate, and the detector where the baseline has one."""
-        verdict = security_gate(candidate, entry, api.names())
-        return inspection_verdict(candidate, entry, api) if verdict.ok and self.inspect else verdict
+    def header(self, prompt: ProgramPrompt) -> str:
+        """The lines before the skill's signature in every prompt."""
+        return prompt.api_header(described=False)
+
+    def before_program(
+        self, prompt: ProgramPrompt, infiller: Infiller, result: GroundedSkill, max_retries: int
+    ) -> ProgramContext:
+        """The context the program is written under (a stage before it may add to it, as SCoT's plan)."""
+        return prompt.context
+
+    def repair_context(self, context: ProgramContext, grounded: GroundedSkill) -> ProgramContext:
+        """The context a repair prompt shows, given the grounding the failing program came from."""
+        return context
+
+    def judge(self, candidate: str, entry: str, api: ApiSpec) -> Verdict:
+        """What a program must pass before it runs: the security gate."""
+        return security_gate(candidate, entry, api.names())
+
+    def error_feedback(self, category: str, error: str) -> str:
+        """How a run-time failure is told to the LM."""
+        return error
+
+    def scene(self, obs: Observation) -> str:
+        """The observed scene, as a repair prompt shows it."""
+        return describe_scene(obs)
 
     def rewrites_whole(self, failures: int) -> bool:
         """Whether the ``failures``-th failure of a skill (1 for the first) regenerates the whole program."""
@@ -100,12 +121,14 @@ class ProgramPrompt:
     context: ProgramContext
 
     def header(self) -> str:
-        """Comment lines (and the example program) that precede the skill's signature in every prompt."""
-        if self.style.pythonic:
-            return self._pythonic_header()
-        described = self.style.constraints
-        lines = self._api_example_lines()
-        lines += [f"# Example: this skill written for the {self._example_robot()} robot", self._example(), ""]
+        """What precedes the skill's signature in every prompt: the baseline's own header."""
+        return self.style.header(self)
+
+    def api_header(self, *, described: bool) -> str:
+        """Comment lines with the target's primitives and the example program (``described``: each
+        primitive's description, the scene's objects and the workspace bounds)."""
+        lines = self.api_example_lines()
+        lines += [f"# Example: this skill written for the {self.example_robot()} robot", self.example(), ""]
         lines.append(
             f"# The {self.target.name} robot has other primitives (env and task are always the first two arguments):"
         )
@@ -142,12 +165,12 @@ class ProgramPrompt:
         hints = Hints(target=self.target, original_call=code[start:end], feedback=feedback, attempt=attempt)
         return RefactoringUnit(0, 0, "", self.header() + ask, "\n" + code[:start], "", PLAN, hints, style=PLAN_STYLE)
 
-    def _example(self) -> str:
+    def example(self) -> str:
         """The reference skill, renamed for its robot (``put_in_bin_panda``), as the in-context example."""
         code = dict(self.context.target_examples).get(self.skill.name, self.skill.code)
-        return renamed_for(code, self.skill.entry, self._example_robot())
+        return renamed_for(code, self.skill.entry, self.example_robot())
 
-    def _api_example_lines(self) -> list[str]:
+    def api_example_lines(self) -> list[str]:
         """Other skills' programs for the target robot, each renamed for it: how its API is used."""
         if not self.context.api_examples:
             return []
@@ -156,29 +179,11 @@ class ProgramPrompt:
             lines += [renamed_for(code, None, self.target.name), ""]
         return lines
 
-    def _example_robot(self) -> str:
+    def example_robot(self) -> str:
         """The robot the in-context example is written for: the target where the context has its program."""
         return (
             self.target.name if self.skill.name in dict(self.context.target_examples) else self.skill.source_embodiment
         )
-
-    def _pythonic_header(self) -> str:
-        """ProgPrompt: import the target's actions (each with its parameters), list the objects, show
-        the source robot's program, and ask for its translation."""
-        robot, source = self.target.name, self.skill.source_embodiment
-        module = f"{robot.lower()}_actions"
-        lines = [f"from {module} import {p.name}  # {p.signature()}" for p in self.target.api.primitives]
-        lines.append(f"from scene import task  # {', '.join(f'task.{q}(name)' for q in TaskContext.QUERIES)}")
-        lines += [f"# {note}" for note in api_notes(self.target.api)]
-        lines += ["", f"objects = {[o.split(' ')[0] for o in self.context.objects]!r}", ""]
-        lines += self._api_example_lines()
-        lines += [f"# Reference program for the {source} robot:", self._example(), ""]
-        lines.append(f"# Task: {self.context.instruction}")
-        lines.append(
-            f"# Translate the reference program from {source} actions to the {robot} actions imported above, "
-            "keeping its logic:"
-        )
-        return "\n".join(lines) + "\n"
 
     def program_unit(self, *, feedback: str | None = None, attempt: int = 0) -> RefactoringUnit:
         """The whole entry body of the skill as one span, the header and signature before it."""
@@ -216,3 +221,20 @@ def renamed_for(code: str, entry: str | None, robot: str) -> str:
     ``robot`` (``put_in_bin`` becomes ``put_in_bin_ur5e``), so that no example defines the entry."""
     name = re.escape(entry) if entry else r"\w+"
     return re.sub(rf"^def ({name})\(", lambda m: f"def {m.group(1)}_{robot.lower()}(", code, flags=re.M).rstrip("\n")
+
+
+def describe_scene(obs: Observation, *, raw: bool = False) -> str:
+    """The observed scene in one line, as a baseline's repair prompt shows it (``raw``: with each
+    object's orientation quaternion, and the end effector's pose)."""
+
+    def numbers(values) -> str:
+        return ", ".join(f"{v:.3f}" for v in values)
+
+    parts = [
+        f"{name} at [{numbers(state.pos)}]" + (f" quat [{numbers(state.quat)}]" if raw else "")
+        for name, state in obs.objects.items()
+    ]
+    if raw:
+        parts.append(f"end effector at [{numbers(obs.eef_pos)}] quat [{numbers(obs.eef_quat)}]")
+    held = obs.held()
+    return "; ".join(parts) + (f"; holding {held}" if held else "")
