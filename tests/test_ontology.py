@@ -412,3 +412,16 @@ def test_a_target_is_resolved_once_with_its_api_arm_and_primitives(ontology):
     broken = dataclasses.replace(target, api=dataclasses.replace(target.api, module="no.such.module"))
     with pytest.raises(SpecError, match="ur5e.yaml: module: 'no.such.module' cannot be imported"):
         bind_primitives(broken)
+
+
+def test_bundled_robots_are_robot_files_of_the_format_users_write():
+    """One format for one fact: every bundled robot is a robot file (``robot:`` block), listed once,
+    and read by the same loader as a ``RECENT_ROBOTS`` file."""
+    from lerobot_policy_recent.descriptions.embodiments import BUNDLED, BUNDLED_DIR, EMBODIMENTS, load_robot_file
+
+    with_rows = sorted(p.stem for p in BUNDLED_DIR.glob("*.yaml") if "robot" in yaml.safe_load(p.read_text()))
+    assert with_rows == sorted(BUNDLED) and len(set(BUNDLED)) == len(BUNDLED)
+    for api in BUNDLED:
+        row = load_robot_file(BUNDLED_DIR / f"{api}.yaml", importable=False)
+        assert EMBODIMENTS[row.name] == row
+    assert Path(EMBODIMENTS["Suction"].gripper_mjcf).is_file()  # a path beside the robot file
