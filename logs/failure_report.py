@@ -14,7 +14,7 @@ from pathlib import Path
 
 from lerobot_policy_recent.logs.layout import LogLayout, log_roots
 from lerobot_policy_recent.logs.readers import read_table
-from lerobot_policy_recent.recent_plugin.extras import optional
+from lerobot_policy_recent.recent_plugin.extras import pyplot
 from lerobot_policy_recent.recent_plugin.failures import FailureCategory
 
 KINDS = ("rejected spans", "failed segments", "failed episodes")
@@ -58,8 +58,7 @@ def failure_table(roots: list[str | Path]) -> FailureTable:
 
 def plot_failures(table: FailureTable, path: Path) -> Path:
     """A grouped bar chart: one group per category, one bar per kind of failure."""
-    optional("matplotlib", "the failure plot").use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot("the failure plot")
     import numpy as np
 
     categories = table.categories() or ["(none)"]

@@ -11,6 +11,7 @@ from pathlib import Path
 from lerobot_policy_recent.ontology.builder import Ontology
 from lerobot_policy_recent.ontology.diagnosis import diagnose
 from lerobot_policy_recent.ontology.query import query
+from lerobot_policy_recent.recent_plugin.extras import pyplot
 
 COLORS = {"skill": "#4c72b0", "source": "#8c8c8c", "target": "#55a868", "robot": "#dd8452", "gap": "#c44e52"}
 COLUMNS = {"skill": 0.0, "source": 3.0, "target": 7.0, "robot": 10.6, "gap": 10.0}
@@ -19,10 +20,7 @@ COLUMNS = {"skill": 0.0, "source": 3.0, "target": 7.0, "robot": 10.6, "gap": 10.
 def draw_instance_graph(
     onto: Ontology, skill_name: str, code: str, robot: str, out: Path, source: str = "Panda"
 ) -> Path:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot("recent ontology graph")
 
     diag = diagnose(onto, skill_name, code, robot, source)
     gaps = sorted(query(onto, skill_name, code, robot, source).gaps)

@@ -20,3 +20,9 @@ def optional(module: str, feature: str) -> ModuleType:
             f"{feature} needs {top}, which the optional `{EXTRA}` extra installs: "
             f"`uv sync --extra {EXTRA}` (scripts/setup.sh does) or `pip install 'lerobot_policy_recent[{EXTRA}]'`"
         ) from None
+
+
+def pyplot(feature: str) -> ModuleType:
+    """matplotlib's pyplot on the headless Agg backend (no display where plots are written)."""
+    optional("matplotlib", feature).use("Agg")
+    return importlib.import_module("matplotlib.pyplot")

@@ -144,6 +144,22 @@ def test_reading_the_robot_descriptions_and_the_ontology_changes_nothing_in_the_
     assert json.loads(done.stdout.splitlines()[-1]) == [[], []]
 
 
+def test_only_the_harness_imports_the_bench_extra():
+    """Ray and matplotlib are the optional ``bench`` extra: the policy, the world and the logs run
+    without them (a plot elsewhere asks for matplotlib through ``extras.optional``, which names the extra)."""
+    extra = {"ray", "matplotlib"}
+    found = []
+    for name, path in _modules().items():
+        if name == "evaluation" or name.startswith("evaluation."):
+            continue
+        for node in ast.walk(ast.parse(path.read_text())):
+            modules = [a.name for a in node.names] if isinstance(node, ast.Import) else []
+            if isinstance(node, ast.ImportFrom) and node.module:
+                modules = [node.module]
+            found += [f"{name} imports {m}" for m in modules if m.split(".")[0] in extra]
+    assert found == []
+
+
 def test_every_module_has_a_layer():
     for name in _modules():
         _layer(name)

@@ -13,14 +13,13 @@ from lerobot_policy_recent.evaluation.methods import ABLATION_METHODS, METHODS, 
 from lerobot_policy_recent.evaluation.metrics import group, summarize
 from lerobot_policy_recent.evaluation.report.paper import SUITE_ORDER
 from lerobot_policy_recent.evaluation.report.tables import failure_counts, ordered_rows
-from lerobot_policy_recent.recent_plugin.extras import optional
+from lerobot_policy_recent.recent_plugin.extras import pyplot
 
 
 def _figure(size: tuple[float, float], rows: int = 1, cols: int = 1, **share):
     """A headless matplotlib figure (no display on the machines that run benchmarks); several
     panels come as a flat list of axes."""
-    optional("matplotlib", "the report's plots").use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot("the report's plots")
 
     if rows * cols == 1:
         return plt.subplots(figsize=size)
