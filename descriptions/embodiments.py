@@ -10,7 +10,6 @@ module a file's ``module:`` names is imported from that directory (docs/add_a_ro
 from __future__ import annotations
 
 import os
-import sys
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -52,9 +51,10 @@ def robot_dirs() -> list[Path]:
     return [Path(p).expanduser() for p in os.environ.get(ROBOTS_ENV, "").split(os.pathsep) if p.strip()]
 
 
-def load_robot_file(path: Path, importable: bool = True) -> Embodiment:
-    """The row a robot file describes (its ``embodiment:`` name and ``robot:`` block); a user's
-    robot directory becomes importable, for the module its ``module:`` names."""
+def load_robot_file(path: Path) -> Embodiment:
+    """The row a robot file describes (its ``embodiment:`` name and ``robot:`` block). Reading it
+    changes nothing: the module its ``module:`` names is imported from beside it when its
+    primitives are bound (``robosuite_envs/primitives``)."""
     import yaml
 
     try:
@@ -72,8 +72,6 @@ def load_robot_file(path: Path, importable: bool = True) -> Embodiment:
     arm_dof = block.get("arm_dof", 7)
     if not isinstance(arm_dof, int) or not 1 <= arm_dof <= 7:
         raise RobotFileError(path, "robot.arm_dof", f"must be an integer from 1 to 7, got {arm_dof!r}")
-    if importable and str(path.parent) not in sys.path:
-        sys.path.append(str(path.parent))
     return Embodiment(
         name=data["embodiment"],
         robot=block["robosuite"],
@@ -94,7 +92,7 @@ def _beside(robot_file: Path, mjcf: str) -> str:
 
 
 def _bundled_robots() -> dict[str, Embodiment]:
-    rows = [load_robot_file(BUNDLED_DIR / f"{api}.yaml", importable=False) for api in BUNDLED]
+    rows = [load_robot_file(BUNDLED_DIR / f"{api}.yaml") for api in BUNDLED]
     return {row.name: row for row in rows}
 
 

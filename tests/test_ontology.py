@@ -422,6 +422,6 @@ def test_bundled_robots_are_robot_files_of_the_format_users_write():
     with_rows = sorted(p.stem for p in BUNDLED_DIR.glob("*.yaml") if "robot" in yaml.safe_load(p.read_text()))
     assert with_rows == sorted(BUNDLED) and len(set(BUNDLED)) == len(BUNDLED)
     for api in BUNDLED:
-        row = load_robot_file(BUNDLED_DIR / f"{api}.yaml", importable=False)
+        row = load_robot_file(BUNDLED_DIR / f"{api}.yaml")
         assert EMBODIMENTS[row.name] == row
     assert Path(EMBODIMENTS["Suction"].gripper_mjcf).is_file()  # a path beside the robot file

@@ -9,8 +9,11 @@ from __future__ import annotations
 import importlib
 import importlib.util
 import inspect
+import sys
+from pathlib import Path
 
 from lerobot_policy_recent.descriptions.apis import api_spec_path
+from lerobot_policy_recent.descriptions.embodiments import BUNDLED_DIR
 from lerobot_policy_recent.robosuite_envs.primitives.session import PrimitiveFailure, RobotSession, TaskContext
 
 __all__ = [
@@ -27,13 +30,17 @@ def api_functions(api: str) -> dict[str, object]:
     several embodiments may share one module, each with a YAML of its own)."""
     import yaml
 
-    spec = yaml.safe_load(api_spec_path(api).read_text()) or {}
-    return module_functions(spec.get("module") or f"lerobot_policy_recent.robosuite_envs.primitives.{api}")
+    path = api_spec_path(api)
+    spec = yaml.safe_load(path.read_text()) or {}
+    return module_functions(spec.get("module") or f"lerobot_policy_recent.robosuite_envs.primitives.{api}", path.parent)
 
 
-def import_primitive_module(module_name: str):
+def import_primitive_module(module_name: str, directory: Path | None = None):
     """Import a primitive module, or fail in one line that names its file: a robot added from files
-    (``RECENT_ROBOTS``) brings its own module, whose errors are the user's to fix."""
+    (``RECENT_ROBOTS``) brings its own module, whose errors are the user's to fix. ``directory``
+    (the robot file's) is where such a module is found."""
+    if directory is not None and directory != BUNDLED_DIR and str(directory) not in sys.path:
+        sys.path.append(str(directory))
     try:
         return importlib.import_module(module_name)
     except SyntaxError as exc:
@@ -59,10 +66,10 @@ def _module_file(module_name: str) -> str:
     return str(spec.origin) if spec is not None and spec.origin else module_name
 
 
-def module_functions(module_name: str) -> dict[str, object]:
-    """The primitives of a primitive module (the ``module:`` of its YAML): its ``__all__`` if it
-    re-exports shared motions, else the public generator functions it defines."""
-    module = import_primitive_module(module_name)
+def module_functions(module_name: str, directory: Path | None = None) -> dict[str, object]:
+    """The primitives of a primitive module (the ``module:`` of its YAML, found beside it in ``directory``):
+    its ``__all__`` if it re-exports shared motions, else the public generator functions it defines."""
+    module = import_primitive_module(module_name, directory)
     names = getattr(module, "__all__", None) or [
         name
         for name, fn in vars(module).items()

@@ -9,6 +9,7 @@ primitive would ground as valid and fail mid-episode as if the LM had invented a
 from __future__ import annotations
 
 import inspect
+from pathlib import Path
 
 from lerobot_policy_recent.ontology.specs import ApiSpec, PrimitiveSpec, SpecError
 from lerobot_policy_recent.ontology.target import Target
@@ -24,7 +25,7 @@ def bind_primitives(target: Target) -> dict[str, object]:
     key = (api.module, str(api.path))
     if key not in _CHECKED:
         try:
-            functions = module_functions(api.module)
+            functions = module_functions(api.module, Path(api.path).parent)
         except ModuleNotFoundError as error:
             raise SpecError(api.path, "module", f"{api.module!r} cannot be imported ({error})") from None
         problems = api_mismatches(api, functions)
