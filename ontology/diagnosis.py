@@ -21,11 +21,12 @@ from lerobot_policy_recent.ontology.conversions import (
 from lerobot_policy_recent.ontology.skill_code import (
     CallSite,
     CodeSpan,
+    PositionNames,
     call_sites,
-    named_positions,
     position_bindings,
+    position_names,
 )
-from lerobot_policy_recent.ontology.specs import PATH_ROLE, ParameterSpec, PrimitiveSpec
+from lerobot_policy_recent.ontology.specs import NAMED_BY_POINT, PATH_ROLE, ParameterSpec, PrimitiveSpec
 
 SPAN_TYPES = ("api_substitution", "parameter_binding", "interface_rewiring", "preparatory_step", "path_tracing")
 
@@ -162,7 +163,7 @@ def diagnose(onto: Ontology, skill_name: str, code: str, robot: str, source: str
     """D(skill, robot) = ⟨determined conflicts, undetermined warnings⟩ — no LM involved."""
     source_api, target_api = onto.api(source), onto.api(robot)
     sites = [s for s in call_sites(code, skill_name) if source_api.get(s.name) is not None]
-    bindings, names = position_bindings(code), named_positions(code)
+    bindings, names = position_bindings(code), position_names(code)
     conflicts, warnings = [], []
     for site in sites:
         original = source_api.get(site.name)
@@ -188,7 +189,7 @@ def _same_signature(original: PrimitiveSpec, target: PrimitiveSpec) -> bool:
 
 
 def _conflict(
-    onto: Ontology, site: CallSite, original: PrimitiveSpec, source: str, robot: str, names: dict[str, str]
+    onto: Ontology, site: CallSite, original: PrimitiveSpec, source: str, robot: str, names: PositionNames
 ) -> Conflict:
     candidates = onto.substitutes(source, site.name, robot)
     tracers = onto.path_tracers(source, site.name, robot) if not candidates else []
@@ -206,7 +207,7 @@ def _conflict(
     given = dict(site.arguments)
     mapping, dropped = [], []
     for param in original.parameters:
-        target = substitute.by_role(param.role)
+        target = substitute.by_role(param.role) or _named_by_point(param, substitute, given, names)
         if target is None:
             dropped.append(param.name)
         else:
@@ -332,7 +333,7 @@ def _preparatory_steps(
     robot: str,
     dropped: list[str],
     given: dict[str, str],
-    names: dict[str, str],
+    names: PositionNames,
 ) -> tuple[tuple[str, ...], tuple[tuple[ParameterMapping, ...], ...]]:
     """Robot-state preconditions the substitute adds, each with a target primitive whose effects
     establish it, and the original call's arguments that primitive takes: each required parameter
@@ -369,15 +370,29 @@ _POINTS_OR_NAMES = {OBJECT_NAME, "position", "pose"}  # what designates where so
 
 
 def _converted(
-    source: ParameterSpec, target: ParameterSpec, given: dict[str, str], names: dict[str, str]
+    source: ParameterSpec, target: ParameterSpec, given: dict[str, str], names: PositionNames
 ) -> Conversion | None:
     """How the argument becomes the target's value: as the two parameters convert, except that a
-    position read straight from the task (``obj_pos = task.get_object_position(obj)``) names its
-    object, where the target takes a name."""
+    position read from the task (``obj_pos = task.get_object_position(obj)``), or a point placed by
+    one such position alone (``[bin_pos[0], bin_pos[1], bin_pos[2] + 0.1]``), names its object,
+    where the target takes a name."""
     converted = conversion(source, target)
-    if target.type == OBJECT_NAME and source.type == "position" and given.get(source.name) in names:
-        return Conversion(names[given[source.name]])
+    if target.type == OBJECT_NAME and source.type == "position" and (name := names.of(given.get(source.name))):
+        return Conversion(name)
     return converted
+
+
+def _named_by_point(
+    param: ParameterSpec, substitute: PrimitiveSpec, given: dict[str, str], names: PositionNames
+) -> ParameterSpec | None:
+    """The substitute's name-taking parameter that a point argument of ``param`` names (a place's
+    drop point above the bin, for a place that takes the receptacle's name), where the point is
+    placed by one object alone (:class:`PositionNames`); None otherwise, and the parameter stays
+    for the LM."""
+    named = substitute.by_role(NAMED_BY_POINT.get(param.role, ""))
+    if named is None or named.type != OBJECT_NAME or param.type != "position":
+        return None
+    return named if names.of(given.get(param.name)) else None
 
 
 def _warnings(onto, site, original, target, source, robot, sites, bindings) -> list[Warning]:

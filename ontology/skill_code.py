@@ -149,10 +149,68 @@ def _position_read(node: ast.AST) -> tuple[str, ast.Call] | None:
 
 
 def named_positions(code: str) -> dict[str, str]:
-    """Variables that hold exactly the position of a named object: ``var = task.get_object_position(E)``,
-    the only write to ``var`` (no other assignment, no item or augmented assignment), with ``E`` a
-    string or a variable that only a function argument or a loop binds. A position argument that is
-    such a variable determines the object's name, ``E``: what a name-based API asks for instead."""
+    """Variables that hold the position of a named object, or a point placed by it alone (see
+    :func:`position_names`): variable -> the object's name expression."""
+    return position_names(code).variables
+
+
+@dataclass(frozen=True)
+class PositionNames:
+    """What positions in a skill name: variables read once from the task (``obj_pos =
+    task.get_object_position(obj)`` names ``obj``), and points computed from one of them.
+
+    A point names the object whose position alone places it horizontally: its x and y (the first
+    two items of a list) come from exactly one named position, plus numbers, arithmetic and
+    ``constants`` (variables a parameter or a literal loop binds), and no call. ``[bin_pos[0],
+    bin_pos[1], bin_pos[2] + 0.1]`` names what ``bin_pos`` names: a drop point above the bin is the
+    bin's, whatever height it drops from. A position argument that names an object determines its
+    name: what a name-based API asks for instead."""
+
+    variables: dict[str, str]
+    constants: frozenset[str] = frozenset()
+
+    def of(self, expression: str | None) -> str | None:
+        """The object the position ``expression`` (an argument's source) names, or None."""
+        if not expression:
+            return None
+        try:
+            node = ast.parse(expression, mode="eval").body
+        except SyntaxError:
+            return None
+        return placed_by(node, self.variables, self.constants)
+
+
+def placed_by(node: ast.expr, names: dict[str, str], constants: frozenset[str]) -> str | None:
+    """The object a position expression is placed by (:class:`PositionNames`), or None."""
+    if isinstance(node, ast.Name):
+        return names.get(node.id)
+    horizontal = node.elts[:2] if isinstance(node, ast.List | ast.Tuple) and len(node.elts) >= 2 else [node]
+    used = set()
+    for part in horizontal:
+        for leaf in ast.walk(part):
+            if isinstance(leaf, ast.Name):
+                if leaf.id in names:
+                    used.add(names[leaf.id])
+                elif leaf.id not in constants:
+                    return None
+            elif not isinstance(leaf, _ARITHMETIC):
+                return None
+    if isinstance(node, ast.List | ast.Tuple):  # the height may come from anything but a call
+        if any(isinstance(leaf, ast.Call) for leaf in ast.walk(node)):
+            return None
+    return used.pop() if len(used) == 1 else None
+
+
+_ARITHMETIC = (
+    ast.List, ast.Tuple, ast.Subscript, ast.Constant, ast.BinOp, ast.UnaryOp, ast.Load, ast.Slice,
+    ast.operator, ast.unaryop,
+)  # fmt: skip
+
+
+def position_names(code: str) -> PositionNames:
+    """The :class:`PositionNames` of ``code``: a variable counts when that read (or the point
+    computed from one) is its only write (no other assignment, no item or augmented assignment),
+    and the name is a string or a variable that only a function argument or a loop binds."""
     tree = parse_skill(code)
     writes: dict[str, int] = {}
     assigned: set[str] = set()  # written by an assignment (a loop or a parameter binds the others)
@@ -177,7 +235,27 @@ def named_positions(code: str) -> dict[str, str]:
             literal = isinstance(name, ast.Constant) and isinstance(name.value, str)
             if literal or (isinstance(name, ast.Name) and name.id not in assigned):
                 found[read[0]] = ast.unparse(name)
-    return {var: name for var, name in found.items() if writes.get(var) == 1}
+    read_once = {var: name for var, name in found.items() if writes.get(var) == 1}
+    constants = frozenset(var for var in writes if var not in assigned) | _parameters(tree)
+    derived = {}
+    for node in ast.walk(tree):
+        if (
+            isinstance(node, ast.Assign)
+            and len(node.targets) == 1
+            and isinstance(node.targets[0], ast.Name)
+            and writes.get(node.targets[0].id) == 1
+            and node.targets[0].id not in read_once
+            and not isinstance(node.value, ast.Name)
+            and (name := placed_by(node.value, read_once, constants)) is not None
+        ):
+            derived[node.targets[0].id] = name
+    return PositionNames({**read_once, **derived}, constants)
+
+
+def _parameters(tree: ast.Module) -> frozenset[str]:
+    return frozenset(
+        a.arg for f in ast.walk(tree) if isinstance(f, ast.FunctionDef) for a in [*f.args.args, *f.args.kwonlyargs]
+    )
 
 
 def variable_kinds(func: ast.FunctionDef) -> dict[str, str]:

@@ -23,6 +23,9 @@ PARAMETER_ROLES = frozenset(
         "actuation_speed", "duration_steps", "timeout",
     }
 )  # fmt: skip
+# A point argument of the first role, placed by one object alone, names that object for a parameter of
+# the second: a position-based place's drop point above the bin names the bin a name-based place takes.
+NAMED_BY_POINT = {"release_target": "release_receptacle"}
 # what the vectors of a controller mean (ontology/conversions.py renders between them): lengths in
 # m, cm or mm; an axis-angle rotation vector in rad; Euler angles in deg or rad about a named axis
 # sequence (scipy's: "ZYX" intrinsic, "xyz" extrinsic); a pose is URScript's [x, y, z, rx, ry, rz]

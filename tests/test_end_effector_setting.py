@@ -81,13 +81,50 @@ def test_a_name_becomes_a_position_by_the_task_query_in_the_targets_units_and_fr
 
 def test_a_panda_call_on_the_franka_hands_api_of_the_same_name_is_a_conflict(ontology, put_in_bin):
     """Both source APIs have a ``pick``: one takes a position, the other a name. The same name is not
-    the same interface; the position read from ``obj`` names ``obj``, the drop point names nothing."""
+    the same interface; the position read from ``obj`` names ``obj``, and the drop point above the bin,
+    placed by ``bin_pos`` alone, names the receptacle the name-based place takes."""
     conflicts = diagnose(ontology, put_in_bin.name, put_in_bin.code, "FrankaHand").conflicts
     pick, place = (next(c for c in conflicts if c.original == name) for name in ("pick", "place"))
     assert pick.substitute.name == "pick" and pick.span_type == "parameter_binding"
     assert pick.mapping[0].conversion.apply("obj_pos") == "obj"
-    assert place.substitute.name == "place" and place.span_type == "interface_rewiring"
-    assert place.unfilled == ("obj_name",)
+    assert place.substitute.name == "place" and place.span_type == "parameter_binding" and not place.unfilled
+    (receptacle,) = (m for m in place.mapping if m.target == "obj_name")
+    assert receptacle.source == "target_pos" and receptacle.conversion.apply("drop_pos") == "receptacle"
+
+
+@pytest.mark.parametrize("robot", ["Robotiq85", "Suction", "FrankaHand"])
+@pytest.mark.parametrize(
+    ("skill", "receptacle"),
+    [("put_in_bin", "receptacle"), ("place_on_plate", "target"), ("move_to_region", "region"), ("insert_peg", "hole")],
+)
+def test_a_drop_point_placed_by_one_object_names_it_for_a_name_based_place(
+    ontology, rule_infiller, robot, skill, receptacle
+):
+    """A derived-position rewiring: the ontology renders the receptacle, the LM is not asked, and the
+    held object is never put "on itself" (the place's name is not the pick's)."""
+    grounded = ground_skill(load_skill(skill), ontology.target(robot), ontology, rule_infiller)
+    assert grounded.valid and grounded.generated_tokens == 0
+    places = [line for line in _lines(grounded.code) if f"obj_name={receptacle}" in line]
+    assert places and all(("pick" not in line and "attach" not in line) for line in places)
+
+
+def test_a_point_names_an_object_only_where_that_object_alone_places_it():
+    from lerobot_policy_recent.ontology.skill_code import position_names
+
+    code = """def skill(env, task, obj="cube", bin="bin"):
+    obj_pos = task.get_object_position(obj)
+    bin_pos = task.get_object_position(bin)
+    drop = [bin_pos[0], bin_pos[1], bin_pos[2] + 0.1]
+    between = [(obj_pos[0] + bin_pos[0]) / 2, bin_pos[1], 0.2]
+    queried = [bin_pos[0], bin_pos[1], task.get_object_position(obj)[2]]
+    for dx in [-0.04, 0.04]:
+        corner = [bin_pos[0] + dx, bin_pos[1], bin_pos[2] + 0.05]
+"""
+    names = position_names(code)
+    assert names.variables == {"obj_pos": "obj", "bin_pos": "bin", "drop": "bin", "corner": "bin"}
+    assert names.of("[bin_pos[0], bin_pos[1], obj_pos[2] + 0.15]") == "bin"  # the height may come from another
+    assert names.of("[obj_pos[0], bin_pos[1], 0.1]") is None  # two objects place it
+    assert names.of("[bin_pos[0] + offset, bin_pos[1], 0.1]") is None  # a variable of unknown origin
 
 
 def test_a_position_names_its_object_only_where_the_code_read_it_from_one():

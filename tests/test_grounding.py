@@ -326,3 +326,21 @@ def test_a_traced_path_that_drops_a_waypoints_offset_is_rejected(ontology):
     wrong = right.replace("pos=[start[0], start[1], start[2] + 0.1]", "pos=start, pointing_to='down'", 1)
     verdict = _check_span(wrong, unit)
     assert verdict is not None and not verdict.ok and "keep pos=[start[0], start[1], start[2] + 0.1]" in verdict.message
+
+
+def test_a_span_that_adds_a_statement_or_a_return_is_rejected(ontology):
+    """The 1.5B once appended ``return hole_pos`` to a place it was asked for; a span holds the call."""
+    from lerobot_policy_recent.recent_plugin.grounding.grounder import _check_span
+    from lerobot_policy_recent.skills.repository import load_skill
+
+    peg = load_skill("insert_peg")
+    place = next(c for c in diagnose(ontology, peg.name, peg.code, "UR5e").conflicts if c.original == "place")
+    unit = unit_from_conflict(peg.code, place, ontology.target("UR5e"))
+    call = unit.hints.substitute_call
+    assert _check_span(call, unit) is None
+    for added, words in (
+        (f"{call}\nreturn hole_pos", "return hole_pos"),
+        (f"{call}\nclose_ur5_ee(env, task)", "after the 1"),
+    ):
+        verdict = _check_span(added.replace("\n", "\n" + unit.indent), unit)
+        assert verdict is not None and not verdict.ok and words in verdict.message

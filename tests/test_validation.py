@@ -119,3 +119,24 @@ def test_a_position_where_an_object_name_belongs_names_the_candidates(ontology):
     verdict = validate_program(code.split("    drop_pos")[0], ontology.api("Sawyer"), "put_in_bin", ontology.apis)
     assert verdict.category == F.HALLUCINATED_KWARG
     assert verdict.message.endswith("expects an object name, but obj_pos holds a position; names here: obj, receptacle")
+
+
+def test_a_receptacle_that_is_the_held_object_is_rejected_with_the_role(ontology):
+    """A name-based place of the object the hand holds puts it "on itself": valid by name and
+    keyword, wrong by role. The move a cup's detach needs is held to the same rule."""
+    placed = """def put_in_bin(env, task, obj="cube", receptacle="bin"):
+    pick_robotiq85(env, task, obj_name=obj)
+    place_robotiq85(env, task, obj_name={place})
+"""
+    wrong = validate_program(placed.format(place="obj"), ontology.api("Robotiq85"), "put_in_bin")
+    assert not wrong.ok and wrong.category == F.HALLUCINATED_KWARG and wrong.line == 3
+    assert "what the held object is put on or into" in wrong.message and "held since line 2" in wrong.message
+    assert validate_program(placed.format(place="receptacle"), ontology.api("Robotiq85"), "put_in_bin").ok
+    cup = """def put_in_bin(env, task, obj="cube", receptacle="bin"):
+    attach_vacuum_handle(env, task, handle_name=obj)
+    move_gripper_to(env, task, obj_name=obj)
+    detach_vacuum_handle(env, task)
+    move_gripper_to(env, task, obj_name=obj)
+"""
+    verdict = validate_program(cup, ontology.api("Suction"), "put_in_bin")
+    assert not verdict.ok and verdict.line == 3  # after the detach, the cup holds nothing: line 5 is fine

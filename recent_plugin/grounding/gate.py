@@ -29,6 +29,7 @@ from collections.abc import Iterable
 from contextlib import contextmanager
 from dataclasses import dataclass
 
+from lerobot_policy_recent.ontology.conversions import OBJECT_NAME
 from lerobot_policy_recent.ontology.skill_code import name_variables, variable_kinds
 from lerobot_policy_recent.ontology.specs import ApiSpec, ParameterSpec
 from lerobot_policy_recent.recent_plugin.failures import FailureCategory
@@ -165,6 +166,16 @@ def _is_docstring(node: ast.stmt) -> bool:
     return isinstance(node, ast.Expr) and isinstance(node.value, ast.Constant) and isinstance(node.value.value, str)
 
 
+# Roles of name-taking parameters that name what the hand will hold, and what it puts that on or into.
+HOLDING_ROLES = frozenset({"grasp_target", "grasp_object_name", "handle_target"})
+ROLE_WORDS = {
+    "release_receptacle": "what the held object is put on or into",
+    "approach_object_name": "what the hand moves over (with the object it holds)",
+}
+RECEIVING_ROLES = frozenset(ROLE_WORDS)
+RELEASING_EFFECTS = frozenset({"object_released", "end_effector_free"})
+
+
 class _Checker(ast.NodeVisitor):
     """Collects violations; without an ``api`` only the security gate's (the interface is left to run time)."""
 
@@ -200,6 +211,38 @@ class _Checker(ast.NodeVisitor):
             self.visit(default)
         for stmt in func.body:
             self.visit(stmt)
+        if self.api is not None:
+            self._check_roles(func)
+
+    def _check_roles(self, func: ast.FunctionDef) -> None:
+        """Arguments checked by their role: a place's receptacle is not the object the hand holds then
+        (put "on itself"). The held object is the last name a grasp took, in statement order."""
+        held: tuple[str, ast.Call] | None = None
+        calls = sorted(
+            (n for n in ast.walk(func) if isinstance(n, ast.Call) and isinstance(n.func, ast.Name)),
+            key=lambda n: (n.lineno, n.col_offset),
+        )
+        for call in calls:
+            spec = self.api.get(call.func.id)
+            if spec is None:
+                continue
+            for keyword in call.keywords:
+                param = spec.parameter(keyword.arg) if keyword.arg else None
+                if param is None or param.type != OBJECT_NAME:
+                    continue
+                value = ast.unparse(keyword.value)
+                if param.role in HOLDING_ROLES:
+                    held = (value, call)
+                elif param.role in RECEIVING_ROLES and held is not None and held[0] == value:
+                    self.fail(
+                        FailureCategory.HALLUCINATED_KWARG,
+                        f"{keyword.arg}={value}: {spec.name}'s {keyword.arg} is {ROLE_WORDS[param.role]}, but "
+                        f"{value} is the object held since line {held[1].lineno} "
+                        f"({ast.unparse(held[1].func)}(..., {value}))",
+                        call,
+                    )
+            if spec.effects & RELEASING_EFFECTS:
+                held = None
 
     @staticmethod
     def _assigned_names(func: ast.FunctionDef) -> set[str]:

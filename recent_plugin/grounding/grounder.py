@@ -234,7 +234,8 @@ def _resolve(
 
 
 def _check_span(text: str, unit: RefactoringUnit) -> Verdict | None:
-    """The span must hold code, and a determined substitution must call the substitute it names."""
+    """The span must hold code and nothing it was not asked for (no `return`, no statement after the
+    ontology's call), and a determined substitution must call the substitute it names."""
     try:  # later lines sit at the body's indentation: parse the span as the block it forms
         statements = ast.parse(textwrap.dedent(unit.indent + text)).body if text else []
     except SyntaxError:
@@ -243,13 +244,34 @@ def _check_span(text: str, unit: RefactoringUnit) -> Verdict | None:
         return Verdict.reject(
             FailureCategory.EMPTY_CONTINUATION, "the span holds no statement (empty or only comments)"
         )
+    returned = next((s for s in statements if any(isinstance(n, ast.Return) for n in ast.walk(s))), None)
+    if returned is not None:
+        return Verdict.reject(
+            FailureCategory.NON_EXECUTABLE, f"the span adds `{ast.unparse(returned)}`, which it was not asked for"
+        )
     called = {name for name, _ in _ordered_calls(statements)}
     if unit.substitute and unit.substitute not in called:
         return Verdict.reject(
             FailureCategory.HALLUCINATED_API,
             f"the ontology substitutes {unit.substitute}() here, but the span calls {sorted(called) or 'nothing'}",
         )
+    asked = _statement_count(unit.hints.substitute_call)
+    if asked and len(statements) > asked:
+        return Verdict.reject(
+            FailureCategory.NON_EXECUTABLE,
+            f"the span adds `{ast.unparse(statements[asked])}` after the {asked} statement(s) it was asked for",
+        )
     return changed_argument(statements, unit.hints.substitute_call)
+
+
+def _statement_count(code: str | None) -> int:
+    """How many statements the ontology's call for a span is (0: none, or it does not parse: no limit)."""
+    if not code:
+        return 0
+    try:
+        return len(ast.parse(textwrap.dedent(code.replace("<", "_").replace(">", "_"))).body)
+    except SyntaxError:
+        return 0
 
 
 def changed_argument(
