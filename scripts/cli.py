@@ -35,9 +35,21 @@ def commands() -> tuple:
         model_cmd,
         ontology_cmd,
         skills_cmd,
+        transfer_cmd,
     )
 
-    return (episode_cmd, ground_cmd, bench_cmd, cache_cmd, envs_cmd, model_cmd, ontology_cmd, skills_cmd, logs_cmd)
+    return (
+        episode_cmd,
+        ground_cmd,
+        transfer_cmd,
+        bench_cmd,
+        cache_cmd,
+        envs_cmd,
+        model_cmd,
+        ontology_cmd,
+        skills_cmd,
+        logs_cmd,
+    )
 
 
 def build_parser() -> argparse.ArgumentParser:

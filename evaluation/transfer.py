@@ -1,0 +1,146 @@
+"""The transfer matrix: every skill of the library on every embodiment, and how its grounding came about.
+
+A cell is one (skill, robot) pair. Its grounding is one of:
+
+* ``source`` — the robot the skill is written for;
+* ``ontology`` — valid, every span decided by the ontology (no LM token);
+* ``lm`` — valid, with spans the LM decided (their calls and seconds are the cell's);
+* ``refused`` — the robot lacks a capability the skill needs: a call no primitive of the robot has
+  the effects of, and no path the robot's moves can trace; named before anything runs;
+* ``invalid`` — grounding failed validation (the last rejection is the reason).
+
+A cell that is refused but whose grounding the LM got through validation anyway is flagged
+``defect``: the grounding could have known. The matrix is written as JSON, a markdown table and a
+PNG heatmap (``recent transfer``).
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+from lerobot_policy_recent.recent_plugin.extras import pyplot
+from lerobot_policy_recent.recent_plugin.grounding.grounder import GroundedSkill
+
+GROUNDINGS = ("source", "ontology", "lm", "refused", "invalid")
+SYMBOLS = {"source": "·", "ontology": "O", "lm": "L", "refused": "–", "invalid": "✗"}
+
+
+@dataclass
+class Cell:
+    skill: str
+    robot: str
+    grounding: str  # one of GROUNDINGS
+    reason: str = ""  # why refused or invalid
+    igt_seconds: float = 0.0  # grounding time (a few ms where it came from the grounding cache)
+    cached: bool = False
+    lm_calls: int = 0  # calls the LM answered (the ontology's renderings are not LM calls)
+    generated_tokens: int = 0
+    defect: bool = False  # refused by the ontology, yet validated: the grounding could have known
+
+
+def classify(grounded: GroundedSkill, source: str) -> Cell:
+    """The cell of one grounding (see the module's docstring)."""
+    cell = Cell(grounded.skill, grounded.robot, "source" if grounded.robot == source else "ontology")
+    cell.igt_seconds = round(grounded.seconds, 3)
+    asked = [c for c in grounded.calls if not c.rendered and c.generated_tokens > 0]
+    cell.lm_calls, cell.generated_tokens = len(asked), grounded.generated_tokens
+    if cell.grounding == "source":
+        return cell
+    missing = [c for c in grounded.diagnosis.conflicts if c.substitute is None and not c.path]
+    if missing:
+        cell.grounding, cell.reason = "refused", f"line {missing[0].span.line}: {missing[0].reason}"
+        cell.defect = grounded.valid
+    elif not grounded.valid:
+        cell.grounding = "invalid"
+        cell.reason = grounded.verdict.message if grounded.verdict is not None else "not validated"
+    elif asked:
+        cell.grounding = "lm"
+    return cell
+
+
+def ground_cells(agent, skills: list[str], robots: list[str], on_cell=None) -> list[Cell]:
+    """Ground every (skill, robot) with ``agent`` (its method, LM and ontology); ``on_cell`` hears each."""
+    cells = []
+    for name in skills:
+        skill = agent.skill(name)
+        for robot in robots:
+            started = time.perf_counter()
+            grounded, hit = agent.ground(name, robot)
+            cell = classify(grounded, skill.source_embodiment)
+            cell.igt_seconds, cell.cached = round(time.perf_counter() - started, 3), hit
+            cells.append(cell)
+            if on_cell is not None:
+                on_cell(cell)
+    return cells
+
+
+def counts(cells: list[Cell]) -> dict[str, int]:
+    return {g: sum(c.grounding == g for c in cells) for g in GROUNDINGS}
+
+
+def render_table(cells: list[Cell]) -> str:
+    """Skills as rows, robots as columns, one symbol per cell; the refused and invalid cells listed with reasons."""
+    skills = list(dict.fromkeys(c.skill for c in cells))
+    robots = list(dict.fromkeys(c.robot for c in cells))
+    at = {(c.skill, c.robot): c for c in cells}
+    legend = ", ".join(f"`{SYMBOLS[g]}` {g}" for g in GROUNDINGS)
+    lines = [
+        f"Cells: {', '.join(f'{n} {g}' for g, n in counts(cells).items() if n)}. Legend: {legend}; `!` a defect.",
+        "",
+        "| skill | " + " | ".join(robots) + " |",
+        "|---|" + "---:|" * len(robots),
+    ]
+    for skill in skills:
+        row = []
+        for robot in robots:
+            cell = at.get((skill, robot))
+            row.append("" if cell is None else SYMBOLS[cell.grounding] + ("!" if cell.defect else ""))
+        lines.append(f"| `{skill}` | " + " | ".join(row) + " |")
+    explained = [c for c in cells if c.grounding in ("refused", "invalid")]
+    if explained:
+        lines += ["", "| skill | robot | grounding | reason |", "|---|---|---|---|"]
+        lines += [
+            f"| `{c.skill}` | {c.robot} | {c.grounding}{' (defect)' if c.defect else ''} | {c.reason} |"
+            for c in explained
+        ]
+    return "\n".join(lines) + "\n"
+
+
+def plot_heatmap(cells: list[Cell], path: Path) -> Path:
+    """One coloured square per cell, by grounding."""
+    plt = pyplot("the transfer heatmap")
+    from matplotlib.colors import ListedColormap
+
+    skills = list(dict.fromkeys(c.skill for c in cells))
+    robots = list(dict.fromkeys(c.robot for c in cells))
+    grid = [[float("nan")] * len(robots) for _ in skills]
+    for c in cells:
+        grid[skills.index(c.skill)][robots.index(c.robot)] = GROUNDINGS.index(c.grounding)
+    colours = ListedColormap(["#d9d9d9", "#55a868", "#4c72b0", "#8c8c8c", "#c44e52"])
+    fig, ax = plt.subplots(figsize=(1.0 + 0.55 * len(robots), 1.2 + 0.32 * len(skills)))
+    ax.imshow(grid, cmap=colours, vmin=-0.5, vmax=len(GROUNDINGS) - 0.5, aspect="auto")
+    ax.set_xticks(range(len(robots)), robots, rotation=45, ha="right")
+    ax.set_yticks(range(len(skills)), skills)
+    for c in cells:
+        if c.defect:
+            ax.text(robots.index(c.robot), skills.index(c.skill), "!", ha="center", va="center", color="white")
+    handles = [plt.Rectangle((0, 0), 1, 1, color=colours(i)) for i in range(len(GROUNDINGS))]
+    ax.legend(handles, GROUNDINGS, loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8)
+    ax.set_title("Grounding of each skill on each robot")
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=120, bbox_inches="tight")
+    plt.close(fig)
+    return path
+
+
+def write_matrix(cells: list[Cell], out: Path, header: dict) -> dict[str, Path]:
+    """``out/transfer.json`` (the cells and what produced them), ``transfer.md`` and ``transfer.png``."""
+    out.mkdir(parents=True, exist_ok=True)
+    data = {**header, "counts": counts(cells), "cells": [asdict(c) for c in cells]}
+    (out / "transfer.json").write_text(json.dumps(data, indent=1) + "\n")
+    (out / "transfer.md").write_text(render_table(cells))
+    return {"json": out / "transfer.json", "md": out / "transfer.md", "png": plot_heatmap(cells, out / "transfer.png")}
