@@ -39,8 +39,9 @@ def test_grounded_episode_on_ur5e_with_the_real_lm(ontology, llama_infiller):
 def test_suction_gripper_really_holds_and_releases(ontology):
     """The vacuum cup lifts the cube by contact + adhesion and drops it into the bin when switched off.
 
-    The Panda's place names a point; the cup lets go where it is, over a receptacle the ontology
-    cannot name from a point: the fast path renders what it decides, a scripted LM the rest."""
+    The Panda's place names a point; the cup lets go where it is. The point is placed by the bin's
+    position alone, so the ontology names the bin for the move over it: the fast path renders
+    everything, and the LM (a script here) is not asked."""
     from doubles import ScriptedInfiller
 
     from lerobot_policy_recent.recent_plugin.methods import method_named
@@ -51,7 +52,8 @@ def test_suction_gripper_really_holds_and_releases(ontology):
     assert result.success, result.failures
     code = result.grounding.skills[0].code
     assert "attach_vacuum_handle(env, task, handle_name=obj)" in code and "detach_vacuum_handle(env, task)" in code
-    assert [u.span_type for u in lm.units] == ["interface_rewiring"]  # the LM was asked for the place only
+    assert "move_gripper_to(env, task, obj_name=receptacle)" in code
+    assert lm.units == []  # nothing was left for the LM
 
 
 @pytest.mark.parametrize("robot", ["Robotiq85", "Suction"])
