@@ -51,16 +51,24 @@ def robot_dirs() -> list[Path]:
     return [Path(p).expanduser() for p in os.environ.get(ROBOTS_ENV, "").split(os.pathsep) if p.strip()]
 
 
-def load_robot_file(path: Path) -> Embodiment:
-    """The row a robot file describes (its ``embodiment:`` name and ``robot:`` block). Reading it
-    changes nothing: the module its ``module:`` names is imported from beside it when its
-    primitives are bound (``robosuite_envs/primitives``)."""
+def read_yaml(path: Path) -> object:
+    """A robot file's data (libyaml where it is installed: every CLI start reads the bundled files)."""
     import yaml
 
-    try:
-        data = yaml.safe_load(path.read_text())
-    except yaml.YAMLError as error:
-        raise RobotFileError(path, "yaml", f"not valid YAML ({error})") from None
+    return yaml.load(path.read_text(), Loader=getattr(yaml, "CSafeLoader", yaml.SafeLoader))
+
+
+def load_robot_file(path: Path, data: object = None) -> Embodiment:
+    """The row a robot file describes (its ``embodiment:`` name and ``robot:`` block); ``data``: the
+    file already read. Reading it changes nothing: the module its ``module:`` names is imported
+    from beside it when its primitives are bound (``robosuite_envs/primitives``)."""
+    import yaml
+
+    if data is None:
+        try:
+            data = read_yaml(path)
+        except yaml.YAMLError as error:
+            raise RobotFileError(path, "yaml", f"not valid YAML ({error})") from None
     if not isinstance(data, dict) or not isinstance(data.get("embodiment"), str):
         raise RobotFileError(path, "embodiment", "missing: the robot's name")
     block = data.get("robot")
@@ -97,14 +105,20 @@ def _bundled_robots() -> dict[str, Embodiment]:
 
 
 def _robots_from_files() -> dict[str, Embodiment]:
+    import yaml
+
     found: dict[str, Embodiment] = {}
     for folder in robot_dirs():
         if not folder.is_dir():
             raise RobotFileError(folder, ROBOTS_ENV, "is not a directory")
         for path in sorted(folder.glob("*.yaml")):
-            if "robot" not in (_top_keys(path)):
+            try:
+                data = read_yaml(path)
+            except yaml.YAMLError as error:
+                raise RobotFileError(path, "yaml", f"not valid YAML ({error})") from None
+            if not isinstance(data, dict) or "robot" not in data:
                 continue  # a primitive API without a row of its own (a second gripper of a robot above)
-            embodiment = load_robot_file(path)
+            embodiment = load_robot_file(path, data)
             if embodiment.name in EMBODIMENTS or embodiment.name in found:
                 raise RobotFileError(path, "embodiment", f"{embodiment.name!r} is already an embodiment")
             if (BUNDLED_DIR / path.name).exists():
@@ -113,16 +127,6 @@ def _robots_from_files() -> dict[str, Embodiment]:
                 )
             found[embodiment.name] = embodiment
     return found
-
-
-def _top_keys(path: Path) -> set[str]:
-    import yaml
-
-    try:
-        data = yaml.safe_load(path.read_text())
-    except yaml.YAMLError:
-        return {"robot"}  # let load_robot_file say what is wrong with it
-    return set(data) if isinstance(data, dict) else set()
 
 
 EMBODIMENTS: dict[str, Embodiment] = _bundled_robots()

@@ -36,17 +36,17 @@ class Cell:
     reason: str = ""  # why refused or invalid
     igt_seconds: float = 0.0  # grounding time (a few ms where it came from the grounding cache)
     cached: bool = False
-    lm_calls: int = 0  # calls the LM answered (the ontology's renderings are not LM calls)
+    lm_calls: int = 0  # calls an LM answered (the fast path's renderings and the rule backend are none)
     generated_tokens: int = 0
     defect: bool = False  # refused by the ontology, yet validated: the grounding could have known
 
 
 def classify(grounded: GroundedSkill, source: str) -> Cell:
-    """The cell of one grounding (see the module's docstring)."""
+    """The cell of one grounding (see the module's docstring). A span is the LM's when an accepted
+    call was not decided completely by the ontology (``LMCall.decided``)."""
     cell = Cell(grounded.skill, grounded.robot, "source" if grounded.robot == source else "ontology")
-    cell.igt_seconds = round(grounded.seconds, 3)
-    asked = [c for c in grounded.calls if not c.rendered and c.generated_tokens > 0]
-    cell.lm_calls, cell.generated_tokens = len(asked), grounded.generated_tokens
+    cell.lm_calls = sum(not c.rendered for c in grounded.calls) if grounded.backend != "rule" else 0
+    cell.generated_tokens = grounded.generated_tokens
     if cell.grounding == "source":
         return cell
     missing = [c for c in grounded.diagnosis.conflicts if c.substitute is None and not c.path]
@@ -56,7 +56,7 @@ def classify(grounded: GroundedSkill, source: str) -> Cell:
     elif not grounded.valid:
         cell.grounding = "invalid"
         cell.reason = grounded.verdict.message if grounded.verdict is not None else "not validated"
-    elif asked:
+    elif any(c.accepted and not c.decided for c in grounded.calls):
         cell.grounding = "lm"
     return cell
 

@@ -8,9 +8,9 @@ from typing import Any
 
 import yaml
 
+from lerobot_policy_recent.descriptions.embodiments import read_yaml
 from lerobot_policy_recent.descriptions.frames import ARM_BASE, LENGTH_UNITS, WORLD
 
-_LOADER = getattr(yaml, "CSafeLoader", yaml.SafeLoader)  # libyaml when available: 10x faster
 PATH_CAPABILITY, PATH_ROLE = "cartesian_motion", "motion_target"  # a move to a point, and that point
 PARAM_TYPES = ("position", "quaternion", "rotvec", "euler", "pose", "float", "int", "str", "bool", "object_name")
 # what a parameter is for: the ontology pairs a source call's argument with the target's parameter of the same
@@ -230,7 +230,7 @@ def check_against_vocabulary(api: ApiSpec, conditions: dict[str, ConditionSpec])
 
 def _load_yaml(path: Path) -> dict:
     try:
-        data = yaml.load(path.read_text(), Loader=_LOADER)
+        data = read_yaml(path)
     except FileNotFoundError:
         raise SpecError(path, "file", "does not exist") from None
     except yaml.YAMLError as exc:

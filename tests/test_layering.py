@@ -68,6 +68,21 @@ def _imports(path: Path) -> set[str]:
     return found
 
 
+def _absolute_imports(path: Path) -> list[str]:
+    """Every module ``path`` imports by an absolute name, inside functions too."""
+    found = []
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.Import):
+            found += [a.name for a in node.names]
+        elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+            found.append(node.module)
+    return found
+
+
+def _top(module: str) -> str:
+    return module.split(".")[0]
+
+
 def _layer(module: str) -> int:
     for level, prefixes in enumerate(LAYERS):
         if any(module == p or module.startswith(p + ".") for p in prefixes):
@@ -118,13 +133,12 @@ def test_the_import_graph_has_no_cycles():
 
 def test_no_module_imports_a_folder_by_a_second_top_level_name():
     """``import logs`` would load a module a second time (or someone else's ``logs``): only the namespace."""
-    second = []
-    for name, path in _modules().items():
-        for node in ast.walk(ast.parse(path.read_text())):
-            modules = [a.name for a in node.names] if isinstance(node, ast.Import) else []
-            if isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
-                modules = [node.module]
-            second += [f"{name} imports {m}" for m in modules if m.split(".")[0] in FOLDERS]
+    second = [
+        f"{name} imports {m}"
+        for name, path in _modules().items()
+        for m in _absolute_imports(path)
+        if _top(m) in FOLDERS
+    ]
     assert second == []
 
 
@@ -147,16 +161,13 @@ def test_reading_the_robot_descriptions_and_the_ontology_changes_nothing_in_the_
 def test_only_the_harness_imports_the_bench_extra():
     """Ray and matplotlib are the optional ``bench`` extra: the policy, the world and the logs run
     without them (a plot elsewhere asks for matplotlib through ``extras.optional``, which names the extra)."""
-    extra = {"ray", "matplotlib"}
-    found = []
-    for name, path in _modules().items():
-        if name == "evaluation" or name.startswith("evaluation."):
-            continue
-        for node in ast.walk(ast.parse(path.read_text())):
-            modules = [a.name for a in node.names] if isinstance(node, ast.Import) else []
-            if isinstance(node, ast.ImportFrom) and node.module:
-                modules = [node.module]
-            found += [f"{name} imports {m}" for m in modules if m.split(".")[0] in extra]
+    found = [
+        f"{name} imports {m}"
+        for name, path in _modules().items()
+        if _top(name) != "evaluation"
+        for m in _absolute_imports(path)
+        if _top(m) in {"ray", "matplotlib"}
+    ]
     assert found == []
 
 

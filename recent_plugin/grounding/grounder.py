@@ -269,7 +269,7 @@ def _statement_count(code: str | None) -> int:
     if not code:
         return 0
     try:
-        return len(ast.parse(textwrap.dedent(code.replace("<", "_").replace(">", "_"))).body)
+        return len(ast.parse(textwrap.dedent(PLACEHOLDER.sub("_", code))).body)  # <name> parses as a name
     except SyntaxError:
         return 0
 

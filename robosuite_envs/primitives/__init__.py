@@ -13,7 +13,7 @@ import sys
 from pathlib import Path
 
 from lerobot_policy_recent.descriptions.apis import api_spec_path
-from lerobot_policy_recent.descriptions.embodiments import BUNDLED_DIR
+from lerobot_policy_recent.descriptions.embodiments import BUNDLED_DIR, read_yaml
 from lerobot_policy_recent.robosuite_envs.primitives.session import PrimitiveFailure, RobotSession, TaskContext
 
 __all__ = [
@@ -28,10 +28,8 @@ __all__ = [
 def api_functions(api: str) -> dict[str, object]:
     """The primitives of the bundled API ``<api>``: those of the module its YAML names (``module:``;
     several embodiments may share one module, each with a YAML of its own)."""
-    import yaml
-
     path = api_spec_path(api)
-    spec = yaml.safe_load(path.read_text()) or {}
+    spec = read_yaml(path) or {}
     return module_functions(spec.get("module") or f"lerobot_policy_recent.robosuite_envs.primitives.{api}", path.parent)
 
 
