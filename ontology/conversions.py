@@ -34,6 +34,8 @@ SOURCE = "{}"  # where the source expression goes in a template
 
 
 WORLD_POSITION = ParameterSpec(name="position", type="position", role="", unit="m", frame=WORLD_FRAME)
+WORLD_QUATERNION = ParameterSpec(name="orientation", type="quaternion", role="", frame=WORLD_FRAME)
+TOOL_ORIENTATION = "task.get_tool_orientation()"  # the task query for the tool's world quaternion
 
 
 @dataclass(frozen=True)
@@ -144,8 +146,17 @@ def _point(source: ParameterSpec, target: ParameterSpec) -> str:
         expression = _scaled(expression, source.unit, target.unit)
     if target.type == "position":
         return expression
-    rotation = f"{SOURCE}[3:]" if source.type == "pose" else "<rotvec>"  # a position says nothing of the rotation
+    rotation = f"{SOURCE}[3:]" if source.type == "pose" else held_rotation(target)
     return f"{expression} + {rotation}"  # two lists, joined (skill code has no starred expressions)
+
+
+def held_rotation(target: ParameterSpec) -> str:
+    """The rotation a position-only call means: the one the tool holds. A call that names no
+    rotation (a Panda ``move``, or a ``pick`` approaching top-down along ``z``) never turns the hand,
+    so a pose that must carry a rotation carries the tool's own, read when the call runs and put in
+    the target's frame; the driver then does not turn the tool either."""
+    rotvec = ParameterSpec(name="rotation", type="rotvec", role="", unit="rad", frame=target.frame)
+    return _rotation(WORLD_QUATERNION, rotvec, TOOL_ORIENTATION)
 
 
 def _rotation(source: ParameterSpec, target: ParameterSpec, expression: str) -> str:

@@ -32,7 +32,7 @@ from lerobot_policy_recent.robosuite_envs.primitives import frames
 from lerobot_policy_recent.robosuite_envs.primitives.frames import SKILL_HELPERS, Frame, frame_at
 
 WORLD_M = ParameterSpec("p", "position", "r", unit="m", frame="world")
-TOOL_ROTATION = "quat_to_rotvec(task.quat_to_frame(task.get_tool_orientation(), 'base'))"  # what an LM may write
+TOOL_ROTATION = "quat_to_rotvec(task.quat_to_frame(task.get_tool_orientation(), 'base'))"  # the held rotation
 BASE = frame_at("base", "arm_base", (0, 0, 180), (-0.56, 0.0, 0.912))  # URScript's base frame on our table
 
 
@@ -52,7 +52,8 @@ def test_the_renders_call_only_what_skill_code_may_call():
         (WORLD_M, _param("position", "m", "base"), "task.to_frame({}, 'base')"),
         (WORLD_M, _param("position", "mm", "base"), "[1000 * v for v in task.to_frame({}, 'base')]"),
         (_param("position", "cm"), _param("position", "mm"), "[10 * v for v in {}]"),
-        (WORLD_M, _param("pose", "m", "base"), "task.to_frame({}, 'base') + <rotvec>"),
+        (WORLD_M, _param("pose", "m", "base"), "task.to_frame({}, 'base') + " + TOOL_ROTATION),
+        (WORLD_M, _param("pose", "m"), "{} + quat_to_rotvec(task.get_tool_orientation())"),
         (_param("quaternion"), _param("rotvec", "rad", "base"), "quat_to_rotvec(task.quat_to_frame({}, 'base'))"),
         (_param("quaternion"), _param("euler", "deg", sequence="ZYX"), "quat_to_euler({}, 'ZYX', degrees=True)"),
         (
@@ -100,7 +101,8 @@ def test_a_rendered_conversion_evaluates_to_the_value_the_controller_expects():
     session = RobotSession("UR5eScript", obs, frames={"world": Frame("world"), "base": BASE})
     namespace = {"task": TaskContext(session), **SKILL_HELPERS}
     pose_conversion = conversion(WORLD_M, _param("pose", "m", "base"))
-    text = pose_conversion.apply("p").replace("<rotvec>", TOOL_ROTATION)
+    assert pose_conversion is not None and pose_conversion.determined
+    text = pose_conversion.apply("p")
     pose = eval(text, namespace, {"p": [-0.46, 0.0, 0.962]})  # noqa: S307 -- the test's own text
     assert pose[:3] == pytest.approx([-0.1, 0.0, 0.05], abs=1e-9) and len(pose) == 6
     assert frames.world_point(pose, "pose", "m", BASE) == pytest.approx([-0.46, 0.0, 0.962])
@@ -199,34 +201,19 @@ def test_a_malformed_actuation_step_names_the_file_and_the_field(tmp_path):
     assert str(bad) in str(err.value)
 
 
-def test_urscript_leaves_the_rotation_to_the_lm_with_the_facts_not_a_call_to_copy(ontology, put_in_bin, rule_infiller):
-    conflict = diagnose(ontology, put_in_bin.name, put_in_bin.code, "UR5eScript").conflicts[1]
-    assert conflict.span_type == "interface_rewiring" and conflict.unfilled == ("pose",)
-    unit = unit_from_conflict(put_in_bin.code, conflict, ontology.target("UR5eScript"))
-    assert unit.hints.substitute_call == "ur_pick(env, task, pose=task.to_frame(obj_pos, 'base') + <rotvec>)"
-    facts = " ".join(unit.hints.facts)
-    assert "axis-angle vector (rad) in frame 'base'" in facts and "task.get_tool_orientation()" in facts
-    assert TOOL_ROTATION not in facts  # the facts, not the finished expression
-    assert not ground_skill(put_in_bin, ontology.target("UR5eScript"), ontology, rule_infiller).valid
-
-
-def test_an_lm_that_fills_the_rotation_grounds_and_one_that_rewrites_the_position_is_rejected(ontology, put_in_bin):
-    place = f"ur_place(env, task, pose=task.to_frame(drop_pos, 'base') + {TOOL_ROTATION})"
-    rewritten = f"ur_place(env, task, pose=drop_pos + {TOOL_ROTATION})"  # the world point, unconverted
-    invented = "ur_place(env, task, pose=task.to_frame(drop_pos, 'base') + quat_to_axis_angle([1, 0, 0, 0]))"
-    infiller = ScriptedInfiller(
-        [
-            rewritten,
-            invented,
-            place,
-            f"ur_pick(env, task, pose=task.to_frame(obj_pos, 'base') + {TOOL_ROTATION})",
-            "rq_open(env, task)",
-        ]
-    )
-    grounded = ground_skill(put_in_bin, ontology.target("UR5eScript"), ontology, infiller, max_retries=3)
+def test_urscript_poses_carry_the_rotation_the_panda_call_holds_rendered_by_the_ontology(
+    ontology, put_in_bin, rule_infiller
+):
+    """A Panda pick approaching top-down never turns the hand: the pose's rotation is the tool's own,
+    in URScript's base frame. The ontology writes it; no LM is asked."""
+    diagnosis = diagnose(ontology, put_in_bin.name, put_in_bin.code, "UR5eScript")
+    pick, place = diagnosis.conflicts[1], diagnosis.conflicts[2]
+    assert (pick.span_type, pick.unfilled, place.unfilled) == ("parameter_binding", (), ())
+    unit = unit_from_conflict(put_in_bin.code, pick, ontology.target("UR5eScript"))
+    assert unit.hints.substitute_call == f"ur_pick(env, task, pose=task.to_frame(obj_pos, 'base') + {TOOL_ROTATION})"
+    grounded = ground_skill(put_in_bin, ontology.target("UR5eScript"), ontology, rule_infiller)
     assert grounded.valid, grounded.verdict
-    assert [c.category for c in grounded.calls] == ["hallucinated_kwarg", "hallucinated_name", None, None, None]
-    assert "keep pose=task.to_frame(drop_pos, 'base') + _undecided" in grounded.calls[0].message
+    assert f"ur_place(env, task, pose=task.to_frame(drop_pos, 'base') + {TOOL_ROTATION})" in grounded.code
 
 
 PANDA_MOVE = 'def go(env, task):\n    """Move the hand to a point."""\n    p = [0.05, -0.08, 1.02]\n    move(env, task, target_pos=p)\n'
@@ -255,15 +242,10 @@ def test_a_whole_program_prompt_names_the_frames_and_conversions_only_for_a_robo
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize(
-    ("robot", "lm_writes"),
-    [
-        ("IIWAKRL", None),  # determined: the rule backend renders [1000 * v for v in p]
-        ("UR5eScript", f"movel(env, task, pose=task.to_frame(p, 'base') + {TOOL_ROTATION})"),
-    ],
-)
-def test_an_executed_move_reaches_the_world_point_the_panda_call_named(ontology, rule_infiller, robot, lm_writes):
-    """The rendered conversion, the robot's driver and the controller together: within its tolerance."""
+@pytest.mark.parametrize("robot", ["IIWAKRL", "UR5eScript"])  # millimetres; a base-frame pose with a rotation
+def test_an_executed_move_reaches_the_world_point_the_panda_call_named(ontology, rule_infiller, robot):
+    """The rendered conversion, the robot's driver and the controller together: within its tolerance,
+    and with the hand as the Panda's move leaves it (not turned)."""
     from pathlib import Path
 
     from lerobot_policy_recent.recent_plugin.executor import PlannedSkill, TaskExecutor
@@ -273,8 +255,7 @@ def test_an_executed_move_reaches_the_world_point_the_panda_call_named(ontology,
     from lerobot_policy_recent.skills.repository import Skill
 
     skill = Skill("go", "go", "move", "Panda", "move the hand to a point", PANDA_MOVE, Path("go.py"))
-    infiller = rule_infiller if lm_writes is None else ScriptedInfiller([lm_writes])
-    grounded = ground_skill(skill, ontology.target(robot), ontology, infiller)
+    grounded = ground_skill(skill, ontology.target(robot), ontology, rule_infiller)
     assert grounded.valid, grounded.verdict
     measured = calibration(robot)
     env = RecentEnv(task="kinematic/lift_cube", robot=robot, render_mode="none")
@@ -282,6 +263,7 @@ def test_an_executed_move_reaches_the_world_point_the_panda_call_named(ontology,
         raw, _ = env.reset(seed=0)
         names = env.spec_task.object_names()
         obs = Observation.decode(raw["agent_pos"], raw["environment_state"], names)
+        start_quat = obs.eef_quat.copy()
         executor = TaskExecutor([PlannedSkill(grounded)], ontology.target(robot), obs, calibration=measured)
         for _ in range(200):
             obs = Observation.decode(raw["agent_pos"], raw["environment_state"], names)
@@ -290,6 +272,8 @@ def test_an_executed_move_reaches_the_world_point_the_panda_call_named(ontology,
                 break
         assert executor.finished and not executor.failures, executor.failures
         assert np.linalg.norm(obs.eef_pos - [0.05, -0.08, 1.02]) < 1.2 * measured.settle_tol_m, obs.eef_pos
+        turned = 2 * np.arccos(min(1.0, abs(float(np.dot(start_quat, obs.eef_quat)))))
+        assert turned < 0.1, f"the tool turned by {turned:.3f} rad"
     finally:
         env.close()
 
