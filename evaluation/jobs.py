@@ -69,6 +69,7 @@ class BenchConfig:
     retry_crashed: bool = False  # run again the episodes whose record says an error broke them off
     split: str = "all"  # all, or only the dev or the held-out test episodes (robosuite_envs/splits.py)
     agent: RecentSettings = field(default_factory=RecentSettings)
+    extra: tuple[Job, ...] = ()  # episodes named one by one, after the suites' (the transfer matrix's cells)
 
     def jobs(self) -> list[Job]:
         """Every episode of the run, episode by episode with every method on each in turn: a run
@@ -85,6 +86,7 @@ class BenchConfig:
                     for seed in self.seeds:
                         if self.split in ("all", split_of(spec.task_id, seed)):
                             jobs += [Job(method, suite, spec.task_id, target, seed) for method in self.methods]
+        jobs += [job for job in self.extra if self.split in ("all", split_of(job.task_id, job.seed))]
         robots = [t for t in self.targets if t not in EMBODIMENTS]
         if robots:
             raise ValueError(f"unknown target(s) {', '.join(robots)}; known robots: {', '.join(EMBODIMENTS)}")

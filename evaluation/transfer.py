@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import json
 import time
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 from lerobot_policy_recent.recent_plugin.extras import pyplot
@@ -26,6 +26,25 @@ from lerobot_policy_recent.recent_plugin.grounding.grounder import GroundedSkill
 
 GROUNDINGS = ("source", "ontology", "lm", "refused", "invalid")
 SYMBOLS = {"source": "·", "ontology": "O", "lm": "L", "refused": "–", "invalid": "✗"}
+PAR = 0.95  # a cell is at par where its successes are at least this share of the source's on the same episodes
+
+
+@dataclass
+class Execution:
+    """One cell under one variation setting: its successes and the source robot's on the same episodes."""
+
+    variations: str
+    episodes: int = 0
+    successes: int = 0
+    source_successes: int = 0
+    gaps: list[str] = field(default_factory=list)  # "seed S: failure" where the source succeeded and it did not
+
+    @property
+    def at_par(self) -> bool:
+        return self.successes >= PAR * self.source_successes
+
+    def render(self) -> str:
+        return f"{self.successes}/{self.episodes}"
 
 
 @dataclass
@@ -39,6 +58,7 @@ class Cell:
     lm_calls: int = 0  # calls an LM answered (the fast path's renderings and the rule backend are none)
     generated_tokens: int = 0
     defect: bool = False  # refused by the ontology, yet validated: the grounding could have known
+    execution: dict[str, Execution] = field(default_factory=dict)  # by variation setting (``off``, ``on``)
 
 
 def classify(grounded: GroundedSkill, source: str) -> Cell:
@@ -137,10 +157,11 @@ def plot_heatmap(cells: list[Cell], path: Path) -> Path:
     return path
 
 
-def write_matrix(cells: list[Cell], out: Path, header: dict) -> dict[str, Path]:
-    """``out/transfer.json`` (the cells and what produced them), ``transfer.md`` and ``transfer.png``."""
+def write_matrix(cells: list[Cell], out: Path, header: dict, more_md: str = "") -> dict[str, Path]:
+    """``out/transfer.json`` (the cells and what produced them), ``transfer.md`` (the table, then
+    ``more_md``) and ``transfer.png``."""
     out.mkdir(parents=True, exist_ok=True)
     data = {**header, "counts": counts(cells), "cells": [asdict(c) for c in cells]}
     (out / "transfer.json").write_text(json.dumps(data, indent=1) + "\n")
-    (out / "transfer.md").write_text(render_table(cells))
+    (out / "transfer.md").write_text(render_table(cells) + more_md)
     return {"json": out / "transfer.json", "md": out / "transfer.md", "png": plot_heatmap(cells, out / "transfer.png")}

@@ -5,6 +5,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
+from lerobot_policy_recent.robosuite_envs.splits import DEV_SEEDS
 from lerobot_policy_recent.scripts.common import add_settings_arguments, agent_from_args
 
 
@@ -16,12 +17,23 @@ def register(sub) -> None:
             "Ground every skill of the library on every embodiment (or those named) and write "
             "OUT/transfer.json, OUT/transfer.md (a table, the refused and invalid cells with their "
             "reasons) and OUT/transfer.png (a heatmap). Exit status 1 if a cell is a defect: refused by "
-            "the ontology for a missing capability, yet validated."
+            "the ontology for a missing capability, yet validated. With --execute, every cell that grounded "
+            "also runs its skill's single-subtask task on dev seeds, each variation setting, beside the skill's "
+            "source robot on the same episodes (a resumable bench run on Ray in OUT/episodes/)."
         ),
     )
     parser.add_argument("--skills", default="", help="comma list of skills (default: the whole library)")
     parser.add_argument("--robots", default="", help="comma list of embodiments (default: every one)")
     parser.add_argument("--out", default="outputs/transfer", help="output directory (default: outputs/transfer)")
+    parser.add_argument("--execute", action="store_true", help="run each grounded cell's single-subtask task too")
+    parser.add_argument(
+        "--seeds", default=",".join(map(str, DEV_SEEDS[:2])), help="with --execute: comma list of seeds (default: 3,7)"
+    )
+    parser.add_argument(
+        "--variations", default="off,on", help="with --execute: comma list of variation settings (default: off,on)"
+    )
+    parser.add_argument("--workers", type=int, default=0, help="with --execute: Ray workers (default: as CPUs allow)")
+    parser.add_argument("--ray_address", default=None, help="with --execute: an existing Ray cluster")
     add_settings_arguments(parser)
     parser.set_defaults(handler=_run)
 
@@ -43,10 +55,74 @@ def _run(args) -> int:
 
     cells = ground_cells(agent, skills, robots, on_cell=progress)
     header = {"backend": agent.infiller.name, "model": agent.infiller.model, "method": agent.settings.method.name}
-    paths = write_matrix(cells, Path(args.out), header)
+    out = Path(args.out)
+    more = ""
+    if args.execute:
+        more = _execute(args, agent, cells, skills, out)
+        header["execution"] = {"seeds": _seeds(args.seeds), "variations": _csv(args.variations, "--variations")}
+    paths = write_matrix(cells, out, header, more)
     print(paths["md"].read_text(), end="")
-    print(f"wrote {paths['json']}, {paths['md']}, {paths['png']}")
+    if args.execute:
+        paths["execution_png"] = out / "transfer_execution.png"
+    print(f"wrote {', '.join(str(p) for p in paths.values() if p.exists())}")
     return 1 if any(c.defect for c in cells) else 0
+
+
+def _execute(args, agent, cells, skills: list[str], out: Path) -> str:
+    """Run every grounded cell's episodes (and its source robot's); the markdown of the execution columns."""
+    from tqdm import tqdm
+
+    from lerobot_policy_recent.evaluation.jobs import BenchConfig
+    from lerobot_policy_recent.evaluation.transfer_execution import (
+        attach,
+        execution_jobs,
+        plot_execution,
+        render_execution,
+        run_execution,
+        task_of,
+    )
+    from lerobot_policy_recent.robosuite_envs.variations import parse_variations
+
+    settings = _csv(args.variations, "--variations")
+    for setting in settings:
+        try:
+            parse_variations(setting)
+        except ValueError as err:
+            raise SystemExit(f"--variations: {err}") from None
+    library = {name: agent.skill(name) for name in skills}
+    tasks = task_of(library)
+    sources = {name: skill.source_embodiment for name, skill in library.items()}
+    jobs = execution_jobs(cells, agent.settings.method.name, _seeds(args.seeds), tasks, sources)
+    base = BenchConfig(out=out, workers=args.workers, ray_address=args.ray_address, log_sinks=(), agent=agent.settings)
+    bar = tqdm(total=len(jobs) * len(settings), unit="episode", desc="transfer episodes")
+
+    def on_record(record: dict) -> None:
+        bar.set_postfix_str(
+            f"{record['target']} {record['task_id'].split('/')[-1]}: {'ok' if record['success'] else 'failed'}"
+        )
+        bar.update(1)
+
+    try:
+        runs = run_execution(base, jobs, settings, on_record=on_record)
+    finally:
+        bar.close()
+    attach(cells, runs, tasks, sources)
+    plot_execution(cells, out / "transfer_execution.png")
+    return render_execution(cells)
+
+
+def _csv(text: str, option: str) -> tuple[str, ...]:
+    values = tuple(t.strip() for t in text.split(",") if t.strip())
+    if not values:
+        raise SystemExit(f"{option}: give at least one value")
+    return values
+
+
+def _seeds(text: str) -> tuple[int, ...]:
+    try:
+        return tuple(int(s) for s in _csv(text, "--seeds"))
+    except ValueError:
+        raise SystemExit(f"--seeds: expected a comma list of integers, got {text!r}") from None
 
 
 def _names(text: str, option: str, known: list[str]) -> list[str]:

@@ -6,6 +6,8 @@ import json
 import subprocess
 import sys
 
+import pytest
+
 from lerobot_policy_recent.evaluation.transfer import classify, ground_cells, render_table, write_matrix
 
 
@@ -51,3 +53,79 @@ def test_the_command_names_an_unknown_robot_in_one_line(tmp_path):
         text=True,
     )
     assert done.returncode != 0 and "--robots: unknown Kuka" in done.stderr.strip().splitlines()[-1]
+
+
+def _record(task: str, robot: str, seed: int, success: bool, message: str = "") -> dict:
+    """An episode record as the bench runner writes it (the fields the matrix reads)."""
+    return {
+        "task_id": task,
+        "target": robot,
+        "seed": seed,
+        "success": success,
+        "failure_category": None if success else "motion_planning",
+        "failure_message": message,
+    }
+
+
+def test_each_grounded_cell_runs_beside_its_source_and_a_gap_is_listed_not_averaged():
+    from lerobot_policy_recent.evaluation.transfer import Cell
+    from lerobot_policy_recent.evaluation.transfer_execution import attach, execution_jobs, render_execution, summary
+
+    cells = [
+        Cell("put_in_bin", "UR5e", "ontology"),
+        Cell("put_in_bin", "Suction", "ontology"),
+        Cell("stack_tower", "IIWAKRL", "refused"),
+    ]
+    tasks = {"put_in_bin": "kinematic/cube_in_bin", "stack_tower": "end_effector/stack_tower"}
+    sources = {"put_in_bin": "Panda", "stack_tower": "FrankaHand"}
+    jobs = execution_jobs(cells, "recent", (3, 7), tasks, sources)
+    # the source robot runs the same episodes; a refused cell runs nothing
+    assert sorted({(j.target, j.seed) for j in jobs}) == [(r, s) for r in ("Panda", "Suction", "UR5e") for s in (3, 7)]
+    task = "kinematic/cube_in_bin"
+    records = [
+        _record(task, "Panda", 3, True),
+        _record(task, "Panda", 7, False, "the bin moved"),
+        _record(task, "UR5e", 3, True),
+        _record(task, "UR5e", 7, False, "blocked"),
+        _record(task, "Suction", 3, False, "waypoint_blocked: held up by contact with bin"),
+        _record(task, "Suction", 7, True),
+    ]
+    attach(cells, {"on": records}, tasks, sources)
+    ur5e, suction = cells[0].execution["on"], cells[1].execution["on"]
+    assert (ur5e.successes, ur5e.source_successes, ur5e.gaps, ur5e.at_par) == (1, 1, [], True)
+    assert suction.gaps == ["seed 3: [motion_planning] waypoint_blocked: held up by contact with bin"]
+    assert not cells[2].execution
+    assert summary(cells) == {"executed": 2, "at_par": 2, "gaps": 1}  # 1 of 2 against the source's 1 of 2
+    table = render_execution(cells)
+    assert "| `put_in_bin` | 1/2 | 1/2 |" in table
+    assert "| `put_in_bin` | Suction | on | ontology | seed 3: [motion_planning]" in table
+
+
+@pytest.mark.slow
+def test_the_command_executes_a_cell_on_ray_and_resumes(tmp_path):
+    """One skill on one robot, one seed, variations off: the episodes of the cell and of its source
+    run on a loopback Ray cluster; a second run finds them done and writes the same matrix."""
+    command = [
+        sys.executable,
+        "-m",
+        "lerobot_policy_recent.scripts.cli",
+        "transfer",
+        "--skills=press_button",
+        "--robots=UR5e",
+        "--infiller.type=rule",
+        "--execute",
+        "--seeds=3",
+        "--variations=off",
+        "--workers=1",
+        f"--out={tmp_path}",
+    ]
+    first = subprocess.run(command, capture_output=True, text=True, timeout=900)
+    assert first.returncode == 0, first.stderr[-2000:]
+    records = sorted((tmp_path / "episodes" / "off").rglob("*__s3.json"))
+    assert [p.parent.name for p in records] == ["Panda", "UR5e"]
+    cell = json.loads((tmp_path / "transfer.json").read_text())["cells"][0]
+    assert cell["robot"] == "UR5e" and cell["execution"]["off"]["episodes"] == 1
+    assert (tmp_path / "transfer_execution.png").stat().st_size > 1000
+    again = subprocess.run(command, capture_output=True, text=True, timeout=900)
+    assert again.returncode == 0 and "0 episodes" not in again.stderr
+    assert json.loads((tmp_path / "transfer.json").read_text())["cells"][0]["execution"] == cell["execution"]

@@ -1,0 +1,170 @@
+"""The transfer matrix's execution columns: each grounded cell runs its skill's single-subtask task.
+
+A cell that grounded (``source``, ``ontology`` or ``lm``) runs the task that exercises its skill's
+subtask alone (``robosuite_envs.suites.validation_task``), on the seeds asked for, once with each
+variation setting asked for (``off``, ``on``: the paper's three). The skill's source robot runs the
+same episodes, so every cell is read beside the world's own ceiling. The episodes are a bench run's
+(Ray, one record per episode, resumable): ``OUT/episodes/<variations>/``.
+
+A cell's *gaps* are the episodes where the source robot succeeded and the cell's robot did not,
+each with the failure the record names. They are listed one by one, never averaged away: a gap on
+a validated grounding is what a reviewer reads first (the grounding may have been wrong while
+validation passed).
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from pathlib import Path
+
+from lerobot_policy_recent.evaluation.jobs import BenchConfig, Job
+from lerobot_policy_recent.evaluation.transfer import PAR, Cell, Execution
+from lerobot_policy_recent.recent_plugin.extras import pyplot
+from lerobot_policy_recent.robosuite_envs.suites import validation_task
+
+EXECUTED = ("source", "ontology", "lm")  # the groundings that run; refused and invalid ones do not
+SUITE = "subtask"  # a cell's episodes: the single-subtask task of its skill
+
+
+def task_of(skills: dict[str, object]) -> dict[str, str]:
+    """Skill name → the task id of its subtask's single-subtask task."""
+    return {name: validation_task(skill.subtask).task_id for name, skill in skills.items()}
+
+
+def execution_jobs(
+    cells: list[Cell], method: str, seeds: tuple[int, ...], tasks: dict[str, str], sources: dict[str, str]
+) -> list[Job]:
+    """The episodes of every cell that grounded, and of each such skill's source robot (once)."""
+    pairs = {(c.skill, c.robot) for c in cells if c.grounding in EXECUTED}
+    pairs |= {(skill, sources[skill]) for skill, _ in pairs}
+    return [
+        Job(method, SUITE, tasks[skill], robot, seed)
+        for skill, robot in sorted(pairs, key=lambda p: (list(tasks).index(p[0]), p[1]))
+        for seed in seeds
+    ]
+
+
+def run_execution(base: BenchConfig, jobs: list[Job], variations: tuple[str, ...], on_record=None) -> dict:
+    """Run ``jobs`` once per variation setting, each into ``base.out/episodes/<setting>``; the records
+    of each setting."""
+    from lerobot_policy_recent.evaluation.runner import run_bench
+
+    runs = {}
+    for setting in variations:
+        config = replace(base, out=base.out / "episodes" / setting, suites=(), extra=tuple(jobs), variations=setting)
+        runs[setting] = run_bench(config, on_record=on_record).records
+    return runs
+
+
+def attach(cells: list[Cell], runs: dict[str, list[dict]], tasks: dict[str, str], sources: dict[str, str]) -> None:
+    """Fill each executed cell's ``execution``: per setting, its successes beside its source's."""
+    for setting, records in runs.items():
+        by_episode = {(r["task_id"], r["target"], r["seed"]): r for r in records}
+        for cell in cells:
+            mine = [r for (t, robot, _), r in by_episode.items() if t == tasks[cell.skill] and robot == cell.robot]
+            if cell.grounding not in EXECUTED or not mine:
+                continue
+            run = Execution(setting)
+            for record in sorted(mine, key=lambda r: r["seed"]):
+                source = by_episode.get((record["task_id"], sources[cell.skill], record["seed"]))
+                run.episodes += 1
+                run.successes += bool(record["success"])
+                run.source_successes += bool(source and source["success"])
+                if source and source["success"] and not record["success"]:
+                    run.gaps.append(f"seed {record['seed']}: {_failure(record)}")
+            cell.execution[setting] = run
+
+
+def _failure(record: dict) -> str:
+    if record.get("crashed"):
+        return f"crash: {record['crashed']}"
+    message = record.get("failure_message") or "the subtask's predicate never held"
+    return f"[{record.get('failure_category') or 'failed'}] {message}"
+
+
+def summary(cells: list[Cell]) -> dict[str, int]:
+    """Executed cells off the source, how many are at par with the source on every setting, and the gaps."""
+    executed = [c for c in cells if c.execution and c.grounding != "source"]
+    return {
+        "executed": len(executed),
+        "at_par": sum(all(run.at_par for run in c.execution.values()) for c in executed),
+        "gaps": sum(len(run.gaps) for c in executed for run in c.execution.values()),
+    }
+
+
+def render_execution(cells: list[Cell]) -> str:
+    """Per cell, successes per setting (``off`` / ``on``), the source's own in its column; then every gap."""
+    settings = list(dict.fromkeys(s for c in cells for s in c.execution))
+    if not settings:
+        return ""
+    skills = list(dict.fromkeys(c.skill for c in cells))
+    robots = list(dict.fromkeys(c.robot for c in cells))
+    at = {(c.skill, c.robot): c for c in cells}
+    counts = summary(cells)
+    lines = [
+        "",
+        f"Execution: successes per setting ({' / '.join(settings)}), the skill's single-subtask task; "
+        f"{counts['executed']} cells ran off their source robot, {counts['at_par']} of them at "
+        f"≥ {PAR:.0%} of the source's successes on the same episodes in every setting; "
+        f"{counts['gaps']} episodes where the source succeeded and the cell did not (listed below). "
+        "`*` marks the source robot.",
+        "",
+        "| skill | " + " | ".join(robots) + " |",
+        "|---|" + "---:|" * len(robots),
+    ]
+    for skill in skills:
+        row = []
+        for robot in robots:
+            cell = at.get((skill, robot))
+            if cell is None or not cell.execution:
+                row.append("")
+                continue
+            text = " / ".join(cell.execution[s].render() if s in cell.execution else "" for s in settings)
+            row.append(text + ("*" if cell.grounding == "source" else ""))
+        lines.append(f"| `{skill}` | " + " | ".join(row) + " |")
+    gaps = [(c, run) for c in cells for run in c.execution.values() if run.gaps]
+    if gaps:
+        lines += [
+            "",
+            "| skill | robot | variations | grounding | where the source succeeded |",
+            "|---|---|---|---|---|",
+        ]
+        lines += [
+            f"| `{c.skill}` | {c.robot} | {run.variations} | {c.grounding} | {'; '.join(run.gaps)} |" for c, run in gaps
+        ]
+    return "\n".join(lines) + "\n"
+
+
+def plot_execution(cells: list[Cell], path: Path) -> Path | None:
+    """Each executed cell's successes as a share of its source's on the same episodes (the last setting)."""
+    settings = list(dict.fromkeys(s for c in cells for s in c.execution))
+    if not settings:
+        return None
+    plt = pyplot("the transfer heatmap")
+    setting = settings[-1]
+    skills = list(dict.fromkeys(c.skill for c in cells))
+    robots = list(dict.fromkeys(c.robot for c in cells))
+    grid = [[float("nan")] * len(robots) for _ in skills]
+    for c in cells:
+        run = c.execution.get(setting)
+        if run is not None and run.source_successes:
+            grid[skills.index(c.skill)][robots.index(c.robot)] = min(run.successes / run.source_successes, 1.0)
+    fig, ax = plt.subplots(figsize=(1.5 + 0.55 * len(robots), 1.2 + 0.32 * len(skills)))
+    colours = plt.get_cmap("RdYlGn").copy()
+    colours.set_bad("#d9d9d9")
+    image = ax.imshow(grid, cmap=colours, vmin=0.0, vmax=1.0, aspect="auto")
+    for c in cells:
+        run = c.execution.get(setting)
+        if run is not None:
+            ax.text(robots.index(c.robot), skills.index(c.skill), run.render(), ha="center", va="center", fontsize=6)
+    ax.set_xticks(range(len(robots)), robots, rotation=45, ha="right")
+    ax.set_yticks(range(len(skills)), skills)
+    fig.colorbar(image, ax=ax, label="successes ÷ the source robot's (same episodes)")
+    ax.set_title(
+        f"Execution of each grounded cell, variations {setting} (grey: not run, or the source never succeeded)"
+    )
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=120, bbox_inches="tight")
+    plt.close(fig)
+    return path
