@@ -8,7 +8,7 @@
   robot's API.
 
 Each is a registered method below, as are ``recent-no-insitu`` and ``recent-no-offline-validation``,
-which change a setting of RECENT's, and the sanity row ``oracle-rule``. Importing this module
+which change a setting of RECENT's, and the sanity rows ``oracle-rule`` and ``source`` (the ceiling). Importing this module
 registers them; the policy never does.
 """
 
@@ -208,6 +208,18 @@ class OracleRule(Recent):
         from lerobot_policy_recent.recent_plugin.infillers.rule import RuleInfiller
 
         return RuleInfiller()
+
+
+@Method.register_subclass("source")
+@dataclass
+class Source(Recent):
+    """The ceiling row: each episode of a target runs on the task's source robot (the Panda, the
+    Franka Hand) with its own reference skills, RECENT's checks and adaptation, and the same LM.
+    Nothing is grounded, so its success is what the world leaves the skills; a method's SR over it,
+    on the same episodes, is the share of the ceiling the grounding keeps."""
+
+    family: ClassVar[str] = "sanity"
+    on_source: ClassVar[bool] = True
 
 
 @Method.register_subclass("recent-no-insitu")

@@ -210,6 +210,8 @@ class RecentAgent:
     ) -> tuple[TaskExecutor, EpisodeGrounding]:
         """Ground the task's skills (the events of grounding go to ``emit`` once IGT is measured;
         ``on_grounded(skill)`` hears each skill as it is done, for a progress display)."""
+        if self.settings.method.on_source:
+            self._check_source(task_id, robot)
         target = self.ontology.target(robot)  # resolved once: grounding, adaptation and execution share it
         bind_primitives(target)  # a robot whose YAML and module disagree stops here, before anything is grounded
         started = time.perf_counter()
@@ -261,6 +263,16 @@ class RecentAgent:
             variations,
             spec.object_names(),
         )
+
+    def _check_source(self, task_id: str, robot: str) -> None:
+        """A method that runs on the source robot (the bench's ceiling row) refuses any other robot."""
+        sources = sorted({self.skill(step.skill).source_embodiment for step in get_task(task_id).plan})
+        if sources != [robot]:
+            raise ValueError(
+                f"method {self.settings.method.name!r} runs a task on its skills' source robot "
+                f"({', '.join(sources)}), not on {robot}: pass --robot {sources[0]}, or use it in `recent bench`, "
+                "which runs each target's episode there"
+            )
 
     def skill(self, name: str) -> Skill:
         """The repository's skill ``name`` as this agent serves it (validated unless the ablation says not)."""

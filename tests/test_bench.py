@@ -427,3 +427,33 @@ def test_a_directory_of_several_commits_or_local_edits_is_no_one_commit_snapshot
     assert commit_line([{"commit": "d" * 40 + "+dirty"}]).endswith(
         ": dddddddddddd+dirty (1))"
     )  # local edits stay visible
+
+
+def test_the_ceiling_row_runs_the_source_robot_on_the_targets_episodes(bench_dir, tmp_path):
+    """``source``: the Panda runs its own skill on the UR5e's episode (same task, seed, variations);
+    the report sets each method's SR against it on the same episodes."""
+    import shutil
+
+    out = tmp_path / "ceiling"
+    shutil.copytree(bench_dir / "episodes", out / "episodes")  # RECENT's episodes, already run
+    assert (
+        main(
+            [
+                *RUN[:4],
+                "--method=source",
+                "--seeds=0",
+                "--variations=on",
+                "--infiller.type=rule",
+                "--no_log",
+                f"--out={out}",
+            ]
+        )
+        == 0
+    )
+    ceiling = [r for r in load_records(out) if r["method"] == "source"]
+    assert [(r["target"], r["robot"], r["seed"]) for r in ceiling] == [("UR5e", "Panda", 0)]
+    assert ceiling[0]["success"] and ceiling[0]["generated_tokens"] == 0  # nothing to ground on the source
+    report = (out / "report.md").read_text()
+    assert "## Against the ceiling" in report
+    assert "| recent | kinematic-v1 | UR5e | 1 | 100 % | 100 % | 1.00 |" in report
+    assert "| recent-no-insitu | kinematic-v1 | UR5e | 1 | 0 % | 100 % | 0.00 |" in report

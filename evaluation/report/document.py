@@ -12,6 +12,7 @@ from lerobot_policy_recent.evaluation.report.plots import plot_failures, plot_pa
 from lerobot_policy_recent.evaluation.report.provenance import commit_line, crash_lines
 from lerobot_policy_recent.evaluation.report.tables import (
     ablation_table,
+    ceiling_lines,
     dev_apart_lines,
     failure_table,
     held_out_first,
@@ -69,6 +70,7 @@ def render_report(dirs: list[Path], out: Path) -> Path:
         "",
         *([f"![RECENT against each method]({paired.name})", ""] if paired else []),
         *lm_necessity_lines(records),
+        *ceiling_lines(records),
         *paper_ordering_lines(records),
         "## Headline targets",
         "",

@@ -393,6 +393,35 @@ def _lm_necessity_per_target(records: list[dict], suite: str) -> list[str]:
     return lines
 
 
+CEILING = "source"  # the sanity row whose success is the ceiling (evaluation/ablations.py: Source)
+
+
+def ceiling_lines(records: list[dict]) -> list[str]:
+    """Each method's SR as a share of the ceiling's (``source``: the task's source robot on its own
+    reference skills) on the episodes both ran, per suite and target: how much of what the world
+    allows the grounding keeps, and how much of a target's failure is the world's."""
+    ceiling = {episode_key(r): r for r in records if r["method"] == CEILING}
+    if not ceiling:
+        return []
+    lines = [
+        "## Against the ceiling (the source robot on its own skills, same episodes)",
+        "",
+        "| method | suite | target | episodes | SR | ceiling SR | ÷ ceiling |",
+        "|---|---|---|---:|---:|---:|---:|",
+    ]
+    rows = group([r for r in records if r["method"] != CEILING and episode_key(r) in ceiling], _ceiling_key)
+    for (method, suite, target), rs in sorted(rows.items(), key=lambda kv: (_rank(kv[0][0]), kv[0][1:])):
+        sr = 100.0 * sum(bool(r["success"]) for r in rs) / len(rs)
+        top = 100.0 * sum(bool(ceiling[episode_key(r)]["success"]) for r in rs) / len(rs)
+        share = f"{sr / top:.2f}" if top else "–"
+        lines.append(f"| {method} | {suite} | {target} | {len(rs)} | {sr:.0f} % | {top:.0f} % | {share} |")
+    return [*lines, ""]
+
+
+def _ceiling_key(record: dict) -> tuple[str, str, str]:
+    return record["method"], record["suite"], record["target"]
+
+
 def per_target_table(records: list[dict]) -> str:
     by = {k: summarize(v) for k, v in group(records, lambda r: (r["method"], r["target"])).items()}
     metrics = (*MAIN_METRICS, "patches", "go_pre", "igt")

@@ -69,6 +69,8 @@ class Method(draccus.ChoiceRegistry):
     family: ClassVar[str] = "recent"  # recent | variant (of RECENT) | ablation | baseline
     # What the paper's ablation tables expect it to do to RECENT's numbers: metric -> +1 (up) or -1 (down).
     expected: ClassVar[dict[str, int]] = {}
+    # Runs each episode on the task's source robot instead of the target (the bench's ceiling row).
+    on_source: ClassVar[bool] = False
 
     @classmethod
     def default_choice_name(cls) -> str:
