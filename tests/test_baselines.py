@@ -18,6 +18,7 @@ from lerobot_policy_recent.recent_plugin.methods import method_named
 from lerobot_policy_recent.recent_plugin.refactoring.fim_prompt import build_prompt
 from lerobot_policy_recent.recent_plugin.settings import RecentSettings
 from lerobot_policy_recent.robosuite_envs.suites import get_task
+from lerobot_policy_recent.skills.repository import load_skill
 
 UR5E_BODY = """obj_pos = task.get_object_position(obj)
     bin_pos = task.get_object_position(receptacle)
@@ -546,3 +547,46 @@ def test_cap_with_examples_in_the_targets_api_shows_other_skills_never_the_tasks
     assert agent.grounding_key(agent.skill("put_in_bin"), ontology.target("UR5e"), task) != cap.grounding_key(
         cap.skill("put_in_bin"), ontology.target("UR5e"), task
     )
+
+
+def _repair_unit(ontology, method: str):
+    """The statement rewrite a ``method`` baseline asks for after UR5e's program called the Panda's primitive."""
+    from lerobot_policy_recent.evaluation.baselines.program_prompt import ProgramContext, ProgramPrompt
+    from lerobot_policy_recent.ontology.skill_code import body_span
+
+    skill = load_skill("put_in_bin")
+    code = skill.code.replace(
+        skill.code[slice(*body_span(skill.code, skill.entry))], UR5E_BODY.replace("open_ur5_ee(env, task)", PANDA_LINE)
+    )
+    start = code.index(PANDA_LINE)
+    prompt = ProgramPrompt(
+        skill, ontology.target("UR5e"), method_named(method).style, ProgramContext("put the cube in the bin")
+    )
+    return prompt.statement_unit(
+        code,
+        (start, start + len(PANDA_LINE)),
+        feedback="line 5: hallucinated_name: NameError: name 'open_gripper' is not defined",
+        observation="cube at [0.000, 0.000, 0.830]; bin at [0.100, 0.200, 0.820]",
+    )
+
+
+@pytest.mark.parametrize("method", ["repair", "agentless"])
+def test_a_statement_rewrite_is_held_to_code_lines_not_more_comments(ontology, method):
+    """Its prompt ends in comment lines (was, failed, observed, rewrite): the grammar admits code only."""
+    from lerobot_policy_recent.recent_plugin.refactoring.fim_prompt import CODE_LINES
+
+    prompt = build_prompt(_repair_unit(ontology, method), span_tokens=8)
+    assert prompt.prefix.rstrip().splitlines()[-1].lstrip().startswith("# Rewrite it for UR5e")
+    assert prompt.grammar == CODE_LINES
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("method", ["repair", "agentless"])
+def test_the_real_lm_rewrites_the_failed_statement_as_code(ontology, llama_infiller, method):
+    """The 1.5B, asked for the one-statement repair, writes a statement (it wrote comments before)."""
+    from lerobot_policy_recent.recent_plugin.grounding.attempts import clean_completion
+
+    unit = _repair_unit(ontology, method)
+    text = clean_completion(llama_infiller.infill(unit).text, unit)
+    assert text.strip() and not text.lstrip().startswith("#"), text
+    compile(text.strip(), "<repair>", "exec")

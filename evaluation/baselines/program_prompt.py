@@ -22,7 +22,7 @@ from lerobot_policy_recent.recent_plugin.failures import FailureCategory
 from lerobot_policy_recent.recent_plugin.grounding.gate import Verdict, security_gate
 from lerobot_policy_recent.recent_plugin.grounding.grounder import GroundedSkill
 from lerobot_policy_recent.recent_plugin.infillers.base import Infiller
-from lerobot_policy_recent.recent_plugin.refactoring.fim_prompt import one_line
+from lerobot_policy_recent.recent_plugin.refactoring.fim_prompt import CODE_LINES, one_line
 from lerobot_policy_recent.recent_plugin.refactoring.units import Hints, RefactoringUnit, SpanStyle, cut_unit
 from lerobot_policy_recent.robosuite_envs.observation import Observation
 from lerobot_policy_recent.robosuite_envs.primitives.session import TaskContext
@@ -50,7 +50,8 @@ def _statement_comments(hints: Hints) -> list[str]:
 PROGRAM_STYLE = SpanStyle(
     lambda hints: [*_failed(hints), f"Program for {hints.robot}:"], stop=("\ndef ", "\nclass "), whole_body=True
 )
-STATEMENT_STYLE = SpanStyle(_statement_comments)
+# The rewrite's prompt ends in comment lines; held to code lines, the model cannot go on commenting.
+STATEMENT_STYLE = SpanStyle(_statement_comments, grammar=CODE_LINES)
 PLAN_STYLE = SpanStyle(lambda hints: [], stop=("\n\n", "\ndef "))
 
 

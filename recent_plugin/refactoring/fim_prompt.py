@@ -28,6 +28,10 @@ from lerobot_policy_recent.recent_plugin.refactoring.window import WINDOWS, data
 STATEMENT_LINE = r'root ::= [a-zA-Z_] [^\n]* "\n"?'
 LINE = r"line ::= [ ]* [a-zA-Z_] [^\n]*"
 STATEMENT_LINES = r'root ::= line ("\n" line)* "\n"?' + "\n" + LINE
+# Lines of code, any Python a statement may span (a closing bracket's line too), but no line that is
+# only a comment: a prompt that ends in comment lines (a baseline's statement rewrite) otherwise
+# gets more comments from a small model, and a completion that is only comments is no edit.
+CODE_LINES = r'root ::= code ("\n" code)* "\n"?' + "\n" + r"code ::= [ ]* [^# \n] [^\n]*"
 
 
 def statement_lines(most: int) -> str:
@@ -230,8 +234,8 @@ def build_prompt(unit: RefactoringUnit, span_tokens: int, window: str = "functio
         forced = None if has_placeholders(call) else call + "\n"
         draft = call  # the grammar holds the retry to the call's own lines
     stop = ("\n", "  #") if single_line else ("\n\n",)
-    if unit.style is not None:  # no grammar: the model writes Python as it would
-        grammar, stop = None, unit.style.stop or stop
+    if unit.style is not None:  # the method's own: Python as the model would write it, or its grammar
+        grammar, stop = unit.style.grammar, unit.style.stop or stop
     prefix, suffix = unit.prefix, unit.suffix
     if window == "dataflow" and unit.span_type in WINDOWED_SPAN_TYPES:
         # a run-time patch's original call is the statement it comes before: the window shows it, not what it reads

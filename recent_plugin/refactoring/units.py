@@ -59,12 +59,13 @@ class RefactoringUnit:
 
 @dataclass(frozen=True)
 class SpanStyle:
-    """How a span that is none of RECENT's is prompted: its comment lines, where the LM stops, and
-    whether it is a whole function body. Such spans are written freely (no grammar)."""
+    """How a span that is none of RECENT's is prompted: its comment lines, where the LM stops,
+    whether it is a whole function body, and the grammar it is held to (None: written freely)."""
 
     comments: Callable[[Hints], list[str]]  # the lines before the span, from its hints
     stop: tuple[str, ...] | None = None  # None: the builder's, by the span's shape (one line or several)
     whole_body: bool = False  # a function body, blank lines and all (an instruct model writes it as a chat)
+    grammar: str | None = None  # GBNF for backends that take one
 
 
 def unit_from_conflict(
