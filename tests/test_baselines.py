@@ -146,6 +146,8 @@ def test_real_lm_writes_a_cap_program(ontology, llama_infiller):
     result = run_episode(agent, "cube_in_bin", "UR5e", seed=0)
     grounded = result.grounding.skills[0]
     assert grounded.calls and grounded.calls[0].kind == "ground" and grounded.calls[0].generated_tokens > 0
+    sent = grounded.calls[0].prompt  # exactly what the model was sent: the system line, the instruction, the program
+    assert sent.startswith("<|im_start|>system\nYou write Python skill code") and "<|im_start|>user\n" in sent
     assert result.go_pre > 50.0  # a whole program: far above RECENT's localized edits
 
 

@@ -40,7 +40,7 @@ class LMCall:
     message: str = ""
     span: str = ""  # the span the unit replaced (empty for an insertion)
     hints: tuple[str, ...] = ()  # the hint comments as the model saw them
-    prompt: str = ""  # prefix + <FILL> + suffix, format-independent (the logs show it)
+    prompt: str = ""  # what was sent (``Completion.prompt``): prefix + <FILL> + suffix, or a program's whole chat
     rendered: bool = False  # the fast path wrote it; a revise or repair so written is no interruption
     attempt: int = 0  # 0 for a span's first call, then its retries
     decided: bool = False  # the ontology or a check wrote every argument (decided_by_rule): no LM was needed

@@ -18,7 +18,9 @@ class Completion:
     evaluated_prompt_tokens: int = 0  # the prompt tokens not already in the model's cache (where a backend knows)
     prompt_seconds: float = 0.0  # of ``seconds``: evaluating the prompt (where a backend measures it)
     generation_seconds: float = 0.0  # of ``seconds``: generating the completion
-    prompt: str = ""  # the FIM prompt as sent (``FimPrompt.shown()``), for the logs; empty where a backend has none
+    # What was sent, for the logs: the FIM prompt (``FimPrompt.shown()``), or a program's chat with its
+    # system line and instruction (ChatML, or the model's template); empty where a backend has none
+    prompt: str = ""
     forced: bool = False  # the grammar admitted this one text: the model was not run (it would have copied it)
 
 

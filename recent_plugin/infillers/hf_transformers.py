@@ -98,6 +98,7 @@ class TransformersInfiller:
         shown = ""
         if chat is not None:  # a program is written, not a span edited: the instruct model's chat
             text_prompt, max_tokens, stops = self._chat_text(chat.messages), chat.max_tokens, ()
+            shown = text_prompt  # the chat as the template renders it: system line and instruction included
         else:
             prompt = build_prompt(unit, span_tokens, self.prompt_window)
             text_prompt, max_tokens, stops = (

@@ -66,15 +66,16 @@ class LlamaCppInfiller:
         started = time.perf_counter()
         if writes_whole_body(unit):  # a program is written, not a span edited: the instruct model's chat
             chat = build_chat(unit, span_tokens)
+            sent = render_chatml(chat.messages)
             out = self.lm.generate(
-                render_chatml(chat.messages),
+                sent,
                 max_tokens=chat.max_tokens,
                 stops=CHATML_STOPS,
                 gbnf=None,
                 temperature=temperature,
                 seed=seed,
             )
-            text, shown = span_of_reply(out.text, unit.indent), ""
+            text, shown = span_of_reply(out.text, unit.indent), sent  # system line and instruction included
         else:
             prompt = build_prompt(unit, span_tokens, self.prompt_window)
             if prompt.forced is not None and (tokens := self.count_tokens(prompt.forced)) <= prompt.max_tokens:

@@ -12,7 +12,7 @@ import time
 
 from lerobot_policy_recent.recent_plugin.infillers.base import Completion
 from lerobot_policy_recent.recent_plugin.infillers.http import post_json
-from lerobot_policy_recent.recent_plugin.refactoring.chat_prompt import build_chat, span_of_reply
+from lerobot_policy_recent.recent_plugin.refactoring.chat_prompt import build_chat, render_chatml, span_of_reply
 from lerobot_policy_recent.recent_plugin.refactoring.fim_prompt import approximate_tokens
 from lerobot_policy_recent.recent_plugin.refactoring.units import RefactoringUnit
 
@@ -50,4 +50,5 @@ class OpenAIChatInfiller:
             generated_tokens=int(usage.get("completion_tokens", approximate_tokens(text))),
             seconds=time.perf_counter() - started,
             prompt_tokens=int(usage.get("prompt_tokens", 0)),
+            prompt=render_chatml(chat.messages),  # the messages sent, system line and instruction included
         )
