@@ -16,7 +16,7 @@ import draccus
 
 from lerobot_policy_recent.recent_plugin.infillers.configs import InfillerConfig, LlamaCppConfig
 from lerobot_policy_recent.recent_plugin.methods import Method
-from lerobot_policy_recent.recent_plugin.methods.recent import Recent
+from lerobot_policy_recent.recent_plugin.methods.recent import RecentFastPath
 from lerobot_policy_recent.recent_plugin.sandbox import SkillBudget
 
 
@@ -25,7 +25,10 @@ class RecentSettings:
     """Which LM, which method, and the budgets of grounding and execution."""
 
     infiller: InfillerConfig = field(default_factory=LlamaCppConfig)  # the LM that fills the units, or rule
-    method: Method = field(default_factory=Recent)  # RECENT, one of its ablations, or a baseline
+    # The product's default asks the LM only what the ontology leaves open (``recent+fast-path``); the
+    # paper's method (``recent``: the LM writes every conflicting span), its ablations and the
+    # baselines are named methods
+    method: Method = field(default_factory=RecentFastPath)
     max_retries: int = 2  # retries per rejected span
     max_repairs: int = 2  # reactive repairs of failed segments, per skill
     # LM calls per task, grounding and run time together, the same for every method; 0: no limit. A paper-length

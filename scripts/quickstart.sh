@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# README command 1: set everything up, then ground the Panda skill onto a UR5e and run it.
+# README command 1: set everything up, then ground the Panda skill onto a Sawyer (the LM names the
+# object its pick takes; the ontology renders the rest) and run it.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh
-exec .venv/bin/recent run --task cube_in_bin --robot UR5e "$@"
+exec .venv/bin/recent run --task cube_in_bin --robot Sawyer "$@"

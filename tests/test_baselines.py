@@ -246,9 +246,9 @@ def _recorded_completions(ontology, method: str) -> list[str]:
         def count_tokens(self, text):
             return rule.count_tokens(text)
 
-    RecentAgent(RecentSettings(infiller=RuleConfig()), ontology=ontology, infiller=Recording()).ground(
-        "put_in_bin", "UR5e", get_task("cube_in_bin")
-    )
+    RecentAgent(
+        RecentSettings(infiller=RuleConfig(), method=method_named("recent")), ontology=ontology, infiller=Recording()
+    ).ground("put_in_bin", "UR5e", get_task("cube_in_bin"))
     return texts
 
 
@@ -292,7 +292,7 @@ def test_every_method_gets_the_same_lm_call_budget_per_task_cached_groundings_in
 
 def test_recent_is_held_to_the_same_budget(ontology):
     infiller = ScriptedInfiller([""] * 20)  # every answer rejected
-    settings = RecentSettings(infiller=RuleConfig(), max_retries=10, max_lm_calls=3)
+    settings = RecentSettings(infiller=RuleConfig(), method=method_named("recent"), max_retries=10, max_lm_calls=3)
     grounded, _ = RecentAgent(settings, ontology=ontology, infiller=infiller).ground(
         "put_in_bin", "UR5e", get_task("cube_in_bin"), budget=CallBudget(3)
     )

@@ -20,19 +20,23 @@ def test_panda_runs_the_reference_skill_unmodified(ontology, rule_infiller):
     assert result.grounding.skills[0].diagnosis.compatible and result.generated_tokens == 0
 
 
-def test_grounded_episode_on_ur5e_with_the_real_lm(ontology, llama_infiller):
-    """The README's main job: Panda skill → UR5e by FIM with the 1.5B GGUF, executed in robosuite."""
+def test_grounded_episode_on_sawyer_with_the_real_lm(ontology, llama_infiller):
+    """The README's main job, the product's default method: the ontology renders what it decides,
+    the 1.5B GGUF writes what it leaves open (Sawyer's pick takes the object's name), and the
+    grounded skill runs in robosuite."""
     agent = RecentAgent(RecentSettings(), infiller=llama_infiller, ontology=ontology)
-    result = run_episode(agent, "cube_in_bin", "UR5e", seed=0)
+    result = run_episode(agent, "cube_in_bin", "Sawyer", seed=0)
     assert result.success, (result.failures, result.grounding.skills[0].diff())
+    calls = result.grounding.skills[0].calls
+    assert [c.rendered for c in calls if c.accepted].count(False) == 1  # one decision was the LM's
     assert result.generated_tokens > 0 and 0 < result.go_pre < 100
     assert result.grounding.igt_seconds >= result.lm_seconds > 0
 
-    again = run_episode(agent, "cube_in_bin", "UR5e", seed=0)
+    again = run_episode(agent, "cube_in_bin", "Sawyer", seed=0)
     assert again.grounding.cached and again.grounding.skills[0] is result.grounding.skills[0]
     assert again.success, again.failures
     # the LM samples (the default): another seed is another draw, grounded afresh
-    other = run_episode(agent, "cube_in_bin", "UR5e", seed=1)
+    other = run_episode(agent, "cube_in_bin", "Sawyer", seed=1)
     assert not other.grounding.cached and other.success, other.failures
 
 

@@ -51,7 +51,11 @@ class CountingInfiller(RuleInfiller):
 
 @pytest.fixture(scope="module")
 def counting_agent(ontology):
-    return RecentAgent(RecentSettings(infiller=RuleConfig()), infiller=CountingInfiller(), ontology=ontology)
+    return RecentAgent(
+        RecentSettings(infiller=RuleConfig(), method=method_named("recent")),
+        infiller=CountingInfiller(),
+        ontology=ontology,
+    )
 
 
 def test_obstacle_on_the_target_is_swept_off_by_a_patch_of_the_upcoming_segment_only(panda_agent):
@@ -113,7 +117,11 @@ class SweepThroughTheTarget(RuleInfiller):
 def test_a_run_time_patch_keeps_the_arguments_its_check_wrote(ontology):
     """A sweep that calls the right primitive but not where the check put it is rejected, and the
     retry writes the check's sweep (it is held to it by grammar on the LM backends)."""
-    agent = RecentAgent(RecentSettings(infiller=RuleConfig()), infiller=SweepThroughTheTarget(), ontology=ontology)
+    agent = RecentAgent(
+        RecentSettings(infiller=RuleConfig(), method=method_named("recent")),
+        infiller=SweepThroughTheTarget(),
+        ontology=ontology,
+    )
     result = run_episode(agent, "kinematic/cube_on_plate", "Panda", seed=0, variations="obstacle")
     assert result.success
     (event,) = result.adaptations
@@ -194,7 +202,7 @@ def test_igt_is_the_time_to_the_first_executable_code(counting_agent):
 
 @pytest.mark.slow
 def test_real_lm_writes_the_insitu_patches(ontology, llama_infiller):
-    agent = RecentAgent(RecentSettings(), infiller=llama_infiller, ontology=ontology)
+    agent = RecentAgent(RecentSettings(method=method_named("recent")), infiller=llama_infiller, ontology=ontology)
     result = run_episode(agent, "kinematic/cube_on_plate", "UR5e", seed=0, variations="on")
     assert result.success, [(c.text, c.message) for c in result.runtime_calls]
     assert [e.checks for e in result.adaptations] == [("object_unmoved",), ("target_clear",)]

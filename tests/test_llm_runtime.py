@@ -151,11 +151,12 @@ def test_inside_lerobot_eval_a_dead_lm_is_the_policys_error_and_its_episode_is_l
     from lerobot_policy_recent.logs.verify import verify
     from lerobot_policy_recent.recent_plugin.configuration_recent import RecentConfig
     from lerobot_policy_recent.recent_plugin.infillers.llama_worker import LMWorkerCrashed
+    from lerobot_policy_recent.recent_plugin.methods import method_named
     from lerobot_policy_recent.robosuite_envs.gym_env import RecentEnv
     from lerobot_policy_recent.robosuite_envs.lerobot_env import RecentEnvConfig
 
     env_cfg = RecentEnvConfig(task="cube_in_bin", robot="UR5e")
-    policy = make_policy(RecentConfig(log_dir=str(tmp_path)), env_cfg=env_cfg)
+    policy = make_policy(RecentConfig(log_dir=str(tmp_path), method=method_named("recent")), env_cfg=env_cfg)
     pre, _ = make_pre_post_processors(policy.config)
     worker = policy.agent.infiller.lm
     os.kill(worker.pid, signal.SIGKILL)

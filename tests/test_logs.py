@@ -25,6 +25,7 @@ from lerobot_policy_recent.logs.recorder import Recorder
 from lerobot_policy_recent.recent_plugin.agent import RecentAgent
 from lerobot_policy_recent.recent_plugin.episode import run_episode
 from lerobot_policy_recent.recent_plugin.infillers.configs import RuleConfig
+from lerobot_policy_recent.recent_plugin.methods import method_named
 from lerobot_policy_recent.recent_plugin.settings import RecentSettings
 
 TASK = "kinematic/cube_on_plate"
@@ -35,7 +36,7 @@ def run(tmp_path_factory, ontology):
     root = tmp_path_factory.mktemp("logs")
     good = RecentAgent(RecentSettings(infiller=RuleConfig()), ontology=ontology)
     broken = RecentAgent(
-        RecentSettings(infiller=RuleConfig(), max_retries=2),
+        RecentSettings(infiller=RuleConfig(), method=method_named("recent"), max_retries=2),  # the LM writes every span
         ontology=ontology,
         infiller=ScriptedInfiller(
             tokens=5,
@@ -380,6 +381,7 @@ import sys
 from lerobot_policy_recent.logs.recorder import Recorder
 from lerobot_policy_recent.recent_plugin.agent import RecentAgent
 from lerobot_policy_recent.recent_plugin.infillers.configs import RuleConfig
+from lerobot_policy_recent.recent_plugin.methods import method_named
 from lerobot_policy_recent.recent_plugin.settings import RecentSettings
 from lerobot_policy_recent.recent_plugin.episode import run_episode
 recorder = Recorder(sys.argv[1])
@@ -431,6 +433,7 @@ from lerobot_policy_recent.logs import dataset_sink
 from lerobot_policy_recent.logs.recorder import Recorder
 from lerobot_policy_recent.recent_plugin.agent import RecentAgent
 from lerobot_policy_recent.recent_plugin.infillers.configs import RuleConfig
+from lerobot_policy_recent.recent_plugin.methods import method_named
 from lerobot_policy_recent.recent_plugin.settings import RecentSettings
 from lerobot_policy_recent.recent_plugin.episode import run_episode
 

@@ -12,8 +12,9 @@ counts the repair and revise calls made to the model, as the paper's formula doe
 not wait for a sub-millisecond rendering) but it is still a run-time patch: the benchmark reports
 those per task beside EI, so the fast path hides none of them.
 
-Off by default, so RECENT's numbers stay the paper's method (an LM call per conflict and per
-violation); ``--fast-path`` trades that for a near-zero IGT and IT on CPUs.
+The product's default (``recent+fast-path``: ``recent run`` and ``lerobot-eval`` without a method):
+the LM is asked only what is open. The paper's method (``recent``: an LM call per conflict and per
+violation) is the benchmark's row, so RECENT's numbers stay the paper's.
 """
 
 from __future__ import annotations

@@ -74,7 +74,7 @@ class Method(draccus.ChoiceRegistry):
 
     @classmethod
     def default_choice_name(cls) -> str:
-        return "recent"  # a flag such as ``--method.insitu=false`` alone keeps the default choice
+        return "recent+fast-path"  # the product's; a flag such as ``--method.insitu=false`` alone keeps it
 
     @property
     def name(self) -> str:
