@@ -14,6 +14,7 @@ from lerobot_policy_recent.ontology.builder import Ontology
 from lerobot_policy_recent.ontology.conversions import (
     NAME_LOOKUP,
     OBJECT_NAME,
+    POINTS,
     WORLD_POSITION,
     Conversion,
     conversion,
@@ -83,6 +84,10 @@ class Conflict:
     preparatory_arguments: tuple[tuple[ParameterMapping, ...], ...] = ()
     path: tuple[PathStep, ...] = ()  # path tracing: one call of the substitute (a move) per step
     reason: str = ""
+    # (unfilled parameter, the object's name expression): a point the LM writes whose object the
+    # original call named (a Franka Hand place(obj_name=base) onto a place that takes a point: the
+    # point is base's). Validation holds the LM's point to that object.
+    designated: tuple[tuple[str, str], ...] = ()
 
     def preparatory_calls(self) -> list[str]:
         """``close_robotiq85``, or ``move_gripper_to(obj_name=obj_name)``: each preparatory call with
@@ -213,6 +218,7 @@ def _conflict(
         else:
             values, converted = _value_map(param.choices, target.choices), _converted(param, target, given, names)
             mapping.append(ParameterMapping(param.name, target.name, param.role, values, converted))
+    mapping += _also_named(original, substitute, mapping, given, names)
     preparatory, arguments = _preparatory_steps(onto, original, substitute, robot, dropped, given, names)
     taken = {m.source for args in arguments for m in args}
     dropped = [name for name in dropped if name not in taken]
@@ -239,6 +245,7 @@ def _conflict(
         mapping=tuple(mapping),
         dropped=tuple(dropped),
         unfilled=unfilled,
+        designated=_designated(original, substitute, unfilled, given),
         preparatory=preparatory,
         preparatory_arguments=arguments if any(arguments) else (),
     )
@@ -393,6 +400,48 @@ def _named_by_point(
     if named is None or named.type != OBJECT_NAME or param.type != "position":
         return None
     return named if names.of(given.get(param.name)) else None
+
+
+def _designated(
+    original: PrimitiveSpec, substitute: PrimitiveSpec, unfilled: tuple[str, ...], given: dict[str, str]
+) -> tuple[tuple[str, str], ...]:
+    """For each unfilled point of a role :data:`NAMED_BY_POINT` pairs with a name role, the object
+    the original call names in that role (the way back from a name to a point)."""
+    found = []
+    for name in unfilled:
+        param = substitute.parameter(name)
+        named = original.by_role(NAMED_BY_POINT.get(param.role, "")) if param.type in POINTS else None
+        if named is not None and named.type == OBJECT_NAME and named.name in given:
+            found.append((name, given[named.name]))
+    return tuple(found)
+
+
+def _also_named(
+    original: PrimitiveSpec,
+    substitute: PrimitiveSpec,
+    mapping: list[ParameterMapping],
+    given: dict[str, str],
+    names: PositionNames,
+) -> list[ParameterMapping]:
+    """A substitute that takes the point *and* the name of what is there (Sawyer's pick:
+    ``target_object`` beside ``target_pos``): where the point names one object
+    (:class:`PositionNames`), that object is the name, so no LM is asked for it."""
+    mapped = {m.target for m in mapping}
+    extra = []
+    for param in original.parameters:
+        if not any(m.source == param.name for m in mapping):
+            continue
+        if param.type == OBJECT_NAME:  # the original call names the object itself (a Franka Hand pick)
+            named = substitute.by_role(NAMED_BY_POINT.get(param.role, ""))
+            named = named if named is not None and named.type == OBJECT_NAME else None
+            conversion = None
+        else:
+            named = _named_by_point(param, substitute, given, names)
+            conversion = Conversion(names.of(given.get(param.name))) if named is not None else None
+        if named is not None and named.name not in mapped:
+            extra.append(ParameterMapping(param.name, named.name, named.role, (), conversion))
+            mapped.add(named.name)
+    return extra
 
 
 def _warnings(onto, site, original, target, source, robot, sites, bindings) -> list[Warning]:

@@ -201,6 +201,29 @@ def placed_by(node: ast.expr, names: dict[str, str], constants: frozenset[str]) 
     return used.pop() if len(used) == 1 else None
 
 
+def object_of_point(expression: str, names: PositionNames) -> str | None:
+    """The object a point expression is placed by, where it may also read positions itself
+    (``task.get_object_position(base)``, ``[p[0], p[1], p[2] + 0.05]`` with ``p`` read once): None
+    when it is not one object's."""
+    try:
+        node = ast.parse(expression, mode="eval").body
+    except SyntaxError:
+        return None
+    reads: dict[str, str] = {}
+
+    class _Reads(ast.NodeTransformer):
+        def visit_Call(self, call: ast.Call) -> ast.AST:
+            arguments = [*call.args, *(k.value for k in call.keywords)]  # name= or positional
+            if isinstance(call.func, ast.Attribute) and call.func.attr == "get_object_position" and len(arguments) == 1:
+                alias = f"_read_{len(reads)}"
+                reads[alias] = ast.unparse(arguments[0])
+                return ast.Name(alias, ast.Load())
+            return self.generic_visit(call)
+
+    node = _Reads().visit(node)
+    return placed_by(node, {**names.variables, **reads}, names.constants)
+
+
 _ARITHMETIC = (
     ast.List, ast.Tuple, ast.Subscript, ast.Constant, ast.BinOp, ast.UnaryOp, ast.Load, ast.Slice,
     ast.operator, ast.unaryop,

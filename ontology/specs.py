@@ -23,9 +23,23 @@ PARAMETER_ROLES = frozenset(
         "actuation_speed", "duration_steps", "timeout",
     }
 )  # fmt: skip
+# What each role of a parameter means, in the words hints and validation messages use.
+ROLE_MEANINGS = {
+    "grasp_target": "what the hand grasps (or where)",
+    "grasp_object_name": "the object the hand grasps",
+    "release_target": "where the hand puts down the object it holds (the point it lowers it to)",
+    "release_receptacle": "what the held object is put on or into",
+    "motion_target": "where the hand moves to",
+    "approach_object_name": "what the hand moves over (with the object it holds)",
+    "handle_target": "the handle the hand takes hold of",
+    "push_start": "where the push starts",
+    "push_goal": "where the push ends",
+    "target_orientation": "the orientation the tool turns to",
+}
 # A point argument of the first role, placed by one object alone, names that object for a parameter of
-# the second: a position-based place's drop point above the bin names the bin a name-based place takes.
-NAMED_BY_POINT = {"release_target": "release_receptacle"}
+# the second: a position-based place's drop point above the bin names the bin a name-based place takes;
+# the point a pick grasps at names the object a pick that takes both (Sawyer's) is told to expect.
+NAMED_BY_POINT = {"release_target": "release_receptacle", "grasp_target": "grasp_object_name"}
 # what the vectors of a controller mean (ontology/conversions.py renders between them): lengths in
 # m, cm or mm; an axis-angle rotation vector in rad; Euler angles in deg or rad about a named axis
 # sequence (scipy's: "ZYX" intrinsic, "xyz" extrinsic); a pose is URScript's [x, y, z, rx, ry, rz]

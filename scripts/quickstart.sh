@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# README command 1: set everything up, then ground the Panda skill onto a Sawyer (the LM names the
-# object its pick takes; the ontology renders the rest) and run it.
+# README command 1: set everything up, then ground the Panda skill onto a Sawyer (the ontology names
+# the object its pick takes, from the point it grasps at) and run it.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh

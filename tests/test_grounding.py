@@ -58,6 +58,15 @@ def test_a_call_written_over_several_lines_is_one_comment_line_and_a_one_line_sp
     assert prompt.stop[0] == "\n"  # the substitute is one call, however the original was written
 
 
+PICK_BETWEEN = '''def pick_between(env, task, obj="cube", other="block"):
+    """Pick what lies halfway between two objects: a point no one object places."""
+    a = task.get_object_position(obj)
+    b = task.get_object_position(other)
+    mid = [(a[0] + b[0]) / 2, (a[1] + b[1]) / 2, a[2]]
+    pick(env, task, target_pos=mid, approach_axis="z")
+'''
+
+
 def test_a_retry_is_held_to_the_ontology_call_with_only_the_placeholders_free(ontology, put_in_bin):
     from llama_cpp import LlamaGrammar
 
@@ -72,9 +81,13 @@ def test_a_retry_is_held_to_the_ontology_call_with_only_the_placeholders_free(on
     first, retry = prompts("UR5e", 1)
     assert first.grammar.startswith("root ::= [a-zA-Z_]")  # the first attempt is free FIM
     assert retry.grammar.splitlines()[0] == 'root ::= "ur5_grasp_at(env, task, grasp_pos=obj_pos)" "\\n"'
-    _, retry = prompts("Sawyer", 1)  # Sawyer's pick leaves target_object to the LM: a name, not a position
-    assert 'root ::= "sawyer_pick(env, task, target_object=" name ", target_pos=obj_pos)"' in retry.grammar
-    assert 'name ::= "obj" | "receptacle" | "\\"" [a-zA-Z0-9_]+ "\\""' in retry.grammar
+    # a pick between two objects leaves Sawyer's target_object to the LM: a name, not a position
+    conflict = diagnose(ontology, "pick_between", PICK_BETWEEN, "Sawyer").conflicts[0]
+    retry = build_prompt(
+        unit_from_conflict(PICK_BETWEEN, conflict, ontology.target("Sawyer"), feedback="no", attempt=1), 20
+    )
+    assert 'root ::= "sawyer_pick(env, task, target_object=" name ", target_pos=mid)"' in retry.grammar
+    assert 'name ::= "obj" | "other" | "\\"" [a-zA-Z0-9_]+ "\\""' in retry.grammar
     LlamaGrammar.from_string(retry.grammar, verbose=False)  # valid GBNF
 
 
@@ -152,7 +165,9 @@ def test_a_retry_the_grammar_holds_to_one_text_is_answered_without_decoding(onto
         )
 
     assert build_prompt(unit("UR5e", 0), 20).forced is None  # a first attempt is free FIM
-    assert build_prompt(unit("Sawyer", 1), 20).forced is None  # the object's name is left to the LM
+    between = diagnose(ontology, "pick_between", PICK_BETWEEN, "Sawyer").conflicts[0]
+    open_retry = unit_from_conflict(PICK_BETWEEN, between, ontology.target("Sawyer"), feedback="no", attempt=1)
+    assert build_prompt(open_retry, 20).forced is None  # the object's name is left to the LM
     retry = unit("UR5e", 1)
     prompt = build_prompt(retry, llama_infiller.count_tokens(retry.span), llama_infiller.prompt_window)
     assert prompt.forced == "ur5_grasp_at(env, task, grasp_pos=obj_pos)\n"
@@ -205,14 +220,61 @@ def test_rejected_span_is_retried_with_feedback_then_accepted(ontology, put_in_b
     assert grounded.retries == 4 and grounded.generated_tokens == 49 and grounded.go == 49.0
 
 
-def test_interface_rewiring_leaves_the_undecided_argument_to_the_lm(ontology, put_in_bin, rule_infiller):
-    """Sawyer's pick needs an object *name* the Panda call never had: the rule backend cannot decide it."""
+def test_the_point_a_pick_grasps_at_names_the_object_a_pick_that_takes_both_expects(
+    ontology, put_in_bin, rule_infiller
+):
+    """Sawyer's pick takes the object's name beside its position; ``obj_pos`` was read for ``obj``, so
+    the name is ``obj`` and the ontology renders it. A point placed by two objects names neither."""
     conflict = diagnose(ontology, put_in_bin.name, put_in_bin.code, "Sawyer").conflicts[1]
-    unit = unit_from_conflict(put_in_bin.code, conflict, ontology.target("Sawyer"))
-    assert unit.span_type == "interface_rewiring" and unit.hints.unfilled == ("target_object",)
-    assert unit.hints.substitute_call == "sawyer_pick(env, task, target_object=<object_name>, target_pos=obj_pos)"
+    assert conflict.span_type == "parameter_binding" and not conflict.unfilled
     grounded = ground_skill(put_in_bin, ontology.target("Sawyer"), ontology, rule_infiller)
-    assert not grounded.valid and grounded.calls[-1].category == "empty_continuation"
+    assert grounded.valid and "sawyer_pick(env, task, target_object=obj, target_pos=obj_pos)" in grounded.code
+    between = diagnose(ontology, "pick_between", PICK_BETWEEN, "Sawyer").conflicts[0]
+    unit = unit_from_conflict(PICK_BETWEEN, between, ontology.target("Sawyer"))
+    assert unit.span_type == "interface_rewiring" and unit.hints.unfilled == ("target_object",)
+    assert unit.hints.substitute_call == "sawyer_pick(env, task, target_object=<object_name>, target_pos=mid)"
+    facts = "\n".join(unit.hints.facts)  # what the decision is and what it can be made from, not the answer
+    assert "target_object is the object the hand grasps" in facts
+    assert "obj (an object name, a parameter: 'cube' by default)" in facts and "other (an object name" in facts
+
+
+def test_a_name_based_place_onto_a_point_api_leaves_the_point_to_the_lm_and_holds_it_to_the_object(ontology):
+    """The Franka Hand's place(obj_name=base) onto UR5e's release point: the LM writes the point, the
+    hint says what it is and which object the original named, and validation rejects a point that is
+    not that object's (the 1.5B once wrote [0.5, 0.0, 0.0] and it validated)."""
+    from lerobot_policy_recent.recent_plugin.infillers.fast_path import FastPathInfiller
+    from lerobot_policy_recent.skills.repository import load_skill
+
+    tower = load_skill("stack_tower")
+    conflict = diagnose(ontology, tower.name, tower.code, "UR5e", source="FrankaHand").conflicts[2]
+    assert conflict.unfilled == ("place_pos",) and conflict.designated == (("place_pos", "base"),)
+    unit = unit_from_conflict(tower.code, conflict, ontology.target("UR5e"))
+    assert any(
+        "place_pos is where the hand puts down the object it holds" in f and "instead: base" in f
+        for f in unit.hints.facts
+    )
+    place = "ur5_release_at(env, task, place_pos={})"
+    texts = [
+        place.format("task.get_object_position(middle)"),  # the last place first: right
+        place.format("[0.5, 0.0, 0.0]"),  # a constant: no object's point
+        place.format("task.get_object_position(middle)"),  # another object's
+        place.format("[b[0], b[1], b[2] + 0.05]").replace("ur5", "b = task.get_object_position(base)\n    ur5"),
+        place.format("task.get_object_position(name=base)"),
+    ]
+    fast = FastPathInfiller(ScriptedInfiller(texts))  # the LM is asked for the two points only
+    grounded = ground_skill(tower, ontology.target("UR5e"), ontology, fast, max_retries=3)
+    assert grounded.valid, grounded.verdict
+    assert [c.category for c in grounded.calls if not c.rendered][-4:] == [
+        "hallucinated_kwarg",
+        "hallucinated_kwarg",
+        "non_executable",  # a statement it was not asked for
+        None,
+    ]
+    asked = [c for c in grounded.calls if not c.rendered]
+    assert (
+        "place_pos=[0.5, 0.0, 0.0]: the original call named base for it, but that point is not base's"
+        in asked[-4].message
+    )
 
 
 def test_same_role_literals_are_translated(ontology, rule_infiller):
@@ -265,16 +327,18 @@ def test_small_model_runs_the_same_pipeline(ontology, put_in_bin):
 
 def test_fast_path_renders_decided_spans_and_asks_the_lm_only_for_the_rest(ontology, put_in_bin):
     from lerobot_policy_recent.recent_plugin.infillers.fast_path import FastPathInfiller
+    from lerobot_policy_recent.skills.repository import load_skill
 
-    lm = ScriptedInfiller(["sawyer_pick(env, task, target_object=obj, target_pos=obj_pos)"])
+    place = "ur5_release_at(env, task, place_pos=task.get_object_position({}))"
+    lm = ScriptedInfiller([place.format("middle"), place.format("base")])  # the last place first
     fast = FastPathInfiller(lm)
     ur5e = ground_skill(put_in_bin, ontology.target("UR5e"), ontology, fast)
     assert ur5e.valid and ur5e.generated_tokens == 0 and not lm.units  # the ontology decided all three spans
-    sawyer = ground_skill(put_in_bin, ontology.target("Sawyer"), ontology, fast)
-    assert sawyer.valid and [u.span_type for u in lm.units] == ["interface_rewiring"]  # target_object: the LM's
-    rendered = sum(c.rendered for c in ur5e.calls + sawyer.calls)
-    assert sawyer.generated_tokens == 7 and rendered == 5  # three spans on UR5e, two on Sawyer
-    assert "sawyer_pick(env, task, target_object=obj, target_pos=obj_pos)" in sawyer.code
+    tower = ground_skill(load_skill("stack_tower"), ontology.target("UR5e"), ontology, fast)
+    assert tower.valid and [u.span_type for u in lm.units] == ["interface_rewiring"] * 2  # the two drop points
+    rendered = sum(c.rendered for c in ur5e.calls + tower.calls)
+    assert rendered == 6  # three spans of put_in_bin, the open and the two picks of the tower
+    assert place.format("base") in tower.code
 
 
 def test_a_span_that_changes_a_carried_over_argument_is_rejected(ontology):

@@ -31,7 +31,7 @@ from dataclasses import dataclass
 
 from lerobot_policy_recent.ontology.conversions import OBJECT_NAME
 from lerobot_policy_recent.ontology.skill_code import name_variables, variable_kinds
-from lerobot_policy_recent.ontology.specs import ApiSpec, ParameterSpec
+from lerobot_policy_recent.ontology.specs import ROLE_MEANINGS, ApiSpec, ParameterSpec
 from lerobot_policy_recent.recent_plugin.failures import FailureCategory
 from lerobot_policy_recent.recent_plugin.sandbox import MAX_NESTED_ITERATIONS, format_problem
 from lerobot_policy_recent.robosuite_envs.primitives.frames import SKILL_HELPERS
@@ -168,11 +168,7 @@ def _is_docstring(node: ast.stmt) -> bool:
 
 # Roles of name-taking parameters that name what the hand will hold, and what it puts that on or into.
 HOLDING_ROLES = frozenset({"grasp_target", "grasp_object_name", "handle_target"})
-ROLE_WORDS = {
-    "release_receptacle": "what the held object is put on or into",
-    "approach_object_name": "what the hand moves over (with the object it holds)",
-}
-RECEIVING_ROLES = frozenset(ROLE_WORDS)
+RECEIVING_ROLES = frozenset({"release_receptacle", "approach_object_name"})
 RELEASING_EFFECTS = frozenset({"object_released", "end_effector_free"})
 
 
@@ -236,7 +232,7 @@ class _Checker(ast.NodeVisitor):
                 elif param.role in RECEIVING_ROLES and held is not None and held[0] == value:
                     self.fail(
                         FailureCategory.HALLUCINATED_KWARG,
-                        f"{keyword.arg}={value}: {spec.name}'s {keyword.arg} is {ROLE_WORDS[param.role]}, but "
+                        f"{keyword.arg}={value}: {spec.name}'s {keyword.arg} is {ROLE_MEANINGS[param.role]}, but "
                         f"{value} is the object held since line {held[1].lineno} "
                         f"({ast.unparse(held[1].func)}(..., {value}))",
                         call,

@@ -14,6 +14,7 @@ from lerobot_policy_recent.ontology.conversions import undetermined_facts
 from lerobot_policy_recent.ontology.diagnosis import Conflict, ParameterMapping
 from lerobot_policy_recent.ontology.skill_code import enclosing_function
 from lerobot_policy_recent.ontology.target import Target
+from lerobot_policy_recent.recent_plugin.refactoring.decisions import decision_facts
 from lerobot_policy_recent.recent_plugin.refactoring.substitution import render_substitute_call
 
 
@@ -33,6 +34,7 @@ class Hints:
     attempt: int = 0
     observation: str | None = None  # in-situ: what the run-time check saw
     facts: tuple[str, ...] = ()  # what an undetermined conversion's value is (units, frame), not a call to copy
+    designated: tuple[tuple[str, str], ...] = ()  # (open point, the object the original call named for it)
 
     @property
     def robot(self) -> str:
@@ -85,7 +87,8 @@ def unit_from_conflict(
         reason=conflict.reason,
         feedback=feedback,
         attempt=attempt,
-        facts=undetermined_facts(conflict),
+        facts=undetermined_facts(conflict) + decision_facts(code, conflict),
+        designated=conflict.designated,
     )
     return cut_unit(code, start, end, conflict.span_type, hints, substitute=sub.name if sub else None)
 

@@ -1,0 +1,69 @@
+"""What a hint says about an argument the ontology leaves open: facts, not the answer.
+
+For each such argument: what its role means, what the original call named for it, and what is in
+scope to write it from (the object names the function holds and the positions it read, each with
+where it came from). The LM decides; validation then holds a point the original call named an
+object for to that object (``grounding/grounder.py``).
+"""
+
+from __future__ import annotations
+
+import ast
+
+from lerobot_policy_recent.ontology.conversions import POINTS
+from lerobot_policy_recent.ontology.diagnosis import Conflict
+from lerobot_policy_recent.ontology.skill_code import enclosing_function, position_names
+from lerobot_policy_recent.ontology.specs import ROLE_MEANINGS
+
+POSITION_QUERY = "task.get_object_position(name) reads a named object's position [x, y, z] (m, world frame)"
+
+
+def decision_facts(code: str, conflict: Conflict) -> tuple[str, ...]:
+    """The hint lines for ``conflict``'s unfilled arguments (none where nothing is left open)."""
+    if not conflict.unfilled or conflict.substitute is None:
+        return ()
+    designated = dict(conflict.designated)
+    lines, points = [], False
+    for name in dict.fromkeys(conflict.unfilled):
+        param = conflict.substitute.parameter(name)
+        points |= param.type in POINTS
+        meaning = ROLE_MEANINGS.get(param.role)
+        if meaning is None:
+            continue
+        named = f"; the original call gave the object instead: {designated[name]}" if name in designated else ""
+        lines.append(f"{name} is {meaning}{named}")
+    scope = in_scope(code, conflict.span.start)
+    if scope:
+        lines.append("In scope: " + "; ".join(scope))
+    if points:
+        lines.append(POSITION_QUERY)
+    return tuple(lines)
+
+
+def in_scope(code: str, offset: int) -> list[str]:
+    """The object names and positions the function at ``offset`` holds before it, with their origins."""
+    lo, hi = enclosing_function(code, offset)
+    try:
+        func = ast.parse(code[lo:hi]).body[0]
+    except (SyntaxError, IndexError):
+        return []
+    if not isinstance(func, ast.FunctionDef):
+        return []
+    line = code.count("\n", lo, offset) + 1  # the span's line within the function's text
+    found: list[str] = []
+    args = func.args.args
+    for arg, default in zip(args[len(args) - len(func.args.defaults) :], func.args.defaults, strict=True):
+        if isinstance(default, ast.Constant) and isinstance(default.value, str):
+            found.append(f"{arg.arg} (an object name, a parameter: {default.value!r} by default)")
+    positions = position_names(code[lo:hi]).variables
+    for node in ast.walk(func):
+        if not (isinstance(node, ast.Assign) and len(node.targets) == 1 and isinstance(node.targets[0], ast.Name)):
+            continue
+        if node.lineno >= line:
+            continue
+        var = node.targets[0].id
+        if isinstance(node.value, ast.Constant) and isinstance(node.value.value, str):
+            found.append(f"{var} (an object name: {node.value.value!r})")
+        elif var in positions:
+            found.append(f"{var} (a point placed by {positions[var]}: {ast.unparse(node.value)})")
+    return found
