@@ -44,15 +44,17 @@ def execution_jobs(
     ]
 
 
-def run_execution(base: BenchConfig, jobs: list[Job], variations: tuple[str, ...], on_record=None) -> dict:
+def run_execution(
+    base: BenchConfig, jobs: list[Job], variations: tuple[str, ...], on_record=None, stamp: dict | None = None
+) -> dict:
     """Run ``jobs`` once per variation setting, each into ``base.out/episodes/<setting>``; the records
-    of each setting."""
+    of each setting (``stamp`` goes into every record run now: the commit the code came from)."""
     from lerobot_policy_recent.evaluation.runner import run_bench
 
     runs = {}
     for setting in variations:
         config = replace(base, out=base.out / "episodes" / setting, suites=(), extra=tuple(jobs), variations=setting)
-        runs[setting] = run_bench(config, on_record=on_record).records
+        runs[setting] = run_bench(config, on_record=on_record, stamp=stamp).records
     return runs
 
 

@@ -73,6 +73,7 @@ def _execute(args, agent, cells, skills: list[str], out: Path) -> str:
     from tqdm import tqdm
 
     from lerobot_policy_recent.evaluation.jobs import BenchConfig
+    from lerobot_policy_recent.scripts.bench_cmd import git_commit
     from lerobot_policy_recent.evaluation.transfer_execution import (
         attach,
         execution_jobs,
@@ -103,7 +104,7 @@ def _execute(args, agent, cells, skills: list[str], out: Path) -> str:
         bar.update(1)
 
     try:
-        runs = run_execution(base, jobs, settings, on_record=on_record)
+        runs = run_execution(base, jobs, settings, on_record=on_record, stamp={"commit": git_commit()})
     finally:
         bar.close()
     attach(cells, runs, tasks, sources)
