@@ -73,7 +73,6 @@ def _execute(args, agent, cells, skills: list[str], out: Path) -> str:
     from tqdm import tqdm
 
     from lerobot_policy_recent.evaluation.jobs import BenchConfig
-    from lerobot_policy_recent.scripts.bench_cmd import git_commit
     from lerobot_policy_recent.evaluation.transfer_execution import (
         attach,
         execution_jobs,
@@ -83,6 +82,7 @@ def _execute(args, agent, cells, skills: list[str], out: Path) -> str:
         task_of,
     )
     from lerobot_policy_recent.robosuite_envs.variations import parse_variations
+    from lerobot_policy_recent.scripts.bench_cmd import git_commit
 
     settings = _csv(args.variations, "--variations")
     for setting in settings:
