@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import json
 import time
+from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
@@ -101,24 +102,25 @@ def counts(cells: list[Cell]) -> dict[str, int]:
     return {g: sum(c.grounding == g for c in cells) for g in GROUNDINGS}
 
 
-def render_table(cells: list[Cell]) -> str:
-    """Skills as rows, robots as columns, one symbol per cell; the refused and invalid cells listed with reasons."""
-    skills = list(dict.fromkeys(c.skill for c in cells))
+def grid_lines(cells: list[Cell], text: Callable[[Cell], str]) -> list[str]:
+    """A markdown table with skills as rows and robots as columns, ``text(cell)`` in each (blank where none)."""
     robots = list(dict.fromkeys(c.robot for c in cells))
     at = {(c.skill, c.robot): c for c in cells}
+    lines = ["| skill | " + " | ".join(robots) + " |", "|---|" + "---:|" * len(robots)]
+    for skill in dict.fromkeys(c.skill for c in cells):
+        row = [text(at[skill, robot]) if (skill, robot) in at else "" for robot in robots]
+        lines.append(f"| `{skill}` | " + " | ".join(row) + " |")
+    return lines
+
+
+def render_table(cells: list[Cell]) -> str:
+    """Skills as rows, robots as columns, one symbol per cell; the refused and invalid cells listed with reasons."""
     legend = ", ".join(f"`{SYMBOLS[g]}` {g}" for g in GROUNDINGS)
     lines = [
         f"Cells: {', '.join(f'{n} {g}' for g, n in counts(cells).items() if n)}. Legend: {legend}; `!` a defect.",
         "",
-        "| skill | " + " | ".join(robots) + " |",
-        "|---|" + "---:|" * len(robots),
+        *grid_lines(cells, lambda cell: SYMBOLS[cell.grounding] + ("!" if cell.defect else "")),
     ]
-    for skill in skills:
-        row = []
-        for robot in robots:
-            cell = at.get((skill, robot))
-            row.append("" if cell is None else SYMBOLS[cell.grounding] + ("!" if cell.defect else ""))
-        lines.append(f"| `{skill}` | " + " | ".join(row) + " |")
     explained = [c for c in cells if c.grounding in ("refused", "invalid")]
     if explained:
         lines += ["", "| skill | robot | grounding | reason |", "|---|---|---|---|"]

@@ -18,7 +18,7 @@ from dataclasses import replace
 from pathlib import Path
 
 from lerobot_policy_recent.evaluation.jobs import BenchConfig, Job
-from lerobot_policy_recent.evaluation.transfer import PAR, Cell, Execution
+from lerobot_policy_recent.evaluation.transfer import PAR, Cell, Execution, grid_lines
 from lerobot_policy_recent.recent_plugin.extras import pyplot
 from lerobot_policy_recent.robosuite_envs.suites import validation_task
 
@@ -99,10 +99,14 @@ def render_execution(cells: list[Cell]) -> str:
     settings = list(dict.fromkeys(s for c in cells for s in c.execution))
     if not settings:
         return ""
-    skills = list(dict.fromkeys(c.skill for c in cells))
-    robots = list(dict.fromkeys(c.robot for c in cells))
-    at = {(c.skill, c.robot): c for c in cells}
     counts = summary(cells)
+
+    def text(cell: Cell) -> str:
+        if not cell.execution:
+            return ""
+        runs = " / ".join(cell.execution[s].render() if s in cell.execution else "" for s in settings)
+        return runs + ("*" if cell.grounding == "source" else "")
+
     lines = [
         "",
         f"Execution: successes per setting ({' / '.join(settings)}), the skill's single-subtask task; "
@@ -111,19 +115,8 @@ def render_execution(cells: list[Cell]) -> str:
         f"{counts['gaps']} episodes where the source succeeded and the cell did not (listed below). "
         "`*` marks the source robot.",
         "",
-        "| skill | " + " | ".join(robots) + " |",
-        "|---|" + "---:|" * len(robots),
+        *grid_lines(cells, text),
     ]
-    for skill in skills:
-        row = []
-        for robot in robots:
-            cell = at.get((skill, robot))
-            if cell is None or not cell.execution:
-                row.append("")
-                continue
-            text = " / ".join(cell.execution[s].render() if s in cell.execution else "" for s in settings)
-            row.append(text + ("*" if cell.grounding == "source" else ""))
-        lines.append(f"| `{skill}` | " + " | ".join(row) + " |")
     gaps = [(c, run) for c in cells for run in c.execution.values() if run.gaps]
     if gaps:
         lines += [
