@@ -94,6 +94,26 @@ def summary(cells: list[Cell]) -> dict[str, int]:
     }
 
 
+def per_robot_lines(cells: list[Cell], settings: list[str]) -> list[str]:
+    """Per robot and setting: its cells' successes beside the source robots' on the same episodes."""
+    lines = [
+        "| robot | variations | cells | successes | the source's, same episodes | cells at par |",
+        "|---|---|---:|---:|---:|---:|",
+    ]
+    for robot in dict.fromkeys(c.robot for c in cells):
+        ran = [c for c in cells if c.robot == robot and c.grounding != "source" and c.execution]
+        for setting in settings:
+            runs = [c.execution[setting] for c in ran if setting in c.execution]
+            if not runs:
+                continue
+            episodes = sum(r.episodes for r in runs)
+            lines.append(
+                f"| {robot} | {setting} | {len(runs)} | {sum(r.successes for r in runs)}/{episodes} | "
+                f"{sum(r.source_successes for r in runs)}/{episodes} | {sum(r.at_par for r in runs)} |"
+            )
+    return lines
+
+
 def render_execution(cells: list[Cell]) -> str:
     """Per cell, successes per setting (``off`` / ``on``), the source's own in its column; then every gap."""
     settings = list(dict.fromkeys(s for c in cells for s in c.execution))
@@ -108,6 +128,8 @@ def render_execution(cells: list[Cell]) -> str:
         return runs + ("*" if cell.grounding == "source" else "")
 
     lines = [
+        "",
+        *per_robot_lines(cells, settings),
         "",
         f"Execution: successes per setting ({' / '.join(settings)}), the skill's single-subtask task; "
         f"{counts['executed']} cells ran off their source robot, {counts['at_par']} of them at "
