@@ -16,12 +16,15 @@ PNG heatmap (``recent transfer``).
 
 from __future__ import annotations
 
+import ast
 import json
+import textwrap
 import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
+from lerobot_policy_recent.ontology.skill_code import object_of_point, position_names
 from lerobot_policy_recent.recent_plugin.extras import pyplot
 from lerobot_policy_recent.recent_plugin.grounding.grounder import GroundedSkill
 
@@ -49,6 +52,18 @@ class Execution:
 
 
 @dataclass
+class Decision:
+    """One argument the ontology left to the LM, scored against what the code implies: a point
+    where the original call named the object must be that object's (``Conflict.designated``)."""
+
+    role: str  # the open parameter's role: the decision's type
+    expected: str  # the object the original call named
+    attempts: int  # the LM's answers for its span
+    right_first: bool  # the first answer decided it as the code implies
+    right: bool  # the accepted answer did (False where none was accepted)
+
+
+@dataclass
 class Cell:
     skill: str
     robot: str
@@ -60,6 +75,7 @@ class Cell:
     generated_tokens: int = 0
     defect: bool = False  # refused by the ontology, yet validated: the grounding could have known
     execution: dict[str, Execution] = field(default_factory=dict)  # by variation setting (``off``, ``on``)
+    decisions: list[Decision] = field(default_factory=list)  # the LM's, where the code implies the answer
 
 
 def classify(grounded: GroundedSkill, source: str) -> Cell:
@@ -79,7 +95,61 @@ def classify(grounded: GroundedSkill, source: str) -> Cell:
         cell.reason = grounded.verdict.message if grounded.verdict is not None else "not validated"
     elif any(c.accepted and not c.decided for c in grounded.calls):
         cell.grounding = "lm"
+    cell.decisions = scored_decisions(grounded)
     return cell
+
+
+def scored_decisions(grounded: GroundedSkill) -> list[Decision]:
+    """Each designated point the LM was asked for, its first and its accepted answer scored."""
+    found = []
+    for conflict in grounded.diagnosis.conflicts:
+        original = conflict.span.text(grounded.original)
+        calls = [c for c in grounded.calls if c.original == original and not c.rendered and not c.decided]
+        if not calls:
+            continue
+        before, after = grounded.original[: conflict.span.start], grounded.original[conflict.span.end :]
+        accepted = next((c for c in calls if c.accepted), None)
+        for param, name in conflict.designated:
+            first = _points_at(before + calls[0].text + after, calls[0].text, param) == name
+            right = accepted is not None and _points_at(before + accepted.text + after, accepted.text, param) == name
+            found.append(Decision(conflict.substitute.parameter(param).role, name, len(calls), first, right))
+    return found
+
+
+def _points_at(code: str, text: str, param: str) -> str | None:
+    """The object the ``param=`` argument in ``text`` is the point of, read in ``code`` (None: none, or no parse)."""
+    try:
+        names = position_names(code)
+        calls = [n for n in ast.walk(ast.parse(textwrap.dedent(text))) if isinstance(n, ast.Call)]
+    except SyntaxError:
+        return None
+    for call in calls:
+        for keyword in call.keywords:
+            if keyword.arg == param:
+                return object_of_point(ast.unparse(keyword.value), names)
+    return None
+
+
+def decision_lines(cells: list[Cell]) -> list[str]:
+    """LM decision accuracy per decision type (the open parameter's role), over every cell."""
+    by_role: dict[str, list[Decision]] = {}
+    for cell in cells:
+        for decision in cell.decisions:
+            by_role.setdefault(decision.role, []).append(decision)
+    if not by_role:
+        return []
+    lines = [
+        "",
+        "| LM decision (role) | asked | right at the first answer | right when accepted |",
+        "|---|---:|---:|---:|",
+    ]
+    for role, ds in sorted(by_role.items()):
+        n = len(ds)
+        lines.append(
+            f"| {role} | {n} | {sum(d.right_first for d in ds)} ({100 * sum(d.right_first for d in ds) / n:.0f} %) | "
+            f"{sum(d.right for d in ds)} ({100 * sum(d.right for d in ds) / n:.0f} %) |"
+        )
+    return lines
 
 
 def ground_cells(agent, skills: list[str], robots: list[str], on_cell=None) -> list[Cell]:
@@ -128,6 +198,7 @@ def render_table(cells: list[Cell]) -> str:
             f"| `{c.skill}` | {c.robot} | {c.grounding}{' (defect)' if c.defect else ''} | {c.reason} |"
             for c in explained
         ]
+    lines += decision_lines(cells)
     return "\n".join(lines) + "\n"
 
 

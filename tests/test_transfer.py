@@ -129,3 +129,25 @@ def test_the_command_executes_a_cell_on_ray_and_resumes(tmp_path):
     again = subprocess.run(command, capture_output=True, text=True, timeout=900)
     assert again.returncode == 0 and "0 episodes" not in again.stderr
     assert json.loads((tmp_path / "transfer.json").read_text())["cells"][0]["execution"] == cell["execution"]
+
+
+def test_each_decision_the_lm_makes_is_scored_against_the_object_the_code_named(ontology):
+    """A Franka Hand place(obj_name=base) onto UR5e's release point: the LM's point must be base's.
+    The first answer for base's place was a constant (wrong, rejected), the second right."""
+    from doubles import ScriptedInfiller
+
+    from lerobot_policy_recent.evaluation.transfer import classify
+    from lerobot_policy_recent.recent_plugin.grounding.grounder import ground_skill
+    from lerobot_policy_recent.recent_plugin.infillers.fast_path import FastPathInfiller
+    from lerobot_policy_recent.skills.repository import load_skill
+
+    place = "ur5_release_at(env, task, place_pos={})"
+    answers = ["task.get_object_position(middle)", "[0.5, 0, 0]", "task.get_object_position(base)"]
+    lm = FastPathInfiller(ScriptedInfiller([place.format(a) for a in answers]))
+    cell = classify(ground_skill(load_skill("stack_tower"), ontology.target("UR5e"), ontology, lm), "FrankaHand")
+    assert cell.grounding == "lm"
+    assert [(d.role, d.expected, d.attempts, d.right_first, d.right) for d in cell.decisions] == [
+        ("release_target", "base", 2, False, True),
+        ("release_target", "middle", 1, True, True),
+    ]
+    assert "| release_target | 2 | 1 (50 %) | 2 (100 %) |" in render_table([cell])
