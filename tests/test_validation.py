@@ -140,3 +140,15 @@ def test_a_receptacle_that_is_the_held_object_is_rejected_with_the_role(ontology
 """
     verdict = validate_program(cup, ontology.api("Suction"), "put_in_bin")
     assert not verdict.ok and verdict.line == 3  # after the detach, the cup holds nothing: line 5 is fine
+
+
+def test_a_franka_hand_pick_by_name_traced_in_millimetres_validates(ontology, rule_infiller):
+    """KRL has no pick: the Franka Hand's pick(obj_name=obj) is traced as LIN moves to the object's
+    point in mm, ``[1000 * v for v in task.get_object_position(obj)]``. A loop over the fixed-size
+    point a position query returns is bounded, as one over a frame query's is."""
+    from lerobot_policy_recent.recent_plugin.grounding.grounder import ground_skill
+    from lerobot_policy_recent.skills.repository import load_skill
+
+    grounded = ground_skill(load_skill("put_in_drawer"), ontology.target("IIWAKRL"), ontology, rule_infiller)
+    assert grounded.valid, grounded.verdict
+    assert "krl_lin(env, task, xyz_mm=[1000 * v for v in task.get_object_position(obj)])" in grounded.code

@@ -372,7 +372,8 @@ class _Checker(ast.NodeVisitor):
 
     def _check_iterable(self, it: ast.expr, node: ast.AST) -> None:
         """A loop runs over something of bounded size: a literal, a variable, range() and its kin, or
-        the fixed-size vector a frame query or a conversion helper returns (a frame's point, a rotation)."""
+        the fixed-size vector a position or frame query or a conversion helper returns (an object's
+        point, a frame's point, a rotation: a traced KRL move scales a named object's point to mm)."""
         func = it.func if isinstance(it, ast.Call) else None
         bounded = (
             isinstance(it, ast.List | ast.Tuple | ast.Name)
@@ -381,7 +382,7 @@ class _Checker(ast.NodeVisitor):
                 isinstance(func, ast.Attribute)
                 and isinstance(func.value, ast.Name)
                 and func.value.id == "task"
-                and func.attr in TaskContext.FRAME_QUERIES
+                and func.attr in ("get_object_position", *TaskContext.FRAME_QUERIES)
             )
         )
         if not bounded:
