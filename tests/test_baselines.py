@@ -194,21 +194,22 @@ HOSTILE_OUTPUT = [  # what an LM must never get to run, whichever method asked i
 
 
 @pytest.mark.parametrize(
-    ("method", "robot"),
+    ("method", "task"),
     [
-        ("recent", "UR5e"),
-        ("recent+fast-path", "Sawyer"),  # on UR5e the fast path renders every span and never asks the LM
-        ("recent-full-regen", "UR5e"),
-        ("cap", "UR5e"),
-        ("repair", "UR5e"),
-        ("agentless", "UR5e"),
+        ("recent", "cube_in_bin"),
+        # on cube_in_bin the fast path renders every span; a Franka Hand place by name leaves the point open
+        ("recent+fast-path", "end_effector/build_tower"),
+        ("recent-full-regen", "cube_in_bin"),
+        ("cap", "cube_in_bin"),
+        ("repair", "cube_in_bin"),
+        ("agentless", "cube_in_bin"),
     ],
 )
-def test_the_security_gate_blocks_hostile_output_for_every_method(ontology, tmp_path, method, robot):
+def test_the_security_gate_blocks_hostile_output_for_every_method(ontology, tmp_path, method, task):
     marker = tmp_path / "pwned"
     texts = [t.format(path=str(marker)) for t in HOSTILE_OUTPUT] * 20
     agent, infiller = _agent(ontology, method, texts)
-    result = run_episode(agent, "cube_in_bin", robot, seed=0, max_steps=40)
+    result = run_episode(agent, task, "UR5e", seed=0, max_steps=40)
     assert infiller.units, "the method never asked the LM"
     assert not marker.exists()  # nothing hostile ran
     assert not result.success and all(c.category != "crash" for c in result.failures)
