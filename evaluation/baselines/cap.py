@@ -58,7 +58,8 @@ class CodeAsPoliciesApiExamples(CodeAsPolicies):
     API (other skills of the library, as the ontology renders them for the target with no LM),
     then the skill's source program and the task. Nothing of the task's own skills is shown in the
     target's API (that is cap-target-example). A target on which the ontology renders few skills
-    completely (Sawyer: only the skills without pick or place) gets what it renders."""
+    completely gets what it renders (a Franka Hand skill that places by name, on a robot that places
+    at a point, is not among them)."""
 
     style: ClassVar[BaselineStyle] = BaselineStyle("cap-api-examples", statement_repairs=0)
     api_examples: int = 2
