@@ -249,6 +249,12 @@ def test_a_name_based_place_onto_a_point_api_leaves_the_point_to_the_lm_and_hold
     conflict = diagnose(ontology, tower.name, tower.code, "UR5e", source="FrankaHand").conflicts[2]
     assert conflict.unfilled == ("place_pos",) and conflict.designated == (("place_pos", "base"),)
     unit = unit_from_conflict(tower.code, conflict, ontology.target("UR5e"))
+    retry = unit_from_conflict(tower.code, conflict, ontology.target("UR5e"), feedback="no", attempt=1)
+    grammar = build_prompt(retry, 20).grammar  # a retry is held to the one point the role admits
+    assert (
+        grammar.splitlines()[0]
+        == 'root ::= "ur5_release_at(env, task, place_pos=" "task.get_object_position(base)" ")" "\\n"'
+    )
     assert any(
         "place_pos is where the hand puts down the object it holds" in f and "instead: base" in f
         for f in unit.hints.facts
