@@ -65,5 +65,7 @@ def in_scope(code: str, offset: int) -> list[str]:
         if isinstance(node.value, ast.Constant) and isinstance(node.value.value, str):
             found.append(f"{var} (an object name: {node.value.value!r})")
         elif var in positions:
-            found.append(f"{var} (a point placed by {positions[var]}: {ast.unparse(node.value)})")
+            read = isinstance(node.value, ast.Call)  # task.get_object_position(name) itself
+            what = f"the position of {positions[var]}" if read else f"a point placed by {positions[var]}'s position"
+            found.append(f"{var} ({what}: {ast.unparse(node.value)})")
     return found
