@@ -121,7 +121,7 @@ def _points_at(code: str, text: str, param: str) -> str | None:
     try:
         names = position_names(code)
         calls = [n for n in ast.walk(ast.parse(textwrap.dedent(text))) if isinstance(n, ast.Call)]
-    except SyntaxError:
+    except (SyntaxError, ValueError):  # SkillCodeError: the answer left the function unparseable
         return None
     for call in calls:
         for keyword in call.keywords:

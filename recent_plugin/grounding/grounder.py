@@ -272,7 +272,7 @@ def _off_designated(text: str, statements: list[ast.stmt], unit: RefactoringUnit
     code = unit.prefix + unit.indent + text + unit.suffix
     try:
         names = position_names(code)
-    except SyntaxError:
+    except (SyntaxError, ValueError):  # a function that does not parse is reported by whole-program validation
         return None
     calls = [call for (callee, _), call in _ordered_calls(statements).items() if callee == unit.substitute]
     given = {k.arg: k.value for call in calls for k in call.keywords if k.arg}
