@@ -250,6 +250,10 @@ def test_a_name_based_place_onto_a_point_api_leaves_the_point_to_the_lm_and_hold
     assert conflict.unfilled == ("place_pos",) and conflict.designated == (("place_pos", "base"),)
     unit = unit_from_conflict(tower.code, conflict, ontology.target("UR5e"))
     retry = unit_from_conflict(tower.code, conflict, ontology.target("UR5e"), feedback="no", attempt=1)
+    first = build_prompt(unit_from_conflict(tower.code, conflict, ontology.target("UR5e")), 20).grammar
+    assert (
+        first.splitlines()[0] == 'root ::= "ur5_release_at(env, task, place_pos=" expr ")" "\\n"'
+    )  # the form, not the point
     grammar = build_prompt(retry, 20).grammar  # a retry is held to the one point the role admits
     assert (
         grammar.splitlines()[0]

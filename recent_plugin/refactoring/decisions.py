@@ -13,7 +13,7 @@ import ast
 from lerobot_policy_recent.ontology.conversions import POINTS
 from lerobot_policy_recent.ontology.diagnosis import Conflict
 from lerobot_policy_recent.ontology.skill_code import enclosing_function, position_names
-from lerobot_policy_recent.ontology.specs import ROLE_MEANINGS
+from lerobot_policy_recent.ontology.specs import NAMED_BY_POINT, ROLE_MEANINGS
 
 POSITION_QUERY = "task.get_object_position(name) reads a named object's position [x, y, z] (m, world frame)"
 
@@ -30,8 +30,10 @@ def decision_facts(code: str, conflict: Conflict) -> tuple[str, ...]:
         meaning = ROLE_MEANINGS.get(param.role)
         if meaning is None:
             continue
-        named = f"; the original call gave the object instead: {designated[name]}" if name in designated else ""
-        lines.append(f"{name} is {meaning}{named}")
+        lines.append(f"{name} is {meaning}")
+        if name in designated:  # what the original call said in the role this point stands for
+            said = ROLE_MEANINGS.get(NAMED_BY_POINT.get(param.role, ""), "the object it names")
+            lines.append(f"In the original call, {designated[name]} is {said}")
     scope = in_scope(code, conflict.span.start)
     if scope:
         lines.append("In scope: " + "; ".join(scope))

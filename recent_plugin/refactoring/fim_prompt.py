@@ -241,6 +241,10 @@ def build_prompt(unit: RefactoringUnit, span_tokens: int, window: str = "functio
         grammar = call_grammar(call, unit_name_variables(unit), unit.hints.designated)  # a retry held to the call
         forced = None if has_placeholders(call) else call + "\n"
         draft = call  # the grammar holds the retry to the call's own lines
+    elif call and unit.style is None and unit.span_type not in RUNTIME_SPAN_TYPES and has_placeholders(call):
+        # an open decision: the call's form is the ontology's, what fills its holes the LM's (left
+        # free, the 1.5B wrote `put_xyz = task.get_object_position(middle)`, an assignment, not the call)
+        grammar = call_grammar(call, unit_name_variables(unit))
     stop = ("\n", "  #") if single_line else ("\n\n",)
     if unit.style is not None:  # the method's own: Python as the model would write it, or its grammar
         grammar, stop = unit.style.grammar, unit.style.stop or stop
