@@ -36,6 +36,15 @@ def register(sub) -> None:
     embodiment.add_argument("--refresh", action="store_true", help="measure again, even if a calibration is cached")
     embodiment.add_argument("--json", action="store_true")
     embodiment.set_defaults(handler=_show_embodiment)
+    compose = actions.add_parser(
+        "compose",
+        help="draw new tasks: seeded compositions of subtasks on the suites' scenes (the same seed, the same draw)",
+    )
+    compose.add_argument("--seed", type=int, required=True, help="the draw seed")
+    compose.add_argument("--family", choices=("kinematic", "end_effector"), default="kinematic")
+    compose.add_argument("--count", type=int, default=6, help="tasks in the draw (default: 6)")
+    compose.add_argument("--json", action="store_true")
+    compose.set_defaults(handler=_compose)
     check = actions.add_parser(
         "check", help="run the canonical set on robots and on the Panda reference; exit 1 if one falls short"
     )
@@ -191,3 +200,41 @@ def _check(args) -> int:
     print(markdown(checks))
     print(f"\nrecords: {out}/episodes (rerun the same command to finish an interrupted check)")
     return 0 if all(c.passed for c in checks) else 1
+
+
+def _compose(args) -> int:
+    """Print a draw: each task's plan, its primitive calls and subtask categories, then the draw's figures."""
+    from lerobot_policy_recent.robosuite_envs.compose import PAPER_CALLS, draw
+    from lerobot_policy_recent.robosuite_envs.subtasks import SUBTASKS
+
+    def calls(spec) -> int:
+        return task_calls([s.skill for s in spec.plan]).primitives
+
+    try:
+        tasks = draw(args.family, args.seed, args.count, calls)
+    except ValueError as err:
+        raise SystemExit(f"recent envs compose: {err}") from None
+    rows = [
+        {
+            "task_id": t.task_id,
+            "instruction": t.instruction,
+            "plan": [{"subtask": s.subtask, **s.args} for s in t.plan],
+            "calls": calls(t),
+            "categories": sorted({SUBTASKS[s.subtask].category for s in t.plan}),
+        }
+        for t in tasks
+    ]
+    mean_calls = sum(r["calls"] for r in rows) / len(rows)
+    if args.json:
+        print(json.dumps({"family": args.family, "seed": args.seed, "mean_calls": mean_calls, "tasks": rows}, indent=2))
+        return 0
+    for row in rows:
+        plan = ", ".join(
+            f"{p['subtask']}({', '.join(str(v) for k, v in p.items() if k != 'subtask')})" for p in row["plan"]
+        )
+        print(f"{row['task_id']:<28} {row['calls']:>3} calls  {plan}")
+    print(
+        f"\n{len(rows)} {args.family} task(s), draw seed {args.seed}: mean {mean_calls:.1f} primitive calls per task "
+        f"(the paper: {PAPER_CALLS[args.family]}); not checked in simulation"
+    )
+    return 0

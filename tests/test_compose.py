@@ -1,0 +1,52 @@
+"""``recent envs compose``: seeded draws of new tasks over the subtask grammar and the suites' scenes."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from lerobot_policy_recent.robosuite_envs.compose import LENGTHS, PAPER_CALLS, draw, plan_key
+from lerobot_policy_recent.robosuite_envs.subtasks import SUBTASKS
+from lerobot_policy_recent.robosuite_envs.suites import SUITES
+from lerobot_policy_recent.scripts.cli import main
+from lerobot_policy_recent.skills.repository import task_calls
+
+
+def calls(spec) -> int:
+    return task_calls([s.skill for s in spec.plan]).primitives
+
+
+@pytest.mark.parametrize("seed", [101, 102, 103])
+def test_a_dev_draw_meets_the_papers_constraints_and_repeats_no_suite_task(seed):
+    tasks = draw("kinematic", seed, 6, calls)
+    assert [t.task_id for t in tasks] == [f"kinematic/draw{seed}_{i:02d}" for i in range(6)]
+    assert all(LENGTHS[0] <= len(t.plan) <= LENGTHS[-1] for t in tasks)
+    assert sum(calls(t) for t in tasks) / len(tasks) >= PAPER_CALLS["kinematic"]
+    family = {s.category for s in SUBTASKS.values() if s.family == "kinematic"}
+    assert {SUBTASKS[s.subtask].category for t in tasks for s in t.plan} == family
+    known = {plan_key(t.plan) for suite in SUITES.values() for t in suite}
+    assert not {plan_key(t.plan) for t in tasks} & known and len({plan_key(t.plan) for t in tasks}) == 6
+    for t in tasks:  # every argument is an object of the task's scene, and a pick-and-lift ends the plan
+        assert {v for s in t.plan for v in s.args.values()} <= set(t.object_names())
+        assert "pick_and_lift" not in [s.subtask for s in t.plan[:-1]]
+
+
+def test_a_seed_names_one_draw():
+    first, again, other = (draw("kinematic", s, 6, calls) for s in (7, 7, 8))
+    assert [plan_key(t.plan) for t in first] == [plan_key(t.plan) for t in again]
+    assert [plan_key(t.plan) for t in first] != [plan_key(t.plan) for t in other]
+
+
+def test_a_family_whose_scenes_cannot_hold_all_its_categories_says_which():
+    with pytest.raises(ValueError, match="scene rearrangement, tool use: a draw cannot hold all four"):
+        draw("end_effector", 5, 4, calls)
+
+
+def test_the_command_prints_a_draw_and_names_a_bad_family(capsys):
+    assert main(["envs", "compose", "--seed", "101", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["seed"] == 101 and len(out["tasks"]) == 6 and out["mean_calls"] >= 24.6
+    assert out["tasks"][0]["plan"][0]["subtask"] in SUBTASKS
+    with pytest.raises(SystemExit, match="no end_effector scene chains"):
+        main(["envs", "compose", "--seed", "5", "--family", "end_effector"])
