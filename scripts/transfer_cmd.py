@@ -43,6 +43,7 @@ def _run(args) -> int:
     from lerobot_policy_recent.evaluation.transfer import ground_cells, write_matrix
     from lerobot_policy_recent.skills.repository import list_skills
 
+    seeds, settings = (_seeds(args.seeds), _variation_settings(args.variations)) if args.execute else ((), ())
     agent = agent_from_args(args)
     skills = _names(args.skills, "--skills", list_skills(agent.library))
     robots = _names(args.robots, "--robots", list(EMBODIMENTS))
@@ -58,8 +59,8 @@ def _run(args) -> int:
     out = Path(args.out)
     more = ""
     if args.execute:
-        more = _execute(args, agent, cells, skills, out)
-        header["execution"] = {"seeds": _seeds(args.seeds), "variations": _csv(args.variations, "--variations")}
+        more = _execute(args, agent, cells, skills, out, seeds, settings)
+        header["execution"] = {"seeds": list(seeds), "variations": list(settings)}
     paths = write_matrix(cells, out, header, more)
     print(paths["md"].read_text(), end="")
     if args.execute:
@@ -68,7 +69,9 @@ def _run(args) -> int:
     return 1 if any(c.defect for c in cells) else 0
 
 
-def _execute(args, agent, cells, skills: list[str], out: Path) -> str:
+def _execute(
+    args, agent, cells, skills: list[str], out: Path, seeds: tuple[int, ...], settings: tuple[str, ...]
+) -> str:
     """Run every grounded cell's episodes (and its source robot's); the markdown of the execution columns."""
     from tqdm import tqdm
 
@@ -81,19 +84,12 @@ def _execute(args, agent, cells, skills: list[str], out: Path) -> str:
         run_execution,
         task_of,
     )
-    from lerobot_policy_recent.robosuite_envs.variations import parse_variations
     from lerobot_policy_recent.scripts.bench_cmd import git_commit
 
-    settings = _csv(args.variations, "--variations")
-    for setting in settings:
-        try:
-            parse_variations(setting)
-        except ValueError as err:
-            raise SystemExit(f"--variations: {err}") from None
     library = {name: agent.skill(name) for name in skills}
     tasks = task_of(library)
     sources = {name: skill.source_embodiment for name, skill in library.items()}
-    jobs = execution_jobs(cells, agent.settings.method.name, _seeds(args.seeds), tasks, sources)
+    jobs = execution_jobs(cells, agent.settings.method.name, seeds, tasks, sources)
     base = BenchConfig(out=out, workers=args.workers, ray_address=args.ray_address, log_sinks=(), agent=agent.settings)
     bar = tqdm(total=len(jobs) * len(settings), unit="episode", desc="transfer episodes")
 
@@ -110,6 +106,18 @@ def _execute(args, agent, cells, skills: list[str], out: Path) -> str:
     attach(cells, runs, tasks, sources)
     plot_execution(cells, out / "transfer_execution.png")
     return render_execution(cells)
+
+
+def _variation_settings(text: str) -> tuple[str, ...]:
+    from lerobot_policy_recent.robosuite_envs.variations import parse_variations
+
+    settings = _csv(text, "--variations")
+    for setting in settings:
+        try:
+            parse_variations(setting)
+        except ValueError as err:
+            raise SystemExit(f"--variations: {err}") from None
+    return settings
 
 
 def _csv(text: str, option: str) -> tuple[str, ...]:

@@ -151,3 +151,14 @@ def test_each_decision_the_lm_makes_is_scored_against_the_object_the_code_named(
         ("release_target", "middle", 1, True, True),
     ]
     assert "| release_target | 2 | 1 (50 %) | 2 (100 %) |" in render_table([cell])
+
+
+def test_bad_execution_options_are_named_before_anything_is_grounded(tmp_path):
+    base = [sys.executable, "-m", "lerobot_policy_recent.scripts.cli", "transfer", "--execute", f"--out={tmp_path}"]
+    for option, message in (
+        ("--seeds=3,x", "--seeds: expected a comma list of integers"),
+        ("--variations=bogus", "--variations: unknown variation(s) bogus"),
+    ):
+        done = subprocess.run([*base, option, "--infiller.type=rule"], capture_output=True, text=True)
+        assert done.returncode != 0 and done.stderr.strip().splitlines()[-1].startswith(message)
+    assert not (tmp_path / "transfer.json").exists()  # nothing grounded, nothing written
