@@ -25,14 +25,15 @@ from statistics import mean
 from lerobot_policy_recent.robosuite_envs.subtasks import SUBTASKS
 from lerobot_policy_recent.robosuite_envs.suites import (
     CLEAR,
+    DRAW_FORMAT,
     KITCHEN,
     PANEL,
     PEN_AND_ROW,
+    SCENES,
     SUITES,
     TOOL_BENCH,
     WORKSHOP,
     WORKSHOP_PANEL,
-    pantry,
     step,
     task,
 )
@@ -145,7 +146,7 @@ def _pantry() -> Scene:
                           [_loose(obj), _loose(second), "drawer_room"], first=obj, second=second, drawer="drawer")
                 )  # fmt: skip
     facts = frozenset([*(_loose(o) for o in loose), "drawer_shut", "box_shut", "drawer_room", "box_room"])
-    return Scene("pantry", "end_effector", pantry(), facts, tuple(moves))
+    return Scene("pantry", "end_effector", SCENES["pantry"], facts, tuple(moves))
 
 
 def _pen_and_row() -> Scene:
@@ -260,3 +261,30 @@ def plan_key(plan) -> tuple:
 def _describe(plan_step: PlanStep) -> str:
     arguments = ", ".join(f"{k}={v}" for k, v in plan_step.args.items())
     return f"{plan_step.subtask.replace('_', ' ')} ({arguments})"
+
+
+# ---------------------------------------------------------------------------------------- draw files
+
+
+def draw_document(family: str, seed: int, tasks: tuple[TaskSpec, ...]) -> dict:
+    """A draw as data: what ``recent envs compose --out`` writes and ``RECENT_TASKS`` reads back
+    (``suites.tasks_from_document``).
+    Each task is its scene's name and its plan, so the file is the draw, whatever the grammar becomes."""
+
+    def scene_of(spec: TaskSpec) -> str:
+        return next(name for name, objects in SCENES.items() if objects == spec.objects)
+
+    return {
+        "format": DRAW_FORMAT,
+        "family": family,
+        "seed": seed,
+        "tasks": [
+            {
+                "task_id": t.task_id,
+                "instruction": t.instruction,
+                "scene": scene_of(t),
+                "plan": [{"subtask": s.subtask, **s.args} for s in t.plan],
+            }
+            for t in tasks
+        ],
+    }

@@ -14,7 +14,11 @@ and 29), the longest 51 (the paper: 54); ``recent envs list`` recounts them from
 from __future__ import annotations
 
 import functools
+import json
+import os
+from pathlib import Path
 
+from lerobot_policy_recent.robosuite_envs.subtasks import SUBTASKS
 from lerobot_policy_recent.robosuite_envs.tasks import ObjectSpec, PlanStep, TaskSpec
 from lerobot_policy_recent.robosuite_envs.variations import OBSTACLE
 
@@ -152,6 +156,17 @@ PEN_AND_ROW = (  # SWEEP with a third block and a row to line the blocks up on
     ObjectSpec("green", "box", (-0.05, -0.25), (0.045, 0.045, 0.045), 0.015, GREEN),
     ObjectSpec("row", "region", (-0.25, 0.0), (0.06, 0.28, 0.001), 0.0, MARK),
 )
+
+# The scenes by name, as draw files name them (recent envs compose)
+SCENES: dict[str, tuple[ObjectSpec, ...]] = {
+    "kitchen": KITCHEN,
+    "workshop": WORKSHOP,
+    "tool_bench": TOOL_BENCH,
+    "pantry": pantry(),
+    "pen_and_row": PEN_AND_ROW,
+}
+TASKS_ENV = "RECENT_TASKS"  # draw files (os.pathsep-separated JSON) whose tasks join the suites'
+DRAW_FORMAT = 1
 
 # ---------------------------------------------------------------------------- suites
 K, E = "kinematic", "end_effector"
@@ -442,8 +457,49 @@ def validation_task(subtask: str) -> TaskSpec:
 
 @functools.cache
 def tasks() -> dict[str, TaskSpec]:
-    """Every task id → spec: ``cube_in_bin`` and the suites' ``<suite>/<task>`` ids."""
-    return {task.task_id: task for task in all_tasks()}
+    """Every task id → spec: ``cube_in_bin``, the suites' ``<suite>/<task>`` ids, and the tasks of the
+    draw files on ``RECENT_TASKS`` (``recent envs compose --out``)."""
+    return {task.task_id: task for task in (*all_tasks(), *drawn_tasks())}
+
+
+def drawn_tasks() -> tuple[TaskSpec, ...]:
+    """The tasks of the draw files on ``RECENT_TASKS`` (``os.pathsep``-separated JSON files)."""
+    found: list[TaskSpec] = []
+    for entry in filter(None, os.environ.get(TASKS_ENV, "").split(os.pathsep)):
+        path = Path(entry)
+        try:
+            data = json.loads(path.read_text())
+        except (OSError, ValueError) as err:
+            raise ValueError(f"{path}: not a draw file ({TASKS_ENV}): {err}") from None
+        found += tasks_from_document(data, str(path))
+    return tuple(found)
+
+
+def tasks_from_document(data: dict, source: str) -> tuple[TaskSpec, ...]:
+    """The tasks of a draw file; a bad file fails naming it and the field."""
+    try:
+        if data.get("format") != DRAW_FORMAT:
+            raise ValueError(f"format: expected {DRAW_FORMAT}, got {data.get('format')!r}")
+        family = data["family"]
+        named = {name: objects for name, objects in SCENES.items()}
+        out = []
+        for k, row in enumerate(data["tasks"]):
+            where = f"tasks[{k}]"
+            if row.get("scene") not in named:
+                raise ValueError(f"{where}.scene: {row.get('scene')!r} is not a scene ({', '.join(named)})")
+            plan = []
+            for j, entry in enumerate(row["plan"]):
+                args = {key: str(value) for key, value in entry.items() if key != "subtask"}
+                if entry.get("subtask") not in SUBTASKS:
+                    raise ValueError(f"{where}.plan[{j}].subtask: unknown subtask {entry.get('subtask')!r}")
+                plan.append(step(entry["subtask"], **args))
+            suite, name = row["task_id"].split("/", 1)
+            if suite != family:
+                raise ValueError(f"{where}.task_id: {row['task_id']!r} is not a {family} task")
+            out.append(task(family, name, row["instruction"], named[row["scene"]], *plan))
+        return tuple(out)
+    except (KeyError, TypeError, ValueError) as err:
+        raise ValueError(f"{source}: {err}") from None
 
 
 def get_task(task_id: str) -> TaskSpec:

@@ -44,6 +44,16 @@ def register(sub) -> None:
     compose.add_argument("--family", choices=("kinematic", "end_effector"), default="kinematic")
     compose.add_argument("--count", type=int, default=6, help="tasks in the draw (default: 6)")
     compose.add_argument("--json", action="store_true")
+    compose.add_argument(
+        "--out", default=None, help="write the draw to this JSON file; RECENT_TASKS=FILE makes its tasks runnable"
+    )
+    compose.add_argument(
+        "--check",
+        type=int,
+        default=None,
+        metavar="SEED",
+        help="run each drawn task once on its source robot (rule backend, variations off) on this dev seed",
+    )
     compose.set_defaults(handler=_compose)
     check = actions.add_parser(
         "check", help="run the canonical set on robots and on the Panda reference; exit 1 if one falls short"
@@ -225,16 +235,68 @@ def _compose(args) -> int:
         for t in tasks
     ]
     mean_calls = sum(r["calls"] for r in rows) / len(rows)
+    if args.out:
+        from pathlib import Path
+
+        from lerobot_policy_recent.robosuite_envs.compose import draw_document
+
+        Path(args.out).write_text(json.dumps(draw_document(args.family, args.seed, tasks), indent=1) + "\n")
+        print(f"wrote {args.out} (run its tasks with RECENT_TASKS={args.out})", file=sys.stderr)
+    if args.check is not None:
+        for row, outcome in zip(rows, _check_draw(tasks, args.check), strict=True):
+            row["check"] = outcome
     if args.json:
         print(json.dumps({"family": args.family, "seed": args.seed, "mean_calls": mean_calls, "tasks": rows}, indent=2))
-        return 0
+        return 0 if all(row.get("check", "ok") == "ok" for row in rows) else 1
     for row in rows:
         plan = ", ".join(
             f"{p['subtask']}({', '.join(str(v) for k, v in p.items() if k != 'subtask')})" for p in row["plan"]
         )
-        print(f"{row['task_id']:<28} {row['calls']:>3} calls  {plan}")
+        checked = f"  [{row['check']}]" if "check" in row else ""
+        print(f"{row['task_id']:<28} {row['calls']:>3} calls  {plan}{checked}")
+    where = f"checked on seed {args.check}" if args.check is not None else "not checked in simulation"
     print(
         f"\n{len(rows)} {args.family} task(s), draw seed {args.seed}: mean {mean_calls:.1f} primitive calls per task "
-        f"(the paper: {PAPER_CALLS[args.family]}); not checked in simulation"
+        f"(the paper: {PAPER_CALLS[args.family]}); {where}"
     )
-    return 0
+    return 0 if all(row.get("check", "ok") == "ok" for row in rows) else 1
+
+
+def _check_draw(tasks, seed: int) -> list[str]:
+    """Each task once on its source robot, the rule backend, variations off: "ok" or why it failed."""
+    import os
+    import tempfile
+    from pathlib import Path
+
+    from lerobot_policy_recent.evaluation.jobs import source_robot
+    from lerobot_policy_recent.recent_plugin.agent import RecentAgent
+    from lerobot_policy_recent.recent_plugin.episode import run_episode
+    from lerobot_policy_recent.recent_plugin.infillers.configs import RuleConfig
+    from lerobot_policy_recent.recent_plugin.settings import RecentSettings
+    from lerobot_policy_recent.robosuite_envs.compose import draw_document
+    from lerobot_policy_recent.robosuite_envs.suites import TASKS_ENV
+    from lerobot_policy_recent.robosuite_envs.suites import tasks as registry
+
+    family = tasks[0].suite
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "draw.json"
+        path.write_text(json.dumps(draw_document(family, 0, tasks)))
+        previous = os.environ.get(TASKS_ENV)
+        os.environ[TASKS_ENV] = os.pathsep.join(filter(None, [previous, str(path)]))
+        registry.cache_clear()
+        try:
+            agent = RecentAgent(RecentSettings(infiller=RuleConfig()))
+            outcomes = []
+            for spec in tqdm(tasks, desc="checking", unit="task", file=sys.stderr):
+                result = run_episode(
+                    agent, spec.task_id, source_robot(agent, spec.task_id), seed=seed, variations="off"
+                )
+                failure = result.failures[0].message if result.failures else result.unmet or "failed"
+                outcomes.append("ok" if result.success else failure)
+            return outcomes
+        finally:
+            if previous is None:
+                os.environ.pop(TASKS_ENV, None)
+            else:
+                os.environ[TASKS_ENV] = previous
+            registry.cache_clear()

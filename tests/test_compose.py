@@ -50,3 +50,32 @@ def test_the_command_prints_a_draw_and_names_a_bad_family(capsys):
     assert out["tasks"][0]["plan"][0]["subtask"] in SUBTASKS
     with pytest.raises(SystemExit, match="no end_effector scene chains"):
         main(["envs", "compose", "--seed", "5", "--family", "end_effector"])
+
+
+def test_a_draw_file_makes_its_tasks_runnable_and_a_bad_one_is_named(tmp_path, monkeypatch, capsys):
+    from lerobot_policy_recent.robosuite_envs.suites import TASKS_ENV, get_task, tasks
+
+    path = tmp_path / "draw.json"
+    assert main(["envs", "compose", "--seed", "101", "--out", str(path)]) == 0
+    monkeypatch.setenv(TASKS_ENV, str(path))
+    tasks.cache_clear()
+    try:
+        drawn = get_task("kinematic/draw101_03")
+        assert drawn.plan == draw("kinematic", 101, 6, calls)[3].plan and "bin" in drawn.object_names()
+        data = json.loads(path.read_text())
+        data["tasks"][1]["plan"][0]["subtask"] = "juggle"
+        path.write_text(json.dumps(data))
+        tasks.cache_clear()
+        with pytest.raises(ValueError, match=rf"{path}: tasks\[1\]\.plan\[0\]\.subtask: unknown subtask 'juggle'"):
+            get_task("kinematic/draw101_03")
+    finally:
+        monkeypatch.delenv(TASKS_ENV)
+        tasks.cache_clear()
+
+
+@pytest.mark.slow
+def test_every_task_of_a_dev_draw_is_checked_on_its_source_robot(capsys):
+    """Feasibility is a simulation run: the Panda's reference skills, variations off, one dev seed."""
+    assert main(["envs", "compose", "--seed", "101", "--check", "3", "--json"]) == 0
+    rows = json.loads(capsys.readouterr().out)["tasks"]
+    assert [row["check"] for row in rows] == ["ok"] * 6
