@@ -440,10 +440,12 @@ def all_tasks() -> tuple[TaskSpec, ...]:
 
 
 def get_suite(name: str) -> tuple[TaskSpec, ...]:
+    """A suite's tasks, then those of the draw files on ``RECENT_TASKS`` of that family."""
     try:
-        return SUITES[name]
+        listed = SUITES[name]
     except KeyError:
         raise KeyError(f"unknown suite {name!r}; known suites: {', '.join(SUITES)}") from None
+    return (*listed, *(t for t in drawn_tasks() if t.suite == name))
 
 
 def validation_task(subtask: str) -> TaskSpec:

@@ -62,6 +62,10 @@ def test_a_draw_file_makes_its_tasks_runnable_and_a_bad_one_is_named(tmp_path, m
     try:
         drawn = get_task("kinematic/draw101_03")
         assert drawn.plan == draw("kinematic", 101, 6, calls)[3].plan and "bin" in drawn.object_names()
+        from lerobot_policy_recent.evaluation.jobs import BenchConfig
+
+        jobs = BenchConfig(out=tmp_path, tasks=("draw101_03",), targets=("UR5e",), seeds=(3,)).jobs()
+        assert [(j.suite, j.task_id) for j in jobs] == [("kinematic", "kinematic/draw101_03")]  # recent bench runs it
         data = json.loads(path.read_text())
         data["tasks"][1]["plan"][0]["subtask"] = "juggle"
         path.write_text(json.dumps(data))
