@@ -44,6 +44,17 @@ def execution_jobs(
     ]
 
 
+def pending_count(base: BenchConfig, jobs: list[Job], variations: tuple[str, ...]) -> int:
+    """How many of the episodes a resumed run still has to run (the others have records)."""
+    from lerobot_policy_recent.evaluation.runner import pending
+
+    return sum(len(pending(_setting(base, jobs, setting))[1]) for setting in variations)
+
+
+def _setting(base: BenchConfig, jobs: list[Job], setting: str) -> BenchConfig:
+    return replace(base, out=base.out / "episodes" / setting, suites=(), extra=tuple(jobs), variations=setting)
+
+
 def run_execution(
     base: BenchConfig, jobs: list[Job], variations: tuple[str, ...], on_record=None, stamp: dict | None = None
 ) -> dict:
@@ -53,8 +64,7 @@ def run_execution(
 
     runs = {}
     for setting in variations:
-        config = replace(base, out=base.out / "episodes" / setting, suites=(), extra=tuple(jobs), variations=setting)
-        runs[setting] = run_bench(config, on_record=on_record, stamp=stamp).records
+        runs[setting] = run_bench(_setting(base, jobs, setting), on_record=on_record, stamp=stamp).records
     return runs
 
 

@@ -79,6 +79,7 @@ def _execute(
     from lerobot_policy_recent.evaluation.transfer_execution import (
         attach,
         execution_jobs,
+        pending_count,
         plot_execution,
         render_execution,
         run_execution,
@@ -91,7 +92,9 @@ def _execute(
     sources = {name: skill.source_embodiment for name, skill in library.items()}
     jobs = execution_jobs(cells, agent.settings.method.name, seeds, tasks, sources)
     base = BenchConfig(out=out, workers=args.workers, ray_address=args.ray_address, log_sinks=(), agent=agent.settings)
-    bar = tqdm(total=len(jobs) * len(settings), unit="episode", desc="transfer episodes")
+    total = len(jobs) * len(settings)
+    done = total - pending_count(base, jobs, settings)  # a resumed run's bar starts where it stopped
+    bar = tqdm(total=total, initial=done, unit="episode", desc="transfer episodes")
 
     def on_record(record: dict) -> None:
         bar.set_postfix_str(
