@@ -215,16 +215,18 @@ def _chainable(scene: Scene) -> set[str]:
     """The subtasks that appear in some chain of at least ``LENGTHS[0]`` subtasks on ``scene``."""
     found: set[str] = set()
 
-    def walk(facts: frozenset[str], plan: tuple[str, ...]) -> None:
+    def walk(facts: frozenset[str], plan: tuple[str, ...], ended: bool) -> None:
         if len(plan) >= LENGTHS[0]:
             found.update(plan)
-        if len(plan) == LENGTHS[-1] or (plan and plan[-1] in found and len(plan) >= LENGTHS[0]):
+        # a chain ends at the longest length, after a move that ends tasks, or (to bound the search)
+        # once it is long enough and its last subtask is already known to be chainable
+        if ended or len(plan) == LENGTHS[-1] or (len(plan) >= LENGTHS[0] and plan[-1] in found):
             return
         for move in scene.moves:
-            if move.needs <= facts and move.step.subtask not in plan and not (plan and plan[-1] == "pick_and_lift"):
-                walk((facts - move.ends) | move.starts, (*plan, move.step.subtask))
+            if move.needs <= facts and move.step.subtask not in plan:
+                walk((facts - move.ends) | move.starts, (*plan, move.step.subtask), move.last)
 
-    walk(scene.facts, ())
+    walk(scene.facts, (), False)
     return found
 
 
@@ -232,7 +234,8 @@ def _compose(
     rng: random.Random, family: str, seed: int, index: int, known_plans: set, weight: dict[str, int]
 ) -> TaskSpec:
     """One task: a scene, then subtasks chosen one by one among those its facts allow, a subtask that
-    makes more primitive calls the likelier (the paper's tasks are long)."""
+    makes more primitive calls the likelier (the paper's tasks are long: the weights are the reference
+    skills' call counts, so a seed names one draw for one library; the draw file is the record)."""
     while True:
         scene = rng.choice(scenes(family))
         length = rng.choice(LENGTHS)
