@@ -24,7 +24,7 @@ from lerobot_policy_recent.recent_plugin.failures import FailureCategory
 from lerobot_policy_recent.recent_plugin.infillers.base import Infiller
 from lerobot_policy_recent.recent_plugin.settings import RecentSettings
 from lerobot_policy_recent.robosuite_envs.splits import SPLITS, split_of
-from lerobot_policy_recent.robosuite_envs.suites import SEEDS, SUITES, get_suite, get_task
+from lerobot_policy_recent.robosuite_envs.suites import SEEDS, SUITES, get_suite
 
 SUITE_TARGETS = {
     suite + version: targets
@@ -144,7 +144,7 @@ class EpisodeRunner:
             result = run_episode(
                 agent,
                 job.task_id,
-                source_robot(agent, job.task_id) if agent.settings.method.on_source else job.target,
+                agent.source_robot(job.task_id) if agent.settings.method.on_source else job.target,
                 seed=job.seed,
                 variations=config.variations,
                 recorder=recorder,
@@ -154,14 +154,6 @@ class EpisodeRunner:
             record = crash_record(job, f"{type(exc).__name__}: {exc}", time.perf_counter() - started)
         captured = recorder.captured if recorder is not None else []
         return Outcome(record, captured[0] if captured else None)
-
-
-def source_robot(agent: RecentAgent, task_id: str) -> str:
-    """The robot a task's reference skills are written for (the ceiling row runs the episode there)."""
-    robots = {agent.skill(step.skill).source_embodiment for step in get_task(task_id).plan}
-    if len(robots) != 1:
-        raise ValueError(f"{task_id}: its skills come from {len(robots)} source robots ({', '.join(sorted(robots))})")
-    return robots.pop()
 
 
 @dataclass

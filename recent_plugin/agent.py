@@ -264,13 +264,20 @@ class RecentAgent:
             spec.object_names(),
         )
 
+    def source_robot(self, task_id: str) -> str:
+        """The robot a task's reference skills are written for (the ceiling row runs its episodes there)."""
+        robots = sorted({self.skill(step.skill).source_embodiment for step in get_task(task_id).plan})
+        if len(robots) != 1:
+            raise ValueError(f"{task_id}: its skills come from {len(robots)} source robots ({', '.join(robots)})")
+        return robots[0]
+
     def _check_source(self, task_id: str, robot: str) -> None:
         """A method that runs on the source robot (the bench's ceiling row) refuses any other robot."""
-        sources = sorted({self.skill(step.skill).source_embodiment for step in get_task(task_id).plan})
-        if sources != [robot]:
+        source = self.source_robot(task_id)
+        if source != robot:
             raise ValueError(
                 f"method {self.settings.method.name!r} runs a task on its skills' source robot "
-                f"({', '.join(sources)}), not on {robot}: pass --robot {sources[0]}, or use it in `recent bench`, "
+                f"({source}), not on {robot}: pass --robot {source}, or use it in `recent bench`, "
                 "which runs each target's episode there"
             )
 

@@ -440,12 +440,14 @@ def all_tasks() -> tuple[TaskSpec, ...]:
 
 
 def get_suite(name: str) -> tuple[TaskSpec, ...]:
-    """A suite's tasks, then those of the draw files on ``RECENT_TASKS`` of that family."""
+    """A suite's tasks, then those of the draw files on ``RECENT_TASKS`` of that family (read once,
+    with the registry: :func:`tasks`)."""
     try:
         listed = SUITES[name]
     except KeyError:
         raise KeyError(f"unknown suite {name!r}; known suites: {', '.join(SUITES)}") from None
-    return (*listed, *(t for t in drawn_tasks() if t.suite == name))
+    built_in = {t.task_id for t in all_tasks()}
+    return (*listed, *(t for tid, t in tasks().items() if tid not in built_in and t.suite == name))
 
 
 def validation_task(subtask: str) -> TaskSpec:

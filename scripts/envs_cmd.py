@@ -268,7 +268,6 @@ def _check_draw(tasks, seed: int) -> list[str]:
     import tempfile
     from pathlib import Path
 
-    from lerobot_policy_recent.evaluation.jobs import source_robot
     from lerobot_policy_recent.recent_plugin.agent import RecentAgent
     from lerobot_policy_recent.recent_plugin.episode import run_episode
     from lerobot_policy_recent.recent_plugin.infillers.configs import RuleConfig
@@ -288,9 +287,7 @@ def _check_draw(tasks, seed: int) -> list[str]:
             agent = RecentAgent(RecentSettings(infiller=RuleConfig()))
             outcomes = []
             for spec in tqdm(tasks, desc="checking", unit="task", file=sys.stderr):
-                result = run_episode(
-                    agent, spec.task_id, source_robot(agent, spec.task_id), seed=seed, variations="off"
-                )
+                result = run_episode(agent, spec.task_id, agent.source_robot(spec.task_id), seed=seed, variations="off")
                 failure = result.failures[0].message if result.failures else result.unmet or "failed"
                 outcomes.append("ok" if result.success else failure)
             return outcomes

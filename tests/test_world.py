@@ -12,7 +12,7 @@ from lerobot_policy_recent.robosuite_envs.splits import DEV_SEEDS, TEST_SEEDS, T
 from lerobot_policy_recent.robosuite_envs.subtasks import SUBTASKS
 from lerobot_policy_recent.robosuite_envs.suites import SUITES, all_tasks, get_suite, get_task, validation_task
 from lerobot_policy_recent.robosuite_envs.variations import FAR_TARGET_XY, VARIATIONS, parse_variations
-from lerobot_policy_recent.skills.repository import list_skills, load_skill
+from lerobot_policy_recent.skills.repository import list_skills
 
 PANDA_REACH = 0.855  # metres, Franka's published reach (UR5e: 0.85)
 FAST = {"press_button", "open_drawer", "insert_peg", "sweep_into_pen"}  # a representative subset for CI
@@ -82,15 +82,9 @@ def test_the_panda_reference_can_do_every_held_out_task_on_a_dev_seed(task_id, p
     """Feasibility only, and only on a dev seed: no test episode is run to tune anything. The Panda
     runs each setting's skills through that setting's source API (the Franka Hand's, by name, for
     the end-effector tasks)."""
-    result = run_episode(panda_agent, task_id, _source_robot(task_id), seed=DEV_SEEDS[0])
+    result = run_episode(panda_agent, task_id, panda_agent.source_robot(task_id), seed=DEV_SEEDS[0])
     assert result.success, result.failures
     assert all(skill.diagnosis.compatible for skill in result.grounding.skills)
-
-
-def _source_robot(task_id: str) -> str:
-    """The embodiment whose API the task's skills are written against: one for all of them."""
-    (source,) = {load_skill(step.skill).source_embodiment for step in get_task(task_id).plan}
-    return source
 
 
 def test_every_subtask_has_a_reference_skill_and_a_single_subtask_task():
@@ -106,7 +100,7 @@ def test_panda_reference_skill_achieves_the_subtask(subtask, panda_agent):
     from lerobot_policy_recent.recent_plugin.episode import run_episode
 
     task_id = validation_task(subtask).task_id
-    result = run_episode(panda_agent, task_id, _source_robot(task_id), seed=0)
+    result = run_episode(panda_agent, task_id, panda_agent.source_robot(task_id), seed=0)
     assert result.success, result.failures
 
 
