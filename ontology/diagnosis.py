@@ -409,8 +409,8 @@ def _designated(
     the original call names in that role (the way back from a name to a point)."""
     found = []
     for name in unfilled:
-        param = substitute.parameter(name)
-        named = original.by_role(NAMED_BY_POINT.get(param.role, "")) if param.type in POINTS else None
+        param = substitute.parameter(name)  # None: an argument of a preparatory call, not the substitute's
+        named = original.by_role(NAMED_BY_POINT.get(param.role, "")) if param and param.type in POINTS else None
         if named is not None and named.type == OBJECT_NAME and named.name in given:
             found.append((name, given[named.name]))
     return tuple(found)

@@ -416,3 +416,16 @@ def test_a_span_that_adds_a_statement_or_a_return_is_rejected(ontology):
     ):
         verdict = _check_span(added.replace("\n", "\n" + unit.indent), unit)
         assert verdict is not None and not verdict.ok and words in verdict.message
+
+
+def test_every_skill_on_every_robot_from_either_source_api_cuts_its_units(ontology):
+    """A placeholder may belong to a preparatory call rather than the substitute (a skill read against
+    the other source API leaves such ones): the diagnosis' designated points and the hint's facts skip it."""
+    from lerobot_policy_recent.skills.repository import list_skills, load_skill
+
+    for name in list_skills():
+        skill = load_skill(name)
+        for robot in ontology.apis:
+            for source in ("Panda", "FrankaHand"):
+                for conflict in diagnose(ontology, skill.name, skill.code, robot, source=source).conflicts:
+                    unit_from_conflict(skill.code, conflict, ontology.target(robot))

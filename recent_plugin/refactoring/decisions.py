@@ -26,6 +26,8 @@ def decision_facts(code: str, conflict: Conflict) -> tuple[str, ...]:
     lines, points = [], False
     for name in dict.fromkeys(conflict.unfilled):
         param = conflict.substitute.parameter(name)
+        if param is None:  # an argument of a preparatory call: its placeholder and the API line say what it is
+            continue
         points |= param.type in POINTS
         meaning = ROLE_MEANINGS.get(param.role)
         if meaning is None:
