@@ -16,6 +16,7 @@ import numpy as np
 from robosuite.utils.transform_utils import mat2quat, quat2axisangle, quat2mat, quat_multiply
 
 from lerobot_policy_recent.robosuite_envs.observation import ACTION_DIM
+from lerobot_policy_recent.robosuite_envs.primitives import clearance
 from lerobot_policy_recent.robosuite_envs.primitives.session import CONTROL_FREQ, PrimitiveFailure, RobotSession
 
 Action = np.ndarray
@@ -26,6 +27,7 @@ ROT_SCALE = 0.5  # radians per unit action
 ROT_DEADBAND = 0.06  # radians of orientation error left uncorrected while moving
 MAX_STEP = 0.02  # metres of goal displacement per control step (~0.4 m/s)
 POS_TOL = 0.008
+VIA_TOL = 0.02  # metres within which a waypoint the planner put on the way counts as passed
 SETTLED = 0.001  # metres per control step below which a servoed grip site counts as stopped
 STALL_STEPS = 10  # control steps a lowered load must not move (by SETTLED in all) to count as set down
 SET_DOWN_GAP = 0.02  # metres above its target a grip site may stop once the held object rests on the surface
@@ -67,6 +69,7 @@ def move_to(
     settle: bool = False,
     straight: bool = False,
     set_down: bool = False,
+    plan: bool = True,
 ) -> Steps:
     """Servo the grip site to ``target`` (world frame, metres); fail with ``timeout`` if it does not settle.
 
@@ -82,22 +85,32 @@ def move_to(
     ``set_down``: lowering a held object, which may reach the surface before the grip site reaches
     ``target`` (a target computed from a noisy read of the object's height): the move ends once
     the grip site has stopped just above it with the load in hand (:func:`load_rests`).
+    ``plan``: a move that is not ``straight`` goes over the perceived boxes its line would run the
+    hand or its load through (:mod:`.clearance`), and once held up on the way, it climbs over what
+    stopped it and plans again from there before it fails. A descent that comes down on the object
+    its goal lies in ends where the hand meets it (:func:`landed`): a goal read with noise may lie
+    inside the object, and what the step was for is checked by its effect, not by millimetres.
     """
     goal = as_position(target, "target position")
     if tol is None:
         tol = session.calibration.settle_tol_m if settle else POS_TOL
     if goal[2] < TABLE_CLEARANCE:
         raise PrimitiveFailure("out_of_workspace", f"target z={goal[2]:.3f} m is below the table surface")
+    if plan and not straight:
+        final = dict(tol=tol, settle=settle, set_down=set_down, stop_on_contact=stop_on_contact)
+        yield from _planned(session, goal, timeout_s, final)
+        return
     max_steps = max(1, int(timeout_s * CONTROL_FREQ))
     towards = _line_follower(session.obs.eef_pos, goal) if straight else (lambda _: goal)
     last = None
-    trail: deque[np.ndarray] = deque(maxlen=STALL_STEPS + 1)  # grip site positions, kept only for set_down
+    trail: deque[np.ndarray] = deque(maxlen=STALL_STEPS + 1)  # the grip site's latest positions
     for _ in range(max_steps):
         err = float(np.linalg.norm(goal - session.obs.eef_pos))
-        if set_down:
-            trail.append(session.obs.eef_pos.copy())
-            if load_rests(session, goal, trail, tol):
-                return
+        trail.append(session.obs.eef_pos.copy())
+        if set_down and load_rests(session, goal, trail, tol):
+            return
+        if not straight and landed(session, goal, trail):
+            return
         still = last is not None and float(np.linalg.norm(session.obs.eef_pos - last)) < SETTLED
         if settle:
             arrived = err < POS_TOL or (err < tol and still)
@@ -132,6 +145,55 @@ def move_to(
         )
     raise PrimitiveFailure(
         "timeout", f"did not reach {np.round(goal, 3).tolist()} within {timeout_s:.1f} s (error {err * 100:.1f} cm)"
+    )
+
+
+def _planned(session: RobotSession, goal: np.ndarray, timeout_s: float, final: dict) -> Steps:
+    """:func:`move_to` along the planner's path over perceived boxes; held up on the way, climb once
+    over what the hand or its load meets there and plan again from above it."""
+    sweep = clearance.Sweep.of(session.obs)
+    climbed = False
+    while True:
+        path = clearance.path_over(session.obs.eef_pos, goal, clearance.boxes(session.obs), sweep)
+        try:
+            for via in path[:-1]:
+                yield from move_to(session, via, timeout_s=timeout_s, tol=VIA_TOL, plan=False)
+            yield from move_to(session, goal, timeout_s=timeout_s, plan=False, **final)
+            return
+        except PrimitiveFailure as failure:
+            climb = None if climbed or failure.kind != "waypoint_blocked" else _climb(session, goal, sweep)
+            if climb is None:
+                raise
+            climbed = True
+            yield from move_to(session, climb, timeout_s=timeout_s, tol=VIA_TOL, plan=False)
+
+
+def _climb(session: RobotSession, goal: np.ndarray, sweep: clearance.Sweep) -> np.ndarray | None:
+    """Straight above the grip site, just high enough for the hand and its load to clear the perceived
+    boxes it meets where it stopped (not the goal's own); None where perception shows nothing there."""
+    here = np.asarray(session.obs.eef_pos, dtype=float)
+    met = [
+        box
+        for box in clearance.boxes(session.obs)
+        if not box.contains(goal, clearance.GOAL_MARGIN) and sweep.against(box, here)
+    ]
+    if not met:
+        return None
+    height = max(sweep.over(box) for box in met) + clearance.CLIMB_SPARE
+    return np.r_[here[:2], height] if height > here[2] + clearance.CLIMB_SPARE else None
+
+
+def landed(session: RobotSession, goal: np.ndarray, trail: Sequence[np.ndarray]) -> bool:
+    """The hand has come down on the object its goal lies in and stopped there: the grip site has not
+    moved over the last ``STALL_STEPS`` steps, the end effector's contact sensor fires, the goal lies
+    below it, and inside (or within perception's noise of) the box of an object it touches."""
+    if len(trail) <= STALL_STEPS or float(np.linalg.norm(trail[-1] - trail[0])) >= SETTLED:
+        return False
+    if goal[2] >= session.obs.eef_pos[2]:
+        return False
+    touched = set(session.obs.in_contact())
+    return any(
+        box.name in touched and box.contains(goal, clearance.GOAL_MARGIN) for box in clearance.boxes(session.obs)
     )
 
 

@@ -6,6 +6,7 @@ before it advances a primitive by one control step, and reads back the action it
 
 from __future__ import annotations
 
+from collections import deque
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -16,6 +17,8 @@ from lerobot_policy_recent.robosuite_envs.observation import Observation
 from lerobot_policy_recent.robosuite_envs.primitives.frames import WORLD_AT_ORIGIN, Frame
 
 CONTROL_FREQ = 20  # Hz; one yielded action = one env step
+TRACK_FRAMES = 10  # observations a position read combines (half a second at CONTROL_FREQ)
+TRACK_JUMP = 0.02  # metres an earlier sighting may lie from the newest and still be the same resting place
 
 
 class PrimitiveFailure(RuntimeError):
@@ -50,6 +53,7 @@ class RobotSession:
     hold_quat: np.ndarray = field(default=None)  # type: ignore[assignment]
     hold_yaw: bool = False  # set once a primitive aligns the gripper; until then only the tool axis is held
     frames: dict[str, Frame] = field(default_factory=lambda: {WORLD: WORLD_AT_ORIGIN})  # those its API declares
+    seen: deque[Observation] = field(default_factory=lambda: deque(maxlen=TRACK_FRAMES))  # the latest, newest last
 
     def frame(self, name: str) -> Frame:
         """A frame of this robot's API by name, or a ValueError that lists the frames it has."""
@@ -60,9 +64,26 @@ class RobotSession:
     def __post_init__(self) -> None:
         if self.hold_quat is None:
             self.hold_quat = np.array(self.obs.eef_quat, dtype=np.float64)
+        self.seen.append(self.obs)
 
     def update(self, obs: Observation) -> None:
         self.obs = obs
+        self.seen.append(obs)
+
+    def tracked_position(self, name: str) -> np.ndarray | None:
+        """Where ``name`` is, as a tracker estimates it from the latest sightings: the per-axis median of
+        the newest run of observations that lie within ``TRACK_JUMP`` of the newest one (one frame's read
+        errs by the perception's noise; an object that moved starts a new run). None where not in view."""
+        newest = self.obs.objects.get(name)
+        if newest is None:
+            return None
+        run = []
+        for obs in reversed(self.seen):
+            state = obs.objects.get(name)
+            if state is None or np.linalg.norm(np.asarray(state.pos) - newest.pos) > TRACK_JUMP:
+                break
+            run.append(np.asarray(state.pos, dtype=np.float64))
+        return np.median(run, axis=0) if run else np.asarray(newest.pos, dtype=np.float64)
 
 
 class TaskContext:
@@ -81,7 +102,9 @@ class TaskContext:
         return sorted(self._session.obs.objects)
 
     def get_object_position(self, name: str) -> list[float]:
-        position = [float(v) for v in self._state(name).pos]
+        """Where the object is (metres, world): the perception's track of it, not one noisy frame."""
+        self._state(name)
+        position = [float(v) for v in self._session.tracked_position(name)]
         self.position_reads.append((name, position))
         return position
 

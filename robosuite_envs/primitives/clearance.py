@@ -1,0 +1,171 @@
+"""Paths that pass over what perception sees: the shared controllers' small planner.
+
+A move's straight line may run the hand, or what it carries, through an object on the table (a
+slab that landed mid-task, a bin's wall, a block beside the one to grasp). The planner sweeps the
+hand's lowest parts (fingertips, or the held object's box) along the line against every perceived
+box, and where one is in the way it lifts the path over it: up from the start, across above the
+highest box crossed, down onto the goal. It plans from perception alone (boxes and the held
+object's size, never the simulator's geometry), so every embodiment, bundled or added by data,
+gets it through the controllers.
+
+What the move acts on is no obstacle: the box the goal lies in (the cube a grasp descends into, the
+button a press goes onto, the bin a release lowers into), and whatever already lies under the hand
+or its load where the move starts (a block the rake drags, an object a tool pushes along).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from lerobot_policy_recent.robosuite_envs.observation import Observation
+
+HAND_RADIUS = 0.07  # metres from the grip site the open hand reaches sideways (a Panda's open fingers touched a cube 7 cm off)
+FINGER_DEPTH = 0.02  # metres the fingertips reach below the grip site
+HAND_HEIGHT = 0.12  # metres of hand and wrist above the grip site that a box's underside could meet
+CLEAR_MARGIN = 0.02  # metres the hand's lowest point passes above a box's top
+GOAL_MARGIN = 0.01  # metres beyond a box within which a goal counts as the box's (perception's noise)
+SLIDE_DEPTH = 0.01  # metres below a box's top the hand's lowest point may pass before the box is in the way
+CLIMB_SPARE = 0.005  # metres a climb over a box that stopped the hand adds above the clearance
+
+
+@dataclass(frozen=True)
+class Box:
+    """An object's perceived axis-aligned box: its centre and half extents (metres, world)."""
+
+    name: str
+    centre: np.ndarray
+    half: np.ndarray
+
+    @property
+    def top(self) -> float:
+        return float(self.centre[2] + self.half[2])
+
+    def contains(self, point: np.ndarray, margin: float = 0.0) -> bool:
+        return bool(np.all(np.abs(np.asarray(point) - self.centre) <= self.half + margin))
+
+
+@dataclass(frozen=True)
+class Part:
+    """A box that moves with the grip site: its centre's offset from it and its half extents (metres)."""
+
+    offset: np.ndarray
+    half: np.ndarray
+
+    @property
+    def bottom(self) -> float:
+        """Its lowest point, relative to the grip site's height."""
+        return float(self.offset[2] - self.half[2])
+
+
+HAND = Part(  # fingertips FINGER_DEPTH below the grip site, the hand and wrist HAND_HEIGHT above it
+    offset=np.array([0.0, 0.0, (HAND_HEIGHT - FINGER_DEPTH) / 2]),
+    half=np.array([HAND_RADIUS, HAND_RADIUS, (HAND_HEIGHT + FINGER_DEPTH) / 2]),
+)
+
+
+@dataclass(frozen=True)
+class Sweep:
+    """What a moving hand occupies: its own box, and the held object's perceived box where it carries one."""
+
+    parts: tuple[Part, ...] = (HAND,)
+
+    @classmethod
+    def of(cls, obs: Observation) -> Sweep:
+        """The hand as it is now, with the held object's box hanging from it as perception places it."""
+        held = obs.held()
+        if held is None:
+            return cls()
+        load = obs.objects[held]
+        offset = np.asarray(load.pos, dtype=float) - np.asarray(obs.eef_pos, dtype=float)
+        return cls((HAND, Part(offset, np.asarray(load.size, dtype=float) / 2)))
+
+    def blocks(self, box: Box, start: np.ndarray, end: np.ndarray) -> bool:
+        """The grip site's segment ``start`` → ``end`` sinks the hand or its load into ``box`` by more
+        than ``SLIDE_DEPTH`` (a hand sliding along at a marking's height is meant to be there)."""
+        for part in self.parts:
+            low = box.centre - box.half - part.offset - part.half
+            high = box.centre + box.half - part.offset + part.half - [0.0, 0.0, SLIDE_DEPTH]
+            if _segment_meets(start, end, low, high):
+                return True
+        return False
+
+    def covers(self, box: Box, point: np.ndarray) -> bool:
+        """With the grip site at ``point``, the hand or its load reaches down beside or onto ``box``
+        (below its top): the box moves with the hand (dragged, pushed), or the hand is leaving it."""
+        point = np.asarray(point, dtype=float)
+        for part in self.parts:
+            centre = point + part.offset
+            beside = np.all(np.abs(centre[:2] - box.centre[:2]) <= box.half[:2] + part.half[:2])
+            if beside and centre[2] - part.half[2] < box.top and centre[2] + part.half[2] > box.centre[2] - box.half[2]:
+                return True
+        return False
+
+    def against(self, box: Box, point: np.ndarray) -> bool:
+        """With the grip site at ``point``, the hand or its load is on or against ``box`` (within
+        ``CLEAR_MARGIN`` of it): what may have stopped a move there."""
+        point = np.asarray(point, dtype=float)
+        return any(
+            np.all(np.abs(point + part.offset - box.centre) <= box.half + part.half + CLEAR_MARGIN)
+            for part in self.parts
+        )
+
+    def over(self, box: Box) -> float:
+        """The grip site's height at which the hand's and its load's lowest points clear ``box``'s top."""
+        return box.top + CLEAR_MARGIN - min(part.bottom for part in self.parts)
+
+
+def boxes(obs: Observation) -> list[Box]:
+    """Every object perception reports, as its box (the held one excluded: it moves with the hand)."""
+    held = obs.held()
+    return [
+        Box(name, np.asarray(state.pos, dtype=float), np.asarray(state.size, dtype=float) / 2)
+        for name, state in sorted(obs.objects.items())
+        if name != held and np.any(np.asarray(state.size) > 0)
+    ]
+
+
+def path_over(start, goal, obstacles: list[Box], sweep: Sweep) -> list[np.ndarray]:
+    """Waypoints from ``start`` to ``goal`` (the last is ``goal``) that keep the swept hand out of
+    every box in ``obstacles``: the straight line where it is clear; else up, across above the
+    boxes in the way, and down. Boxes the goal lies in, or that the hand covers at the start, are
+    what the move acts on and are passed through. Where going over does not help either (the
+    descent itself meets a box beside the goal) the straight line is kept: nothing is made worse."""
+    start, goal = np.asarray(start, dtype=float), np.asarray(goal, dtype=float)
+    in_the_way = [
+        box
+        for box in obstacles
+        if not box.contains(goal, GOAL_MARGIN) and not sweep.covers(box, start) and sweep.blocks(box, start, goal)
+    ]
+    if not in_the_way:
+        return [goal]
+    height = max(start[2], goal[2])
+    for _ in range(len(obstacles) + 1):  # each pass may only raise the crossing: it settles
+        crossed = [b for b in obstacles if sweep.blocks(b, np.r_[start[:2], height], np.r_[goal[:2], height])]
+        needed = max((sweep.over(b) for b in crossed), default=height)
+        if needed <= height:
+            break
+        height = needed
+    rise, across = np.r_[start[:2], height], np.r_[goal[:2], height]
+    legs = ((start, rise), (across, goal))
+    if any(sweep.blocks(b, a, z) for b in in_the_way for a, z in legs if not b.contains(goal, GOAL_MARGIN)):
+        return [goal]  # the climb or the descent itself meets the box: going over does not avoid it
+    return [p for p in (rise, across) if np.linalg.norm(p - start) > 1e-4 and np.linalg.norm(p - goal) > 1e-4] + [goal]
+
+
+def _segment_meets(start: np.ndarray, end: np.ndarray, low: np.ndarray, high: np.ndarray) -> bool:
+    """Whether the segment touches the axis-aligned box [low, high] (slab test)."""
+    start, end = np.asarray(start, dtype=float), np.asarray(end, dtype=float)
+    direction = end - start
+    enter, leave = 0.0, 1.0
+    for axis in range(3):
+        if abs(direction[axis]) < 1e-12:
+            if not low[axis] <= start[axis] <= high[axis]:
+                return False
+            continue
+        a, b = (low[axis] - start[axis]) / direction[axis], (high[axis] - start[axis]) / direction[axis]
+        enter, leave = max(enter, min(a, b)), min(leave, max(a, b))
+        if enter > leave:
+            return False
+    return True

@@ -1,0 +1,144 @@
+"""The shared controllers' motion: paths over perceived boxes, descents that end on what they meet,
+and positions read from a track of the perception rather than from one noisy frame."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+
+import numpy as np
+import pytest
+
+from lerobot_policy_recent.robosuite_envs.gym_env import RecentEnv
+from lerobot_policy_recent.robosuite_envs.observation import ObjectState, Observation
+from lerobot_policy_recent.robosuite_envs.primitives import clearance, control
+from lerobot_policy_recent.robosuite_envs.primitives.session import PrimitiveFailure, RobotSession, TaskContext
+
+SLAB = clearance.Box("slab", np.array([0.0, 0.0, 0.83]), np.array([0.05, 0.05, 0.015]))  # top at 0.845
+
+
+def test_a_straight_line_through_a_box_goes_up_across_and_down():
+    path = clearance.path_over([-0.2, 0.0, 0.85], [0.2, 0.0, 0.85], [SLAB], clearance.Sweep())
+    assert len(path) == 3 and np.allclose(path[-1], [0.2, 0.0, 0.85])
+    rise, across = path[0], path[1]
+    assert np.allclose(rise[:2], [-0.2, 0.0]) and np.allclose(across[:2], [0.2, 0.0])
+    fingertips = rise[2] - clearance.FINGER_DEPTH
+    assert fingertips >= SLAB.top + clearance.CLEAR_MARGIN - 1e-9  # the hand's lowest point clears the top
+
+
+def test_a_clear_line_the_goals_own_box_and_what_the_hand_drags_are_no_obstacles():
+    sweep = clearance.Sweep()
+    assert len(clearance.path_over([-0.2, 0.0, 0.95], [0.2, 0.0, 0.95], [SLAB], sweep)) == 1  # high above it
+    assert len(clearance.path_over([-0.2, 0.0, 0.95], [0.0, 0.0, 0.84], [SLAB], sweep)) == 1  # a descent into it
+    assert len(clearance.path_over([-0.06, 0.0, 0.84], [0.2, 0.0, 0.84], [SLAB], sweep)) == 1  # under the hand already
+
+
+def test_a_descent_beside_a_box_keeps_its_line_going_over_would_not_avoid_it():
+    path = clearance.path_over([-0.2, 0.0, 0.95], [0.07, 0.0, 0.83], [SLAB], clearance.Sweep())
+    assert len(path) == 1
+
+
+def test_a_held_load_is_swept_with_the_hand():
+    """A block hanging 4 cm below the grip site clears the slab only where the block's bottom does."""
+    eef = np.array([-0.2, 0.0, 0.9])
+    obs = Observation(
+        eef_pos=eef,
+        eef_quat=np.array([0.0, 0.0, 0.0, 1.0]),
+        gripper_opening=0.0,
+        objects={"block": ObjectState(eef - [0.0, 0.0, 0.04], np.zeros(4), np.array([0.05, 0.05, 0.05]))},
+        object_detected=True,
+    )
+    sweep = clearance.Sweep.of(obs)
+    assert len(sweep.parts) == 2
+    path = clearance.path_over(eef, [0.2, 0.0, 0.9], [SLAB], sweep)  # the bare hand would clear: 0.88 > 0.845
+    bottom = path[0][2] - 0.04 - 0.025
+    assert len(path) == 3 and bottom >= SLAB.top + clearance.CLEAR_MARGIN - 1e-9
+
+
+def _observation(positions: dict[str, list[float]]) -> Observation:
+    return Observation(
+        eef_pos=np.zeros(3),
+        eef_quat=np.array([0.0, 0.0, 0.0, 1.0]),
+        gripper_opening=0.0,
+        objects={
+            n: ObjectState(np.asarray(p, dtype=float), np.zeros(4), np.full(3, 0.04)) for n, p in positions.items()
+        },
+    )
+
+
+def test_a_position_read_is_the_tracks_estimate_not_one_noisy_frame():
+    rng = np.random.default_rng(0)
+    truth = np.array([0.1, -0.2, 0.82])
+    frames = [truth + rng.normal(0.0, 0.004, 3) for _ in range(10)]
+    session = RobotSession("Panda", _observation({"cube": frames[0]}))
+    for frame in frames[1:]:
+        session.update(_observation({"cube": frame}))
+    read = np.asarray(TaskContext(session).get_object_position("cube"))
+    assert np.linalg.norm(read - truth) < np.linalg.norm(frames[-1] - truth)
+    assert np.linalg.norm(read - truth) < 0.004
+
+
+def test_an_object_that_moved_is_read_where_it_is_now():
+    session = RobotSession("Panda", _observation({"cube": [0.0, 0.0, 0.82]}))
+    for _ in range(5):
+        session.update(_observation({"cube": [0.0, 0.0, 0.82]}))
+    session.update(_observation({"cube": [0.1, 0.0, 0.82]}))  # pushed 10 cm
+    assert TaskContext(session).get_object_position("cube") == pytest.approx([0.1, 0.0, 0.82])
+
+
+class _Arm:
+    """A Panda in a suite scene, driven by the shared controllers alone."""
+
+    def __init__(self, task: str):
+        self.env = RecentEnv(task=task, robot="Panda", render_mode="none")
+        self.names = self.env.spec_task.object_names()
+        raw, _ = self.env.reset(seed=0)
+        self.session = RobotSession("Panda", self._decode(raw))
+
+    def _decode(self, raw) -> Observation:
+        return Observation.decode(raw["agent_pos"], raw["environment_state"], self.names)
+
+    def run(self, steps: Iterator[np.ndarray]) -> None:
+        for action in steps:
+            raw, *_ = self.env.step(action)
+            self.session.update(self._decode(raw))
+
+    def position(self, name: str) -> np.ndarray:
+        return self.session.obs.objects[name].pos.copy()
+
+
+@pytest.fixture
+def arm():
+    arm = _Arm("kinematic/cube_in_bin")
+    yield arm
+    arm.env.close()
+
+
+def test_a_move_whose_line_runs_through_a_perceived_block_goes_over_it(arm):
+    """The cube (4.5 cm) stands between two points 3.8 cm above the table: planned, the closed hand
+    passes over it and arrives; sent along the straight line, it runs into the cube."""
+    block = arm.position("cube")
+    arm.run(control.actuate_gripper(arm.session, 1.0))
+    start, goal = block + [-0.15, 0.0, 0.015], block + [0.15, 0.0, 0.015]
+    arm.run(control.move_to(arm.session, start, timeout_s=6.0))
+    arm.run(control.move_to(arm.session, goal, timeout_s=6.0))
+    assert np.linalg.norm(arm.session.obs.eef_pos - goal) < control.POS_TOL
+    assert np.linalg.norm(arm.position("cube") - block) < 0.005  # untouched
+
+    arm.run(control.move_to(arm.session, start, timeout_s=6.0))
+    moved_or_blocked = False
+    try:
+        arm.run(control.move_to(arm.session, goal, timeout_s=6.0, plan=False))
+    except PrimitiveFailure:
+        moved_or_blocked = True
+    assert moved_or_blocked or np.linalg.norm(arm.position("cube") - block) > 0.02
+
+
+def test_a_press_aimed_inside_the_button_ends_where_the_fingertips_meet_it_pressed(arm):
+    """A goal read low lies inside the button: the descent stops on the cap, bottomed out, instead of
+    failing as a blocked waypoint; the button reads pressed."""
+    button = arm.position("button")
+    arm.run(control.actuate_gripper(arm.session, 1.0))
+    arm.run(control.move_to(arm.session, button + [0.0, 0.0, 0.08], timeout_s=6.0, settle=True))
+    arm.run(control.move_to(arm.session, button - [0.0, 0.0, 0.01], timeout_s=3.0, settle=True))
+    assert arm.session.obs.objects["button"].state == 1.0
+    assert arm.session.obs.eef_pos[2] > button[2] - 0.01 + control.POS_TOL  # it stopped on the cap, short of the goal
