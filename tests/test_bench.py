@@ -457,3 +457,18 @@ def test_the_ceiling_row_runs_the_source_robot_on_the_targets_episodes(bench_dir
     assert "## Against the ceiling" in report
     assert "| recent | kinematic-v1 | UR5e | 1 | 100 % | 100 % | 1.00 |" in report
     assert "| recent-no-insitu | kinematic-v1 | UR5e | 1 | 0 % | 100 % | 0.00 |" in report
+    assert "## Failures no check noticed" in report  # recent-no-insitu failed: whether anyone noticed is counted
+
+
+def test_the_report_counts_the_failures_no_check_noticed():
+    from lerobot_policy_recent.evaluation.report.tables import unnoticed_lines
+
+    records = [
+        {"method": "recent", "success": False, "failure_category": "subtask_failed"},
+        {"method": "recent", "success": False, "failure_category": "motion_planning"},
+        {"method": "recent", "success": True, "failure_category": None},
+        {"method": "source", "success": False, "failure_category": "grasp_lost"},
+    ]
+    lines = unnoticed_lines(records)
+    assert "| recent | 2 | 1 | 50 % |" in lines and "| source | 1 | 0 | 0 % |" in lines
+    assert unnoticed_lines([{"method": "recent", "success": True}]) == []

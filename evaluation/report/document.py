@@ -24,6 +24,7 @@ from lerobot_policy_recent.evaluation.report.tables import (
     per_target_table,
     split_results_table,
     target_checks,
+    unnoticed_lines,
 )
 from lerobot_policy_recent.evaluation.runner import lm_call_rows, load_records
 
@@ -71,6 +72,7 @@ def render_report(dirs: list[Path], out: Path) -> Path:
         *([f"![RECENT against each method]({paired.name})", ""] if paired else []),
         *lm_necessity_lines(records),
         *ceiling_lines(records),
+        *unnoticed_lines(records),
         *paper_ordering_lines(records),
         "## Headline targets",
         "",

@@ -418,6 +418,30 @@ def ceiling_lines(records: list[dict]) -> list[str]:
     return [*lines, ""]
 
 
+UNNOTICED = "subtask_failed"  # the plan ran to its end, no step failed, and a subtask's predicate does not hold
+
+
+def unnoticed_lines(records: list[dict]) -> list[str]:
+    """Per method, how many failed episodes no check noticed: every step ran, and the task still
+    failed. The record then names no step, so such a failure is unexplained; the target is none."""
+    failed = group([r for r in records if not r["success"]], lambda r: r["method"])
+    if not failed:
+        return []
+    lines = [
+        "## Failures no check noticed",
+        "",
+        "Every step ran and no check fired, but a subtask's predicate does not hold at the end "
+        f"(`{UNNOTICED}`): the record names no step, the effect or what was sensed.",
+        "",
+        "| method | failed episodes | noticed by nobody | share |",
+        "|---|---:|---:|---:|",
+    ]
+    for method, rs in sorted(failed.items(), key=lambda kv: _rank(kv[0])):
+        silent = sum(r.get("failure_category") == UNNOTICED for r in rs)
+        lines.append(f"| {method} | {len(rs)} | {silent} | {100.0 * silent / len(rs):.0f} % |")
+    return [*lines, ""]
+
+
 def _ceiling_key(record: dict) -> tuple[str, str, str]:
     return record["method"], record["suite"], record["target"]
 

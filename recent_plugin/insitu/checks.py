@@ -21,6 +21,7 @@ import numpy as np
 
 from lerobot_policy_recent.ontology.specs import PATH_ROLE, WORLD_FRAME, ApiSpec, ParameterSpec, Waypoint
 from lerobot_policy_recent.robosuite_envs.observation import POSITION_SIGMA, Observation
+from lerobot_policy_recent.robosuite_envs.primitives.clearance import FINGER_DEPTH
 from lerobot_policy_recent.robosuite_envs.primitives.frames import WORLD_AT_ORIGIN, Frame, argument_for, world_point
 
 FALSE_MOVES = 0.006  # the share of checks on a still object that may call it moved (each a needless patch)
@@ -53,7 +54,6 @@ TABLE_LIMIT = 0.3  # |x|, |y| a swept obstacle may end at (stays on the table)
 FINGER = 0.01  # metres from the hand's centre to the face that pushes
 PUSH_TOLERANCE = 0.03  # metres a pushed object may end from where the push should leave it
 FINGER_SPAN = 0.055  # metres from a grasp's centre an open jaw reaches: half a 2F-85's 8.5 cm stroke, and a pad
-FINGER_DEPTH = 0.02  # metres the fingertips reach below the grasp point
 
 
 @dataclass(frozen=True)

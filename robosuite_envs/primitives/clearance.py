@@ -21,7 +21,7 @@ import numpy as np
 
 from lerobot_policy_recent.robosuite_envs.observation import Observation
 
-HAND_RADIUS = 0.07  # metres from the grip site the open hand reaches sideways (a Panda's open fingers touched a cube 7 cm off)
+HAND_RADIUS = 0.07  # metres the open hand reaches sideways from the grip site (a Panda's touched a cube 7 cm off)
 FINGER_DEPTH = 0.02  # metres the fingertips reach below the grip site
 HAND_HEIGHT = 0.12  # metres of hand and wrist above the grip site that a box's underside could meet
 CLEAR_MARGIN = 0.02  # metres the hand's lowest point passes above a box's top

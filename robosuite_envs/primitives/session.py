@@ -67,8 +67,9 @@ class RobotSession:
         self.seen.append(self.obs)
 
     def update(self, obs: Observation) -> None:
+        if not self.seen or obs is not self.seen[-1]:  # the first frame is handed over twice (session, then step)
+            self.seen.append(obs)
         self.obs = obs
-        self.seen.append(obs)
 
     def tracked_position(self, name: str) -> np.ndarray | None:
         """Where ``name`` is, as a tracker estimates it from the latest sightings: the per-axis median of
