@@ -150,7 +150,8 @@ def move_to(
 
 def _planned(session: RobotSession, goal: np.ndarray, timeout_s: float, final: dict) -> Steps:
     """:func:`move_to` along the planner's path over perceived boxes; held up on the way, climb once
-    over what the hand or its load meets there and plan again from above it."""
+    over what the hand or its load meets there and plan again from above it. Each leg (climb, pass,
+    descent) has the move's ``timeout_s``: a detour is never cut short by a budget set for a line."""
     sweep = clearance.Sweep.of(session.obs)
     climbed = False
     while True:
