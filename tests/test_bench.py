@@ -113,7 +113,9 @@ def test_report_renders_tables_checks_and_plots(bench_dir, tmp_path, capsys):
     # the rule backend has no LM: the paper's targets are listed with their values, never ticked
     assert "not checked against the paper's targets: the rule backend has no LM" in report
     assert "- kinematic-v1: SR" not in report  # the paper's targets are for the paper-length suites only
-    assert "| episode: motion_planning |" in report  # failure categories per method (a place held up by the obstacle)
+    # failure categories per method: without in-situ checks the cube is set down on the slab, and nobody notices
+    assert "| episode: subtask_failed | 0 | 2 |" in report
+    assert "| recent-no-insitu | 2 | 2 | 100 % |" in report  # failures no check noticed
     assert "No held-out test episode in these runs: every number above is a dev number." in report
     assert "![RECENT against each method](paired.png)" in report  # the paired differences, drawn
     for png in ("sr_vs_go.png", "failures_by_method.png", "paired.png"):

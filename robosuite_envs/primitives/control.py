@@ -185,9 +185,13 @@ def _climb(session: RobotSession, goal: np.ndarray, sweep: clearance.Sweep) -> n
 
 
 def landed(session: RobotSession, goal: np.ndarray, trail: Sequence[np.ndarray]) -> bool:
-    """The hand has come down on the object its goal lies in and stopped there: the grip site has not
-    moved over the last ``STALL_STEPS`` steps, the end effector's contact sensor fires, the goal lies
-    below it, and inside (or within perception's noise of) the box of an object it touches."""
+    """The empty hand has come down on the object its goal lies in and stopped there: the grip site
+    has not moved over the last ``STALL_STEPS`` steps, the end effector's contact sensor fires, the
+    goal lies below it, and inside (or within perception's noise of) the box of an object it touches.
+    A load that comes down on something is :func:`load_rests`' to judge: set down on an obstacle
+    lying on the target, it must stay a blocked move the record names, not a release on top of it."""
+    if session.obs.held() is not None:
+        return False
     if len(trail) <= STALL_STEPS or float(np.linalg.norm(trail[-1] - trail[0])) >= SETTLED:
         return False
     if goal[2] >= session.obs.eef_pos[2]:
