@@ -41,7 +41,6 @@ from lerobot_policy_recent.robosuite_envs.primitives import PrimitiveFailure, Ro
 from lerobot_policy_recent.robosuite_envs.primitives.binding import bind_primitives
 from lerobot_policy_recent.robosuite_envs.primitives.control import servo_action
 from lerobot_policy_recent.robosuite_envs.primitives.frames import SKILL_HELPERS, frames_for
-from lerobot_policy_recent.robosuite_envs.primitives.session import TRACK_FRAMES
 
 DEFAULT_BUDGET = SkillBudget()
 _SAFE_BUILTINS = {name: SKILL_HELPERS.get(name) or getattr(builtins, name) for name in SAFE_HELPERS}
@@ -340,9 +339,6 @@ class TaskExecutor:
 
     def act(self, obs: Observation) -> np.ndarray:
         self.session.update(obs)
-        if self.index == 0 and self.current is None and len(self.session.seen) < TRACK_FRAMES:
-            # look before acting: the first position reads are tracks over TRACK_FRAMES sightings, not one frame
-            return servo_action(self.session, np.array(self.session.obs.eef_pos))
         while not self.finished:
             if self.current is None:
                 planned = self.plan[self.index]

@@ -142,25 +142,3 @@ def test_a_press_aimed_inside_the_button_ends_where_the_fingertips_meet_it_press
     arm.run(control.move_to(arm.session, button - [0.0, 0.0, 0.01], timeout_s=3.0, settle=True))
     assert arm.session.obs.objects["button"].state == 1.0
     assert arm.session.obs.eef_pos[2] > button[2] - 0.01 + control.POS_TOL  # it stopped on the cap, short of the goal
-
-
-def test_the_robot_looks_before_it_acts_so_its_first_reads_are_tracks(ontology, rule_infiller):
-    """The first skill starts once the tracker holds ``TRACK_FRAMES`` sightings; until then the hand
-    holds still. (A drawer pull computed from one noisy first read ran above the knob, and the cup slid off.)"""
-    from pathlib import Path
-
-    from lerobot_policy_recent.recent_plugin.executor import PlannedSkill, TaskExecutor
-    from lerobot_policy_recent.recent_plugin.grounding.grounder import ground_skill
-    from lerobot_policy_recent.robosuite_envs.primitives.session import TRACK_FRAMES
-    from lerobot_policy_recent.skills.repository import Skill
-
-    source = 'def go(env, task):\n    """Move the hand to the cube."""\n    move(env, task, target_pos=task.get_object_position("cube"))\n'
-    skill = Skill("go", "go", "move", "Panda", "move the hand to the cube", source, Path("go.py"))
-    grounded = ground_skill(skill, ontology.target("Panda"), ontology, rule_infiller)
-    obs = _observation({"cube": [0.0, 0.0, 0.9]})
-    executor = TaskExecutor([PlannedSkill(grounded)], ontology.target("Panda"), obs)
-    for frame in range(TRACK_FRAMES - 1):
-        action = executor.act(obs if frame == 0 else _observation({"cube": [0.0, 0.0, 0.9]}))
-        assert executor.current is None and np.allclose(action[:3], 0.0)  # looking: nothing started, holding
-    executor.act(_observation({"cube": [0.0, 0.0, 0.9]}))
-    assert executor.current is not None
