@@ -190,11 +190,10 @@ def landed(session: RobotSession, goal: np.ndarray, trail: Sequence[np.ndarray])
     goal lies below it, and inside (or within perception's noise of) the box of an object it touches.
     A load that comes down on something is :func:`load_rests`' to judge: set down on an obstacle
     lying on the target, it must stay a blocked move the record names, not a release on top of it."""
-    if session.obs.held() is not None:
-        return False
+    # cheapest first: this runs every control step of every move, and nearly always stops at the stall test
     if len(trail) <= STALL_STEPS or float(np.linalg.norm(trail[-1] - trail[0])) >= SETTLED:
         return False
-    if goal[2] >= session.obs.eef_pos[2]:
+    if goal[2] >= session.obs.eef_pos[2] or not session.obs.eef_contact or session.obs.held() is not None:
         return False
     touched = set(session.obs.in_contact())
     return any(
