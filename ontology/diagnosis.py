@@ -450,7 +450,10 @@ def _warnings(onto, site, original, target, source, robot, sites, bindings) -> l
 
     def warn(cond: str, phase: str = "before") -> None:
         spec = vocab[cond]
-        out.append(Warning(cond, site.span, target.name, spec.check, spec.observation, spec.message, phase))
+        check, observation, message = (
+            spec.as_effect if phase == "after" and spec.as_effect else (spec.check, spec.observation, spec.message)
+        )
+        out.append(Warning(cond, site.span, target.name, check, observation, message, phase))
 
     for cond in sorted(target.preconditions):
         if vocab[cond].kind != "runtime":
@@ -466,7 +469,7 @@ def _warnings(onto, site, original, target, source, robot, sites, bindings) -> l
     for cond in sorted(target.effects):
         if vocab[cond].kind != "runtime":
             continue
-        if vocab[cond].always:
+        if vocab[cond].always or vocab[cond].as_effect:
             warn(cond, phase="after")  # the world decides whether the effect happened: e.g. a push
         elif cond == "object_grasped" and onto.grippers[robot] != onto.grippers[source]:
             warn(cond, phase="after")  # another end effector: will the grasp hold?

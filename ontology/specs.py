@@ -171,6 +171,8 @@ class ConditionSpec:
     message: str | None = None
     excludes: frozenset[str] = frozenset()
     always: bool = False  # uncertain in any world: warned for every robot, the source robot included
+    # as a primitive's effect, checked once it has run, for every robot: (check, observation, message)
+    as_effect: tuple[str, str, str] | None = None
 
 
 CONDITIONS_PATH = Path(__file__).with_name("conditions.yaml")
@@ -199,6 +201,7 @@ def load_conditions(path: Path | str = CONDITIONS_PATH) -> dict[str, ConditionSp
             message=item.get("message"),
             excludes=frozenset(_str_list(item, "excludes", path, where) if "excludes" in item else ()),
             always=_flag(item, "always", path, where),
+            as_effect=_as_effect(item, path, where),
         )
     for cond in conditions.values():
         for other in cond.excludes:
@@ -209,6 +212,16 @@ def load_conditions(path: Path | str = CONDITIONS_PATH) -> dict[str, ConditionSp
                     path, f"conditions.{cond.name}.excludes", f"{other!r} does not exclude {cond.name!r} back"
                 )
     return conditions
+
+
+def _as_effect(item: dict, path: Path, where: str) -> tuple[str, str, str] | None:
+    """``as_effect: {check, observation, message}``: how the condition is checked after a primitive that produces it."""
+    if "as_effect" not in item:
+        return None
+    effect = item["as_effect"]
+    if not isinstance(effect, dict):
+        raise SpecError(path, f"{where}.as_effect", "must be a mapping with 'check', 'observation' and 'message'")
+    return tuple(_require(effect, key, str, path, f"{where}.as_effect") for key in ("check", "observation", "message"))
 
 
 def _flag(item: dict, key: str, path: Path, where: str) -> bool:

@@ -66,6 +66,10 @@ class Adapter(Protocol):
 
     def after_segment(self, executor: SkillExecutor, index: int) -> None: ...
 
+    def after_skill(self, executor: SkillExecutor) -> str | None:
+        """Once the last statement has run: may append statements to run; a text names an unmet effect."""
+        ...
+
     def repair(self, executor: SkillExecutor, failure: SkillFailure) -> bool: ...
 
 
@@ -162,6 +166,8 @@ class SkillExecutor:
         self.failure: SkillFailure | None = None
         self.emit = emit
         self._segment_start = 0  # self.steps when the running segment started
+        self._ended = False  # the adapter found what the skill left as it should be
+        self.segment_obs = session.obs  # what the robot sensed when the running segment started
 
     @staticmethod
     def _defaults(func: ast.FunctionDef) -> dict[str, object]:
@@ -229,7 +235,7 @@ class SkillExecutor:
     def step(self) -> np.ndarray | None:
         """Advance by one action; segments without primitive calls complete within the same step."""
         self.meter.new_step()
-        while self.failure is None and self.cursor < len(self.segments):
+        while self.failure is None and (self.cursor < len(self.segments) or self._reopened()):
             if self.steps >= self.max_steps:
                 self._fail(FailureCategory.TIMEOUT, f"skill exceeded {self.max_steps} control steps", repairable=False)
                 return None
@@ -240,7 +246,7 @@ class SkillExecutor:
                         segment.checked = True
                         self.adapter.before_segment(self, self.cursor)
                     self._running = self._compile(self.segments[self.cursor])
-                    self._segment_start = self.steps
+                    self._segment_start, self.segment_obs = self.steps, self.session.obs
                     self.emit(SegmentStarted(self.grounded.skill, self.cursor, self.segments[self.cursor].source))
                 self.meter.enter()
                 try:
@@ -264,6 +270,17 @@ class SkillExecutor:
             except Exception as exc:  # noqa: BLE001 - any error in skill code fails the skill, not the episode
                 self._fail(runtime_category(exc), f"{type(exc).__name__}: {exc}")
         return None
+
+    def _reopened(self) -> bool:
+        """At the end: the adapter checks what the skill left, and may append statements to run again."""
+        if self.adapter is None or self._ended:
+            return False
+        unmet = self.adapter.after_skill(self)
+        if unmet is not None:
+            self._fail(FailureCategory.EFFECT_UNMET, unmet, repairable=False)
+            return False
+        self._ended = self.cursor >= len(self.segments)
+        return not self._ended
 
     def _fail(self, category: FailureCategory, message: str, *, repairable: bool = True) -> None:
         segment = self.segments[min(self.cursor, len(self.segments) - 1)]

@@ -18,6 +18,7 @@ class FailureCategory(StrEnum):
     TIMEOUT = "timeout"
     BUDGET_EXCEEDED = "budget_exceeded"  # skill code stopped by the executor: too long without an action, or too big
     CANNOT_TRACK = "cannot_track"  # calibration, not grounding: the arm stopped short of a goal it was sent to
+    EFFECT_UNMET = "effect_unmet"  # a step's declared effect was sensed missing, and doing it again did not help
     SUBTASK_FAILED = "subtask_failed"  # ran to the end, success predicate false
     CRASH = "crash"  # not the method's failure: the run broke off (the LM worker died, an error); no verdict
 

@@ -93,6 +93,8 @@ def _show(args) -> int:
     print(f"# subtask: {skill.subtask}")
     print(f"# preconditions: {', '.join(skill.preconditions) or '-'}")
     print(f"# effects: {', '.join(skill.effects) or '-'}")
+    if skill.state_effects:
+        print(f"# leaves: {'; '.join(f'{e.parameter} state {e.wanted}' for e in skill.state_effects)}")
     print(f"# capabilities: {', '.join(skill.capabilities or derived_capabilities(skill))}")
     sites = source_call_sites(skill)
     print(f"# call sites: {', '.join(f'{s.name} (line {s.span.line})' for s in sites) or '-'}")

@@ -6,6 +6,7 @@ primitive API, with no imports: the executor binds the primitives of the robot i
 
 from __future__ import annotations
 
+import ast
 import functools
 import hashlib
 from dataclasses import dataclass
@@ -29,6 +30,29 @@ class SkillNotValidatedError(RuntimeError):
 
 
 @dataclass(frozen=True)
+class StateEffect:
+    """What a skill leaves in the perceived state of an object one of its parameters names: a
+    drawer's opening (m), a lid's angle (rad), a button lit (0/1), the share of an area wiped.
+
+    Declared by the skill's author from what the code does (it pulls 12 cm: the drawer ends at
+    least 10 cm out), never from an evaluation's thresholds; checked once the skill has run.
+    """
+
+    parameter: str  # the entry's parameter that names the object
+    at_least: float | None = None
+    at_most: float | None = None
+
+    def unmet(self, state: float) -> bool:
+        return (self.at_least is not None and state < self.at_least) or (
+            self.at_most is not None and state > self.at_most
+        )
+
+    @property
+    def wanted(self) -> str:
+        return f"at least {self.at_least:g}" if self.at_least is not None else f"at most {self.at_most:g}"
+
+
+@dataclass(frozen=True)
 class Skill:
     name: str
     entry: str
@@ -40,6 +64,7 @@ class Skill:
     preconditions: tuple[str, ...] = ()
     effects: tuple[str, ...] = ()
     capabilities: tuple[str, ...] = ()  # what the source robot must be able to do (union over its call sites)
+    state_effects: tuple[StateEffect, ...] = ()  # what it leaves in the perceived state of the objects it acts on
 
     @property
     def code_sha256(self) -> str:
@@ -60,7 +85,8 @@ def load_skill(name: str, library: Path = LIBRARY) -> Skill:
         raise ValueError(f"{meta_path}: missing field(s) {', '.join(missing)}")
     code = code_path.read_text()
     tree = parse_skill(code, str(code_path))
-    if not any(getattr(node, "name", None) == meta["entry"] for node in tree.body):
+    entry = next((node for node in tree.body if getattr(node, "name", None) == meta["entry"]), None)
+    if not isinstance(entry, ast.FunctionDef):
         raise ValueError(f"{meta_path}: entry {meta['entry']!r} is not a function defined in {code_path.name}")
     return Skill(
         name=name,
@@ -73,6 +99,7 @@ def load_skill(name: str, library: Path = LIBRARY) -> Skill:
         preconditions=_names(meta, "preconditions", meta_path),
         effects=_names(meta, "effects", meta_path),
         capabilities=_names(meta, "capabilities", meta_path),
+        state_effects=_state_effects(meta, meta_path, {a.arg for a in entry.args.args} - {"env", "task"}),
     )
 
 
@@ -96,6 +123,29 @@ def _names(meta: dict, key: str, path: Path) -> tuple[str, ...]:
     if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
         raise ValueError(f"{path}: field {key!r} must be a list of names, got {value!r}")
     return tuple(value)
+
+
+def _state_effects(meta: dict, path: Path, parameters: set[str]) -> tuple[StateEffect, ...]:
+    """``state_effects: [{object: drawer, at_least: 0.10}]``: each names a parameter of the entry and one bound."""
+    value = meta.get("state_effects") or []
+    if not isinstance(value, list):
+        raise ValueError(f"{path}: field 'state_effects' must be a list, got {value!r}")
+    effects = []
+    for item in value:
+        bounds = {k: v for k, v in item.items() if k in ("at_least", "at_most")} if isinstance(item, dict) else {}
+        if (
+            not isinstance(item, dict)
+            or set(item) - {"object", "at_least", "at_most"}
+            or item.get("object") not in parameters
+            or len(bounds) != 1
+            or not all(isinstance(v, int | float) and not isinstance(v, bool) for v in bounds.values())
+        ):
+            raise ValueError(
+                f"{path}: field 'state_effects' entry {item!r} must be {{object: <one of {sorted(parameters)}>, "
+                "at_least: <number>}} or {{object: ..., at_most: <number>}}"
+            )
+        effects.append(StateEffect(item["object"], **{k: float(v) for k, v in bounds.items()}))
+    return tuple(effects)
 
 
 def source_call_sites(skill: Skill) -> list[CallSite]:

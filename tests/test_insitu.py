@@ -19,16 +19,17 @@ from lerobot_policy_recent.recent_plugin.infillers.configs import RuleConfig
 from lerobot_policy_recent.recent_plugin.infillers.rule import RuleInfiller
 from lerobot_policy_recent.recent_plugin.insitu.adapter import changed_assignment, latest_definitions, recomputation
 from lerobot_policy_recent.recent_plugin.insitu.checks import (
-    CLEARANCE,
     FALSE_MOVES,
+    FINGER_SPAN,
     MOVED,
-    SWEEP_MARGIN,
+    SLIDE_SHORT,
     CheckInput,
     Derivation,
     SceneFacts,
     drift_threshold,
     fingers_clear,
     object_unmoved,
+    placed_at_target,
     pushed_to_goal,
     target_clear,
     within_reach,
@@ -294,7 +295,7 @@ def test_checks_decide_from_geometry_not_from_kind_names():
     (sweep,) = violation.statements
     start, goal = (np.array(v) for v in _positions(sweep))
     # its centre moves its own half width past the clearance (a 10 cm slab's 2 cm farther), from 2 cm before it
-    assert np.linalg.norm(goal[:2] - start[:2]) == pytest.approx(0.03 + CLEARANCE + SWEEP_MARGIN + 0.02, abs=1e-3)
+    assert np.linalg.norm(goal[:2] - start[:2]) == pytest.approx(0.03 + FINGER_SPAN + SLIDE_SHORT + 0.02, abs=1e-3)
     listed = SceneFacts(frozenset(), {"post": (0.06, 0.06, 0.09)})  # listed as fixed to the table: not clutter
     assert target_clear(CheckInput(obs, args, params, frozenset(), {}, listed, UR5E)) is None
 
@@ -337,7 +338,7 @@ def test_an_obstacle_beside_the_grasp_is_swept_away_from_the_object_first():
     beside = check(cube=[-0.060, -0.285, 0.821], obstacle=[-0.060, -0.364, 0.812])
     assert beside.check == "fingers_clear" and "2.9 cm from the grasp" in beside.observation
     (sweep,) = beside.statements
-    assert sweep == "ur5_push_to(env, task, contact_pos=[0.020, -0.364, 0.822], goal_pos=[-0.105, -0.364, 0.822])"
+    assert sweep == "ur5_push_to(env, task, contact_pos=[0.020, -0.364, 0.822], goal_pos=[-0.130, -0.364, 0.822])"
     assert check(cube=[-0.060, -0.285, 0.821], obstacle=[-0.060, -0.45, 0.812]) is None  # beyond the fingers
     assert check(cube=[-0.060, -0.285, 0.821], block=[-0.060, -0.345, 0.821]) is None  # a task object: placed apart
 
@@ -481,3 +482,134 @@ def test_an_object_the_hand_holds_has_not_moved_out_from_under_the_skill():
     obs = replace(obs, eef_pos=np.array([0.1, -0.05, 0.935]), object_detected=True)
     inp = CheckInput(obs, {}, (), frozenset({"red"}), {"obj_pos": ("red", [0.1, -0.05, 0.83])}, scene, UR5E)
     assert object_unmoved(inp) is None
+
+
+def _library_with(tmp_path, name: str, code: str) -> str:
+    """A copy of the bundled library where skill ``name`` runs ``code`` (same metadata, same effects)."""
+    import shutil
+
+    from lerobot_policy_recent.skills.records import LIBRARY
+
+    library = tmp_path / "library"
+    shutil.copytree(LIBRARY, library)
+    (library / f"{name}.py").write_text(code)
+    return str(library)
+
+
+SHALLOW_PRESS = '''def press_button(env, task, button="button"):
+    """A press that stops 4 cm above the cap: scripted to miss its effect."""
+    cap_pos = task.get_object_position(button)
+    close_gripper(env, task)
+    move(env, task, target_pos=[cap_pos[0], cap_pos[1], cap_pos[2] + 0.08], timeout=6.0)
+    move(env, task, target_pos=[cap_pos[0], cap_pos[1], cap_pos[2] + 0.05], timeout=3.0)
+    move(env, task, target_pos=[cap_pos[0], cap_pos[1], cap_pos[2] + 0.08], timeout=3.0)
+'''
+SHORT_PULL = '''def open_drawer(env, task, drawer="drawer"):
+    """A pull of 3 cm where the skill declares 10: scripted to miss its effect."""
+    knob = task.get_object_position(drawer)
+    grasp_handle(env, task, handle_name=drawer)
+    move_to_position(env, task, pos=[knob[0] - 0.03, knob[1], knob[2] + 0.005])
+    release_handle(env, task)
+    move_to_position(env, task, pos=[knob[0] - 0.03, knob[1], knob[2] + 0.08])
+'''
+SCRIPTED_MISSES = [
+    (
+        "press_button",
+        SHALLOW_PRESS,
+        "kinematic/press_button",
+        "Panda",
+        "button's state reads 0.000; the skill leaves it at least 0.5",
+    ),
+    ("open_drawer", SHORT_PULL, "end_effector/open_drawer", "FrankaHand", "the skill leaves it at least 0.1"),
+]
+
+
+@pytest.mark.parametrize("insitu", [True, False], ids=["insitu", "no-insitu"])
+@pytest.mark.parametrize(("skill", "code", "task", "robot", "said"), SCRIPTED_MISSES, ids=["pressed", "opened"])
+def test_a_step_that_left_its_state_unreached_is_done_again_and_then_fails_by_name(
+    ontology, tmp_path, insitu, skill, code, task, robot, said
+):
+    """The skill's metadata says what it leaves (a button lit, a drawer 10 cm out). A scripted step that
+    misses it is run again from the current scene (``max_repairs`` times, no LM), then the skill fails as
+    ``effect_unmet`` naming the object and what perception read: never a silent ``subtask_failed``.
+    Without in-situ adaptation (the paper's ablation) nothing is checked, and the episode ends unnoticed."""
+    method = method_named("recent" if insitu else "recent-no-insitu")
+    method.offline_validation = False  # the scripted skill was never validated
+    settings = RecentSettings(infiller=RuleConfig(), method=method, skill_library=_library_with(tmp_path, skill, code))
+    agent = RecentAgent(settings, infiller=RuleInfiller(), ontology=ontology)
+    result = run_episode(agent, task, robot, seed=0)
+    assert not result.success
+    if not insitu:
+        assert not result.failures and not [e for e in result.adaptations if e.checks == ("state_reached",)]
+        return
+    (failure,) = result.failures
+    assert failure.category == "effect_unmet" and failure.skill == skill and said in failure.message
+    reruns = [e for e in result.adaptations if e.checks == ("state_reached",)]
+    assert len(reruns) == settings.max_repairs and all(e.attempts == 0 for e in reruns)
+    assert "task.get_object_position" in reruns[0].after.splitlines()[0]  # the skill again, from a fresh read
+    assert result.ei == 0
+
+
+def test_the_bundled_press_lights_the_button_and_its_check_passes(panda_agent):
+    result = run_episode(panda_agent, "kinematic/press_button", "Panda", seed=0)
+    assert result.success and not result.adaptations
+
+
+ROBOTIQ85 = load_api_spec(api_spec_path("robotiq85"))
+BLOCK = (0.05, 0.05, 0.05)
+
+
+def test_a_place_is_checked_where_the_object_came_to_rest():
+    """By point (UR5e): the block rests at the release point, not beside it, nor on a slab lying there.
+    By name (2F-85): the block rests on the receptacle's box; the tower's base under it is not counted."""
+    scene = SceneFacts(frozenset({"red", "green", "slab"}), {"red": BLOCK, "green": BLOCK, "slab": (0.1, 0.1, 0.03)})
+
+    def by_point(**at):
+        release = UR5E.get("ur5_release_at").parameters
+        args = {"place_pos": [0.1, 0.0, 0.845]}
+        return placed_at_target(CheckInput(observed(**at), args, release, frozenset({"red"}), {}, scene, UR5E))
+
+    assert by_point(red=[0.11, 0.01, 0.826]) is None  # settled 1.4 cm off: within the tolerance
+    beside = by_point(red=[0.1, 0.09, 0.826])
+    assert beside.rerun and beside.regrasp and "red rests at [0.100, 0.090, 0.826], 9.0 cm across" in beside.observation
+    assert by_point(red=[0.1, 0.0, 0.875], slab=[0.1, 0.0, 0.815]) is not None  # on the slab, 3 cm up
+
+    place = ROBOTIQ85.get("place_robotiq85").parameters
+    named = frozenset({"red", "green", "blue"})
+
+    def by_name(**at):
+        inp = CheckInput(observed(**at), {"obj_name": "red"}, place, named, {}, replace(scene, loose=named), ROBOTIQ85)
+        return placed_at_target(inp)
+
+    # a rake carried in by its handle, 10 cm from its middle: where its middle should end is the release
+    # point plus that offset (without what the hand carried in, the cube lying nearby was judged instead)
+    rake = ObjectState(np.array([0.1, 0.1, 0.86]), np.array([0, 0, 0, 1.0]), size=np.array([0.04, 0.22, 0.03]))
+    hand = Observation(np.array([0.1, 0.0, 0.86]), np.array([0, 0, 0, 1.0]), 0.0, {"rake": rake}, object_detected=True)
+    assert hand.held() == "rake"
+    release = UR5E.get("ur5_release_at").parameters
+    args, now = {"place_pos": [0.1, 0.0, 0.845]}, observed(rake=[0.1, 0.1, 0.83], cube=[0.3, 0.0, 0.82])
+    rakes = replace(scene, loose=frozenset({"rake", "cube"}), sizes={"rake": (0.04, 0.22, 0.03), "cube": BLOCK})
+    put_back = CheckInput(now, args, release, frozenset({"rake", "cube"}), {}, rakes, UR5E, before=hand)
+    assert placed_at_target(put_back) is None
+    assert placed_at_target(
+        replace(put_back, obs=observed(rake=[0.1, 0.2, 0.83], cube=[0.3, 0.0, 0.82]))
+    ).observation.startswith("rake rests")
+
+    tower = {"green": [-0.25, 0.0, 0.825], "red": [-0.25, 0.0, 0.875]}
+    assert by_name(**tower, blue=[-0.248, 0.004, 0.925]) is None
+    fell = by_name(**tower, blue=[-0.17, 0.02, 0.825])
+    assert fell is not None and fell.observation.startswith("blue rests at") and "from red at" in fell.observation
+
+
+@pytest.mark.slow
+def test_a_block_that_fell_off_the_tower_is_grasped_and_put_there_again(ontology, rule_infiller):
+    """The Franka Hand's own stack on dev seed 3: the top block ends beside the tower; the place's effect
+    check sees it, and the skill's last grasp and place run again (copied, no LM)."""
+    agent = RecentAgent(
+        RecentSettings(infiller=RuleConfig(), method=method_named("source")), infiller=rule_infiller, ontology=ontology
+    )
+    result = run_episode(agent, "end_effector/line_up_then_stack", "FrankaHand", seed=3, variations="on")
+    (event,) = [e for e in result.adaptations if e.checks == ("placed_at_target",)]
+    assert "blue rests at" in event.observation and "across from red" in event.observation
+    assert event.after.splitlines() == [event.before, "pick(env, task, obj_name=top)", event.before]
+    assert result.success and result.ei == 0

@@ -425,3 +425,17 @@ def test_bundled_robots_are_robot_files_of_the_format_users_write():
         row = load_robot_file(BUNDLED_DIR / f"{api}.yaml")
         assert EMBODIMENTS[row.name] == row
     assert Path(EMBODIMENTS["Suction"].gripper_mjcf).is_file()  # a path beside the robot file
+
+
+def test_a_condition_checked_as_an_effect_names_its_check_observation_and_message(tmp_path):
+    """``as_effect`` is read with the vocabulary: a missing part is named by its path in the file."""
+    from lerobot_policy_recent.ontology.specs import CONDITIONS_PATH, SpecError, load_conditions
+
+    assert load_conditions()["object_at_target"].as_effect[0] == "placed_at_target"
+    text = CONDITIONS_PATH.read_text().replace(
+        "      message: the released object may not rest where it was put (it slid off, or fell beside)\n", ""
+    )
+    bad = tmp_path / "conditions.yaml"
+    bad.write_text(text)
+    with pytest.raises(SpecError, match=r"conditions\.object_at_target\.as_effect\.message: missing required field"):
+        load_conditions(bad)

@@ -103,6 +103,34 @@ def test_skills_show_prints_code_metadata_and_last_validation(capsys):
     assert main(["skills", "show", "open_drawer"]) == 0
     out = capsys.readouterr().out
     assert "def open_drawer(" in out and "# effects:" in out and "seeds passed [0, 1, 42, 123, 2024]" in out
+    assert "# leaves: drawer state at least 0.1" in out
+
+
+@pytest.mark.parametrize(
+    "entry",
+    [
+        "{object: knob, at_least: 0.1}",
+        "{object: drawer}",
+        "{object: drawer, at_least: 0.1, at_most: 0.2}",
+        "{object: drawer, at_least: open}",
+        "drawer",
+    ],
+)
+def test_a_state_effect_must_name_a_parameter_and_one_bound(tmp_path, entry):
+    """``state_effects`` entries are checked when the skill loads: the file, the field and the entry are named."""
+    import shutil
+
+    from lerobot_policy_recent.skills import repository
+
+    library = tmp_path / "library"
+    shutil.copytree(repository.LIBRARY, library)
+    meta = library / "open_drawer.yaml"
+    meta.write_text(meta.read_text().split("state_effects:")[0] + f"state_effects: [{entry}]\n")
+    with pytest.raises(
+        ValueError,
+        match=r"open_drawer\.yaml: field 'state_effects' entry .* must be \{object: <one of \['drawer'\]>",
+    ):
+        repository.load_skill("open_drawer", library)
 
 
 def test_a_broken_skill_file_disables_that_skill_not_the_commands(tmp_path, monkeypatch, capsys):

@@ -64,6 +64,10 @@ class BaselineAdapter:
     def after_segment(self, executor: SkillExecutor, index: int) -> None:
         """Baselines check no effects (they react to failures only)."""
 
+    def after_skill(self, executor: SkillExecutor) -> str | None:
+        """Baselines check no effects (they react to failures only)."""
+        return None
+
     def repair(self, executor: SkillExecutor, failure: SkillFailure) -> bool:
         name = executor.grounded.skill
         if not self._budget.take(executor, failure):

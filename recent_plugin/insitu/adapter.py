@@ -66,6 +66,8 @@ from lerobot_policy_recent.recent_plugin.refactoring.units import (
     cut_unit,
 )
 from lerobot_policy_recent.recent_plugin.sandbox import UNKNOWN, evaluate_now
+from lerobot_policy_recent.robosuite_envs.observation import Observation
+from lerobot_policy_recent.skills.repository import StateEffect
 
 log = logging.getLogger(__name__)
 
@@ -82,8 +84,11 @@ class InSituAdapter:
     calls: list[LMCall] = field(default_factory=list)
     events: list[AdaptationEvent] = field(default_factory=list)
     emit: Emit = ignore  # the loggers' view: check verdicts, infiller calls, patches
+    # per skill: what it leaves in the perceived state of the objects it acts on (its metadata)
+    state_effects: dict[str, tuple[StateEffect, ...]] = field(default_factory=dict)
     _budget: RepairBudget = field(init=False)
     _reruns: Counter = field(default_factory=Counter)  # effects done again, per skill
+    _bodies: dict[str, tuple[Segment, ...]] = field(default_factory=dict)  # each skill's statements as grounded
 
     def __post_init__(self) -> None:
         self._budget = RepairBudget(self.max_repairs)
@@ -99,6 +104,44 @@ class InSituAdapter:
             segment.guards = tuple(w for w in inside if w.phase == "before")
             if isinstance(segment.node, ast.Expr):  # a bare call: doing it again repeats exactly that call
                 segment.effects = tuple(w for w in inside if w.phase == "after")
+        self._bodies[grounded.skill] = tuple(replace(s) for s in segments)
+
+    def after_skill(self, executor: SkillExecutor) -> str | None:
+        """Once the skill's last statement has run: is every object's state what the skill leaves it?
+
+        A state the skill did not reach (a drawer still shut, a button unlit) is answered by running
+        the skill's statements again from the current scene, as grounded, with their checks, up to
+        ``max_repairs`` times; after that the unmet state is returned, to fail the skill by name.
+        """
+        skill = executor.grounded.skill
+        if not self.insitu or not self.state_effects.get(skill):
+            return None
+        unmet = []
+        for effect in self.state_effects[skill]:
+            met, observation = state_reached(effect, executor.namespace.get(effect.parameter), executor.session.obs)
+            self.emit(CheckVerdict(skill, len(executor.segments) - 1, "state_reached", met, observation))
+            if not met:
+                unmet.append(observation)
+        if not unmet:
+            return None
+        observation = f"after {skill}: " + "; ".join(unmet)
+        if self._reruns[skill] >= self.max_repairs:
+            return observation
+        self._reruns[skill] += 1
+        body = self._bodies[skill]
+        at = len(executor.segments)
+        self._insert_copy(
+            executor,
+            executor.segments[-1],
+            at,
+            [s.source for s in body],
+            ("state_reached",),
+            observation,
+            shown=[s.source for s in body],
+        )
+        for copy, original in zip(executor.segments[at:], body, strict=False):  # one statement each
+            copy.guards, copy.effects, copy.checked = original.guards, original.effects, False
+        return None
 
     def before_segment(self, executor: SkillExecutor, index: int) -> None:
         segment = executor.segments[index]
@@ -133,7 +176,7 @@ class InSituAdapter:
         observation = "; ".join(v.observation for v in violations)
         checks = tuple(v.check for v in violations)
         if any(v.rerun for v in violations):
-            self._rerun(executor, segment, at, checks, observation)
+            self._rerun(executor, segment, at, checks, observation, regrasp=any(v.regrasp for v in violations))
             return
         statements = tuple(dict.fromkeys(s for v in violations for s in v.statements))
         if not statements:  # nothing a patch can change (e.g. the object is not there): run and see
@@ -187,21 +230,36 @@ class InSituAdapter:
             scene=self.scene,
             api=self.target.api,
             frames=executor.session.frames,
+            before=executor.segment_obs if warning.phase == "after" else None,
         )
         return CHECKS[warning.check](inp)
 
-    def _rerun(self, executor: SkillExecutor, segment: Segment, at: int, checks, observation: str) -> None:
+    def _rerun(
+        self, executor: SkillExecutor, segment: Segment, at: int, checks, observation: str, *, regrasp: bool = False
+    ) -> None:
         """An effect that did not happen: run the statement again, after what it uses is recomputed.
 
-        The patch is code the skill already holds — copied, not generated — so no LM is asked. The
-        copy is checked again once it completes, up to ``max_repairs`` times per skill.
+        ``regrasp``: the object left the hand (a place that did not hold), so the skill's latest grasp
+        before the statement is done again first, from a fresh read. The patch is code the skill
+        already holds — copied, not generated — so no LM is asked. The copy is checked again once it
+        completes, up to ``max_repairs`` times per skill.
         """
-        redo = recomputation(executor.segments[: segment.index], segment.node, set(executor.primitives))
-        redo += (segment.source,)
+        primitives = set(executor.primitives)
+        earlier = executor.segments[: segment.index]
+        grasp = self._latest_grasp(earlier) if regrasp else None
+        redo: tuple[str, ...] = ()
+        if grasp is not None:
+            redo = (*recomputation(earlier[: grasp.index], grasp.node, primitives), grasp.source)
+        redo += (*recomputation(earlier, segment.node, primitives), segment.source)
         self._insert_copy(executor, segment, at, redo, checks, observation, shown=(segment.source, *redo))
         self._reruns[executor.grounded.skill] += 1
         if self._reruns[executor.grounded.skill] <= self.max_repairs:
             executor.segments[at + len(redo) - 1].effects = segment.effects
+
+    def _latest_grasp(self, earlier: list[Segment]) -> Segment | None:
+        """The last of ``earlier`` that calls a primitive of this robot that grasps an object."""
+        grasps = {p.name for p in self.target.api.primitives if "grasp_object" in p.capabilities}
+        return next((s for s in reversed(earlier) if _calls(s.node) & grasps), None)
 
     def _insert_copy(self, executor, segment, at, statements, checks, observation, *, shown) -> None:
         """Put statements the skill already holds before segment ``at``, and record it (no LM call)."""
@@ -408,6 +466,14 @@ def _same_value(node: ast.expr, wanted: ast.expr, namespace: dict) -> bool:
         return False
 
 
+def state_reached(effect: StateEffect, name: object, obs: Observation) -> tuple[bool, str]:
+    """Whether perception reads the object's state as the skill leaves it, and what it read."""
+    seen = obs.objects.get(name) if isinstance(name, str) else None
+    if seen is None:
+        return False, f"{name!r} ({effect.parameter}) is not in view: its state cannot be read"
+    return not effect.unmet(seen.state), f"{name}'s state reads {seen.state:.3f}; the skill leaves it {effect.wanted}"
+
+
 def _guards(warning: Warning, node: ast.stmt) -> bool:
     """The warning's check belongs to this statement: it contains the warned call, or (a span
     rendered one statement per line) it is one of the lines the warning guards."""
@@ -415,6 +481,11 @@ def _guards(warning: Warning, node: ast.stmt) -> bool:
     if warning.through is None:
         return first <= warning.span.line <= last
     return warning.span.line <= first <= warning.span.line + warning.through
+
+
+def _calls(node: ast.AST) -> set[str]:
+    """The functions a statement calls by name."""
+    return {n.func.id for n in ast.walk(node) if isinstance(n, ast.Call) and isinstance(n.func, ast.Name)}
 
 
 def _bare(source: str, executor: SkillExecutor) -> str:

@@ -49,10 +49,14 @@ def drift_threshold(sigma: float, false_rate: float = FALSE_MOVES) -> float:
 # perception's noise explains (about 2 cm at 4 mm), and within what a grasp or a place on a 5 cm block tolerates
 MOVED = drift_threshold(POSITION_SIGMA)
 CLEARANCE = 0.03  # metres around a release target that must be free
-SWEEP_MARGIN = 0.025  # metres a swept obstacle ends beyond the clearance (it slides on a little, or stops short)
+SLIDE_SHORT = 0.025  # metres a swept obstacle may stop short of where the hand leaves it
 TABLE_LIMIT = 0.3  # |x|, |y| a swept obstacle may end at (stays on the table)
 FINGER = 0.01  # metres from the hand's centre to the face that pushes
 PUSH_TOLERANCE = 0.03  # metres a pushed object may end from where the push should leave it
+PLACE_TOLERANCE = 0.04  # metres a released object may settle from the point it was released over
+SETTLED_ABOVE = 0.02  # metres above that point it may rest: a place ends once its load rests, up to 2 cm high
+FINGERTIPS = 0.015  # metres: half the closed fingertips' footprint, what comes down first on an empty sweep
+START_MARGIN = 0.005  # metres a sweep's start is moved beyond what it would come down on
 FINGER_SPAN = 0.055  # metres from a grasp's centre an open jaw reaches: half a 2F-85's 8.5 cm stroke, and a pad
 
 
@@ -92,6 +96,7 @@ class CheckInput:
     api: ApiSpec
     derived: tuple[Derivation, ...] = ()  # the statements between those reads and the call, in order
     frames: dict[str, Frame] | None = None  # the robot's, where its API takes other frames than the world
+    before: Observation | None = None  # for an effect: what the robot sensed when the statement started
 
 
 @dataclass(frozen=True)
@@ -103,6 +108,7 @@ class Violation:
     rerun: bool = False  # an effect that did not happen: do the statement again from the current scene
     cue: str = ""  # the observation as the LM's hint shows it; empty: ``observation`` itself
     follow: tuple[str, ...] = ()  # the skill's own statements, copied in after the patch (what derives from it)
+    regrasp: bool = False  # with ``rerun``: the object is no longer in hand, so its grasp is done again first
 
 
 Check = Callable[[CheckInput], Violation | None]
@@ -266,7 +272,8 @@ def _described(size) -> str:
 def sweep_statements(inp: CheckInput, obstacle: str, held: set[str]) -> tuple[str, ...]:
     """Slide the hand (and whatever it holds) through the obstacle until it is clear of the target.
 
-    The side is the one where the swept obstacle ends farthest from everything else on the table
+    The start must be free: the hand (or its load) does not come down on anything else there, once
+    moved a little across the sweep if need be. Among free starts, the side is the one where the swept obstacle ends farthest from everything else on the table
     (objects it rests on excepted), preferring sideways sweeps: they keep the hand as far from the
     base as the target itself, so they stay in reach. (Requiring an open finger's reach of
     clearance instead turned most sweeps towards the base, and the Panda holding the cube could
@@ -275,28 +282,71 @@ def sweep_statements(inp: CheckInput, obstacle: str, held: set[str]) -> tuple[st
     state = inp.obs.objects[obstacle]
     size = extents(inp, obstacle)
     centre, half = np.asarray(state.pos, dtype=float), max(size[:2]) / 2
-    shift = half + CLEARANCE + SWEEP_MARGIN  # its centre moves this far: its near side ends clear of the target
+    # how far its centre moves: at best its near side ends an open finger's reach from the target (what is
+    # put there may be grasped again: a slab swept only clear of it was in the fingers' way at the next
+    # pick); where that would run it into something else, less, down to just clear of the target
+    shifts = (
+        half + FINGER_SPAN + SLIDE_SHORT,
+        half + (FINGER_SPAN + CLEARANCE) / 2 + SLIDE_SHORT,
+        half + CLEARANCE + SLIDE_SHORT,
+    )
     carried = max((extents(inp, n) for n in held), key=lambda s: s[2], default=None)
     bottom = centre[2] - size[2] / 2
     # the held object's lower face (or the closed fingertips, ~2 cm below the grip site) just above the surface
     height = bottom + (0.012 + carried[2] / 2 if carried else 0.025)
     lead = carried[0] / 2 if carried else 0.01  # grip site to the face that touches the obstacle
+
+    def beneath(name: str, seen) -> bool:
+        """The obstacle rests on it: its top is below the obstacle's middle, under the obstacle's centre
+        (its top read against the obstacle's bottom, each with perception's noise, would not tell)."""
+        size = extents(inp, name)
+        inside = np.all(np.abs(centre[:2] - seen.pos[:2]) < np.asarray(size[:2]) / 2)
+        return bool(inside and seen.pos[2] + size[2] / 2 < centre[2])
+
     others = [
         (s.pos[:2], np.asarray(extents(inp, n)[:2]) / 2)
         for n, s in inp.obs.objects.items()
-        if n != obstacle and n not in held and s.pos[2] + extents(inp, n)[2] / 2 > bottom + 0.005
+        if n != obstacle and n not in held and s.pos[2] + extents(inp, n)[2] / 2 > bottom + 0.005 and not beneath(n, s)
     ]
 
-    def gap(direction: np.ndarray) -> float:
+    # what comes down at the start: the load's footprint, or the closed fingertips'
+    footprint = np.asarray(carried[:2], dtype=float) / 2 if carried else np.full(2, FINGERTIPS)
+
+    def shift(direction: np.ndarray) -> float:
+        """The farthest of ``shifts`` that leaves the obstacle clear of everything else (else the least)."""
+        return next((d for d in shifts if gap(direction, d) > 0.0), shifts[-1])
+
+    def gap(direction: np.ndarray, shift: float) -> float:
         end = centre[:2] + direction * shift
         if np.any((np.abs(end) + half > TABLE_LIMIT) & (np.abs(end) > np.abs(centre[:2]))):
             return -1.0  # farther out than it is, off the table (where it already lies out there, alongside is fine)
         return min((float(np.max(np.abs(end - pos) - extent - half)) for pos, extent in others), default=1.0)
 
+    def start_of(direction: np.ndarray) -> tuple[bool, np.ndarray]:
+        """Where the hand comes down to start the sweep, moved across the sweep off anything else lying
+        there (by at most a quarter of the obstacle's width: the hand still pushes near its middle),
+        and whether that leaves it free."""
+        nominal = centre[:2] - direction * (half + lead + 0.02)
+        across = np.abs(direction[::-1])  # the table axis across the sweep
+        at = nominal.copy()
+        for pos, extent in others:
+            overlap = extent + footprint - np.abs(at - pos)
+            if np.all(overlap > 0):
+                away = 1.0 if float((at - pos) @ across) >= 0 else -1.0
+                at = at + across * away * (float(overlap @ across) + START_MARGIN)
+        clear = all(np.any(np.abs(at - pos) >= extent + footprint) for pos, extent in others)
+        return clear and float(np.abs((at - nominal) @ across)) <= half / 2, at
+
     directions = [np.array(d, dtype=float) for d in ((0, 1), (0, -1), (-1, 0))]
-    direction = max(directions, key=lambda d: (gap(d) > 0.0 and d[0] == 0, gap(d) > 0.0, gap(d)))
-    start = np.array([*(centre[:2] - direction * (half + lead + 0.02)), height])
-    goal = np.array([*(centre[:2] + direction * (shift - half - lead)), height])
+
+    def rank(direction: np.ndarray) -> tuple:
+        clear = gap(direction, shift(direction))
+        return start_of(direction)[0], clear > 0.0 and direction[0] == 0, clear > 0.0, clear
+
+    direction = max(directions, key=rank)
+    at = start_of(direction)[1]
+    start = np.array([*at, height])
+    goal = np.array([*(at + direction * (shift(direction) + 0.02)), height])  # where its near side ends clear
     return _push_calls(inp, start, goal)
 
 
@@ -384,6 +434,66 @@ def pushed_to_goal(inp: CheckInput) -> Violation | None:
     )
 
 
+def placed_at_target(inp: CheckInput) -> Violation | None:
+    """After a place: an object the skill names, out of the hand, rests where it was put: within
+    ``PLACE_TOLERANCE`` of the release point and at its height, or on or in the receptacle's box
+    (a place by name). One that slid off, or fell beside, is grasped again and put there again.
+    What the target stands on (the tower's base under the block it is put on) is not a candidate."""
+    point = _by_role(inp, "release_target")
+    receptacle = next(
+        (str(inp.arguments[p.name]) for p in inp.params if p.role == "release_receptacle" and p.name in inp.arguments),
+        None,
+    )
+    if receptacle is not None:
+        support = inp.obs.objects.get(receptacle)
+        if support is None:
+            return None
+        point = np.asarray(support.pos, dtype=float)
+        floor = point[2] - extents(inp, receptacle)[2] / 2  # its bottom: what lies lower is what it stands on
+        reach = np.asarray(extents(inp, receptacle)[:2]) / 2 + 3 * POSITION_SIGMA  # its footprint
+    if point is None:
+        return None
+
+    def below(name: str) -> bool:
+        """Under the target: what it stands on."""
+        pos = inp.obs.objects[name].pos
+        if receptacle is not None:
+            return pos[2] < floor and bool(np.all(np.abs(pos[:2] - point[:2]) < reach))
+        under = float(np.linalg.norm(pos[:2] - point[:2])) < PLACE_TOLERANCE
+        return under and pos[2] < point[2] - extents(inp, name)[2] / 2 - 0.01
+
+    def off(name: str) -> float:
+        """How far the object is from resting there (0: it does), in metres."""
+        pos = np.asarray(inp.obs.objects[name].pos, dtype=float)
+        if receptacle is not None:
+            return float(np.linalg.norm(np.maximum(np.abs(pos[:2] - point[:2]) - reach, 0.0)))
+        if pos[2] > point[2] + SETTLED_ABOVE:  # resting on something lying on the target
+            return float(np.linalg.norm(pos - point))
+        return max(float(np.linalg.norm(pos[:2] - point[:2])) - PLACE_TOLERANCE, 0.0)
+
+    # what the hand carried in, where it was put relative to the grip (a rake is held by its handle)
+    carried = inp.before.held() if inp.before is not None else None
+    if carried is not None and carried in inp.obs.objects and receptacle is None:
+        point = point + np.r_[(inp.before.objects[carried].pos - inp.before.eef_pos)[:2], 0.0]
+    held = inp.obs.held()
+    candidates = [carried] if carried in inp.obs.objects else _moved_objects(inp)
+    candidates = [n for n in candidates if n not in (receptacle, held) and not below(n)]
+    if not candidates:
+        return None
+    name = min(candidates, key=off)
+    if off(name) == 0.0:
+        return None
+    pos = inp.obs.objects[name].pos
+    where = f"{receptacle} at {_fmt(point)}" if receptacle is not None else f"the release target {_fmt(point)}"
+    across = 100 * float(np.linalg.norm(np.asarray(pos[:2]) - point[:2]))
+    return Violation(
+        "placed_at_target",
+        f"{name} rests at {_fmt(pos)}, {across:.1f} cm across from {where}",
+        rerun=True,
+        regrasp=True,
+    )
+
+
 CHECKS: dict[str, Check] = {
     "object_unmoved": object_unmoved,
     "object_present": object_present,
@@ -392,4 +502,5 @@ CHECKS: dict[str, Check] = {
     "within_reach": within_reach,
     "object_held": object_held,
     "pushed_to_goal": pushed_to_goal,
+    "placed_at_target": placed_at_target,
 }

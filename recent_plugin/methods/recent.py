@@ -52,7 +52,8 @@ class Recent(Method):
             reach=a.target.arm.reach,
             push_path=a.ontology.path_of("push_object"),
         )
-        return InSituAdapter(**a.adapter_fields(), scene=scene, insitu=self.insitu)
+        state_effects = {step.skill: a.skill(step.skill).state_effects for step in a.task.plan}
+        return InSituAdapter(**a.adapter_fields(), scene=scene, insitu=self.insitu, state_effects=state_effects)
 
 
 @Method.register_subclass("recent+fast-path")
