@@ -53,6 +53,15 @@ class StateEffect:
 
 
 @dataclass(frozen=True)
+class Placement:
+    """Where a skill leaves an object it moves: over the perceived box of another its parameters name
+    (the cube in the zone, the block on the tower), checked once the skill has run."""
+
+    parameter: str  # the entry's parameter that names the object moved
+    over: str  # the one that names where it ends
+
+
+@dataclass(frozen=True)
 class Skill:
     name: str
     entry: str
@@ -65,6 +74,7 @@ class Skill:
     effects: tuple[str, ...] = ()
     capabilities: tuple[str, ...] = ()  # what the source robot must be able to do (union over its call sites)
     state_effects: tuple[StateEffect, ...] = ()  # what it leaves in the perceived state of the objects it acts on
+    placements: tuple[Placement, ...] = ()  # where it leaves the objects it moves
 
     @property
     def code_sha256(self) -> str:
@@ -88,6 +98,7 @@ def load_skill(name: str, library: Path = LIBRARY) -> Skill:
     entry = next((node for node in tree.body if getattr(node, "name", None) == meta["entry"]), None)
     if not isinstance(entry, ast.FunctionDef):
         raise ValueError(f"{meta_path}: entry {meta['entry']!r} is not a function defined in {code_path.name}")
+    parameters = {a.arg for a in entry.args.args} - {"env", "task"}
     return Skill(
         name=name,
         entry=meta["entry"],
@@ -99,7 +110,8 @@ def load_skill(name: str, library: Path = LIBRARY) -> Skill:
         preconditions=_names(meta, "preconditions", meta_path),
         effects=_names(meta, "effects", meta_path),
         capabilities=_names(meta, "capabilities", meta_path),
-        state_effects=_state_effects(meta, meta_path, {a.arg for a in entry.args.args} - {"env", "task"}),
+        state_effects=_state_effects(meta, meta_path, parameters),
+        placements=_placements(meta, meta_path, parameters),
     )
 
 
@@ -146,6 +158,20 @@ def _state_effects(meta: dict, path: Path, parameters: set[str]) -> tuple[StateE
             )
         effects.append(StateEffect(item["object"], **{k: float(v) for k, v in bounds.items()}))
     return tuple(effects)
+
+
+def _placements(meta: dict, path: Path, parameters: set[str]) -> tuple[Placement, ...]:
+    """``placements: [{object: obj, over: region}]``: both name parameters of the entry."""
+    value = meta.get("placements") or []
+    if not isinstance(value, list):
+        raise ValueError(f"{path}: field 'placements' must be a list, got {value!r}")
+    for item in value:
+        if not isinstance(item, dict) or set(item) != {"object", "over"} or not set(item.values()) <= parameters:
+            raise ValueError(
+                f"{path}: field 'placements' entry {item!r} must be {{object: <param>, over: <param>}}, "
+                f"each one of {sorted(parameters)}"
+            )
+    return tuple(Placement(item["object"], item["over"]) for item in value)
 
 
 def source_call_sites(skill: Skill) -> list[CallSite]:

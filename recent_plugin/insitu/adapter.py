@@ -66,8 +66,8 @@ from lerobot_policy_recent.recent_plugin.refactoring.units import (
     cut_unit,
 )
 from lerobot_policy_recent.recent_plugin.sandbox import UNKNOWN, evaluate_now
-from lerobot_policy_recent.robosuite_envs.observation import Observation
-from lerobot_policy_recent.skills.repository import StateEffect
+from lerobot_policy_recent.robosuite_envs.observation import POSITION_SIGMA, Observation
+from lerobot_policy_recent.skills.repository import Placement, StateEffect
 
 log = logging.getLogger(__name__)
 
@@ -84,8 +84,10 @@ class InSituAdapter:
     calls: list[LMCall] = field(default_factory=list)
     events: list[AdaptationEvent] = field(default_factory=list)
     emit: Emit = ignore  # the loggers' view: check verdicts, infiller calls, patches
-    # per skill: what it leaves in the perceived state of the objects it acts on (its metadata)
+    # per skill (its metadata): what it leaves in the perceived state of the objects it acts on, and
+    # where it leaves the objects it moves
     state_effects: dict[str, tuple[StateEffect, ...]] = field(default_factory=dict)
+    placements: dict[str, tuple[Placement, ...]] = field(default_factory=dict)
     _budget: RepairBudget = field(init=False)
     _reruns: Counter = field(default_factory=Counter)  # effects done again, per skill
     _bodies: dict[str, tuple[Segment, ...]] = field(default_factory=dict)  # each skill's statements as grounded
@@ -107,24 +109,30 @@ class InSituAdapter:
         self._bodies[grounded.skill] = tuple(replace(s) for s in segments)
 
     def after_skill(self, executor: SkillExecutor) -> str | None:
-        """Once the skill's last statement has run: is every object's state what the skill leaves it?
+        """Once the skill's last statement has run: is every object's state, and every object it
+        moved, where the skill leaves it?
 
-        A state the skill did not reach (a drawer still shut, a button unlit) is answered by running
-        the skill's statements again from the current scene, as grounded, with their checks, up to
-        ``max_repairs`` times; after that the unmet state is returned, to fail the skill by name.
+        What the skill did not bring about (a drawer still shut, a button unlit, a cube short of the
+        zone) is answered by running the skill's statements again from the current scene, as
+        grounded, with their checks, up to ``max_repairs`` times; after that what is unmet is
+        returned, to fail the skill by name.
         """
         skill = executor.grounded.skill
-        if not self.insitu or not self.state_effects.get(skill):
+        if not self.insitu:
             return None
-        unmet = []
-        for effect in self.state_effects[skill]:
-            met, observation = state_reached(effect, executor.namespace.get(effect.parameter), executor.session.obs)
-            self.emit(CheckVerdict(skill, len(executor.segments) - 1, "state_reached", met, observation))
-            if not met:
-                unmet.append(observation)
+        names, obs = executor.namespace, executor.session.obs
+        verdicts = [
+            ("state_reached", *state_reached(e, names.get(e.parameter), obs)) for e in self.state_effects.get(skill, ())
+        ] + [
+            ("placement_reached", *placement_reached(p, names.get(p.parameter), names.get(p.over), obs))
+            for p in self.placements.get(skill, ())
+        ]
+        for check, met, observation in verdicts:
+            self.emit(CheckVerdict(skill, len(executor.segments) - 1, check, met, observation))
+        unmet = [(check, observation) for check, met, observation in verdicts if not met]
         if not unmet:
             return None
-        observation = f"after {skill}: " + "; ".join(unmet)
+        observation = f"after {skill}: " + "; ".join(text for _, text in unmet)
         if self._reruns[skill] >= self.max_repairs:
             return observation
         self._reruns[skill] += 1
@@ -135,7 +143,7 @@ class InSituAdapter:
             executor.segments[-1],
             at,
             [s.source for s in body],
-            ("state_reached",),
+            tuple(dict.fromkeys(check for check, _ in unmet)),
             observation,
             shown=[s.source for s in body],
         )
@@ -472,6 +480,26 @@ def state_reached(effect: StateEffect, name: object, obs: Observation) -> tuple[
     if seen is None:
         return False, f"{name!r} ({effect.parameter}) is not in view: its state cannot be read"
     return not effect.unmet(seen.state), f"{name}'s state reads {seen.state:.3f}; the skill leaves it {effect.wanted}"
+
+
+def placement_reached(placement: Placement, name: object, over: object, obs: Observation) -> tuple[bool, str]:
+    """Whether perception sees the object over the other's box (within three sigmas of its footprint,
+    not below its bottom), and where it sees it. A box perception gives no extents for is not judged."""
+    seen = obs.objects.get(name) if isinstance(name, str) else None
+    support = obs.objects.get(over) if isinstance(over, str) else None
+    if seen is None or support is None:
+        missing = placement.parameter if seen is None else placement.over
+        return False, f"{missing} is not in view: where {placement.parameter} ended cannot be read"
+    size = np.asarray(support.size, dtype=float)
+    where = f"{name} rests at [{', '.join(f'{v:.3f}' for v in seen.pos)}]"
+    if not np.any(size):
+        return True, f"{where}; {over} has no perceived extents"
+    pos, centre = np.asarray(seen.pos, dtype=float), np.asarray(support.pos, dtype=float)
+    outside = float(np.linalg.norm(np.maximum(np.abs(pos[:2] - centre[:2]) - size[:2] / 2 - 3 * POSITION_SIGMA, 0.0)))
+    under = pos[2] < centre[2] - size[2] / 2 - POSITION_SIGMA
+    if outside == 0.0 and not under:
+        return True, f"{where}, over {over}"
+    return False, f"{where}, {100 * outside:.1f} cm outside {over}'s box{' and below it' if under else ''}"
 
 
 def _guards(warning: Warning, node: ast.stmt) -> bool:

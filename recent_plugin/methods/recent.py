@@ -52,8 +52,14 @@ class Recent(Method):
             reach=a.target.arm.reach,
             push_path=a.ontology.path_of("push_object"),
         )
-        state_effects = {step.skill: a.skill(step.skill).state_effects for step in a.task.plan}
-        return InSituAdapter(**a.adapter_fields(), scene=scene, insitu=self.insitu, state_effects=state_effects)
+        skills = {step.skill: a.skill(step.skill) for step in a.task.plan}
+        return InSituAdapter(
+            **a.adapter_fields(),
+            scene=scene,
+            insitu=self.insitu,
+            state_effects={name: skill.state_effects for name, skill in skills.items()},
+            placements={name: skill.placements for name, skill in skills.items()},
+        )
 
 
 @Method.register_subclass("recent+fast-path")
