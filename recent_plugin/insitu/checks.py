@@ -273,7 +273,8 @@ def sweep_statements(inp: CheckInput, obstacle: str, held: set[str]) -> tuple[st
     """Slide the hand (and whatever it holds) through the obstacle until it is clear of the target.
 
     The start must be free: the hand (or its load) does not come down on anything else there, once
-    moved a little across the sweep if need be. Among free starts, the side is the one where the swept obstacle ends farthest from everything else on the table
+    moved a little across the sweep if need be. Among free starts, the side is the one where the
+    swept obstacle ends farthest from everything else on the table
     (objects it rests on excepted), preferring sideways sweeps: they keep the hand as far from the
     base as the target itself, so they stay in reach. (Requiring an open finger's reach of
     clearance instead turned most sweeps towards the base, and the Panda holding the cube could
