@@ -148,7 +148,8 @@ def _state_effects(meta: dict, path: Path, parameters: set[str]) -> tuple[StateE
         if (
             not isinstance(item, dict)
             or set(item) - {"object", "at_least", "at_most"}
-            or item.get("object") not in parameters
+            or not isinstance(item.get("object"), str)
+            or item["object"] not in parameters
             or len(bounds) != 1
             or not all(isinstance(v, int | float) and not isinstance(v, bool) for v in bounds.values())
         ):
@@ -166,7 +167,11 @@ def _placements(meta: dict, path: Path, parameters: set[str]) -> tuple[Placement
     if not isinstance(value, list):
         raise ValueError(f"{path}: field 'placements' must be a list, got {value!r}")
     for item in value:
-        if not isinstance(item, dict) or set(item) != {"object", "over"} or not set(item.values()) <= parameters:
+        if (
+            not isinstance(item, dict)
+            or set(item) != {"object", "over"}
+            or not all(isinstance(v, str) and v in parameters for v in item.values())
+        ):
             raise ValueError(
                 f"{path}: field 'placements' entry {item!r} must be {{object: <param>, over: <param>}}, "
                 f"each one of {sorted(parameters)}"

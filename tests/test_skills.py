@@ -114,6 +114,7 @@ def test_skills_show_prints_code_metadata_and_last_validation(capsys):
         "{object: drawer, at_least: 0.1, at_most: 0.2}",
         "{object: drawer, at_least: open}",
         "drawer",
+        "{object: [drawer], at_least: 0.1}",
     ],
 )
 def test_a_state_effect_must_name_a_parameter_and_one_bound(tmp_path, entry):
@@ -155,3 +156,19 @@ def test_a_broken_skill_file_disables_that_skill_not_the_commands(tmp_path, monk
     assert "skill 'wipe_area' is left out" in capsys.readouterr().err
     assert main(["skills", "list"]) == 0
     assert "wipe_area          BROKEN:" in capsys.readouterr().out
+
+
+def test_a_placement_must_name_two_parameters(tmp_path):
+    import shutil
+
+    from lerobot_policy_recent.skills import repository
+
+    library = tmp_path / "library"
+    shutil.copytree(repository.LIBRARY, library)
+    meta = library / "move_to_region.yaml"
+    assert repository.load_skill("move_to_region", library).placements[0].over == "region"
+    meta.write_text(meta.read_text().split("placements:")[0] + "placements: [{object: obj, over: [zone]}]\n")
+    with pytest.raises(
+        ValueError, match=r"move_to_region\.yaml: field 'placements' entry .* each one of \['obj', 'region'\]"
+    ):
+        repository.load_skill("move_to_region", library)
