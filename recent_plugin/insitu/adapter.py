@@ -57,6 +57,8 @@ from lerobot_policy_recent.recent_plugin.insitu.checks import (
     SceneFacts,
     Violation,
     moved_reads,
+    placement_reached,
+    state_reached,
 )
 from lerobot_policy_recent.recent_plugin.refactoring.units import (
     Hints,
@@ -66,7 +68,6 @@ from lerobot_policy_recent.recent_plugin.refactoring.units import (
     cut_unit,
 )
 from lerobot_policy_recent.recent_plugin.sandbox import UNKNOWN, evaluate_now
-from lerobot_policy_recent.robosuite_envs.observation import POSITION_SIGMA, Observation
 from lerobot_policy_recent.skills.repository import Placement, StateEffect
 
 log = logging.getLogger(__name__)
@@ -472,34 +473,6 @@ def _same_value(node: ast.expr, wanted: ast.expr, namespace: dict) -> bool:
         return bool(np.array_equal(mine, theirs))  # positions may be arrays on one side, lists on the other
     except (TypeError, ValueError):  # ragged or incomparable values: not shown to be the same
         return False
-
-
-def state_reached(effect: StateEffect, name: object, obs: Observation) -> tuple[bool, str]:
-    """Whether perception reads the object's state as the skill leaves it, and what it read."""
-    seen = obs.objects.get(name) if isinstance(name, str) else None
-    if seen is None:
-        return False, f"{name!r} ({effect.parameter}) is not in view: its state cannot be read"
-    return not effect.unmet(seen.state), f"{name}'s state reads {seen.state:.3f}; the skill leaves it {effect.wanted}"
-
-
-def placement_reached(placement: Placement, name: object, over: object, obs: Observation) -> tuple[bool, str]:
-    """Whether perception sees the object over the other's box (within three sigmas of its footprint,
-    not below its bottom), and where it sees it. A box perception gives no extents for is not judged."""
-    seen = obs.objects.get(name) if isinstance(name, str) else None
-    support = obs.objects.get(over) if isinstance(over, str) else None
-    if seen is None or support is None:
-        missing = placement.parameter if seen is None else placement.over
-        return False, f"{missing} is not in view: where {placement.parameter} ended cannot be read"
-    size = np.asarray(support.size, dtype=float)
-    where = f"{name} rests at [{', '.join(f'{v:.3f}' for v in seen.pos)}]"
-    if not np.any(size):
-        return True, f"{where}; {over} has no perceived extents"
-    pos, centre = np.asarray(seen.pos, dtype=float), np.asarray(support.pos, dtype=float)
-    outside = float(np.linalg.norm(np.maximum(np.abs(pos[:2] - centre[:2]) - size[:2] / 2 - 3 * POSITION_SIGMA, 0.0)))
-    under = pos[2] < centre[2] - size[2] / 2 - POSITION_SIGMA
-    if outside == 0.0 and not under:
-        return True, f"{where}, over {over}"
-    return False, f"{where}, {100 * outside:.1f} cm outside {over}'s box{' and below it' if under else ''}"
 
 
 def _guards(warning: Warning, node: ast.stmt) -> bool:

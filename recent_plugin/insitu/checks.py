@@ -23,6 +23,7 @@ from lerobot_policy_recent.ontology.specs import PATH_ROLE, WORLD_FRAME, ApiSpec
 from lerobot_policy_recent.robosuite_envs.observation import POSITION_SIGMA, Observation
 from lerobot_policy_recent.robosuite_envs.primitives.clearance import FINGER_DEPTH
 from lerobot_policy_recent.robosuite_envs.primitives.frames import WORLD_AT_ORIGIN, Frame, argument_for, world_point
+from lerobot_policy_recent.skills.repository import Placement, StateEffect
 
 FALSE_MOVES = 0.006  # the share of checks on a still object that may call it moved (each a needless patch)
 
@@ -450,8 +451,8 @@ def placed_at_target(inp: CheckInput) -> Violation | None:
         if support is None:
             return None
         point = np.asarray(support.pos, dtype=float)
-        floor = point[2] - extents(inp, receptacle)[2] / 2  # its bottom: what lies lower is what it stands on
-        reach = np.asarray(extents(inp, receptacle)[:2]) / 2 + 3 * POSITION_SIGMA  # its footprint
+        box = extents(inp, receptacle)
+        floor = point[2] - box[2] / 2  # its bottom: what lies lower is what it stands on
     if point is None:
         return None
 
@@ -459,7 +460,7 @@ def placed_at_target(inp: CheckInput) -> Violation | None:
         """Under the target: what it stands on."""
         pos = inp.obs.objects[name].pos
         if receptacle is not None:
-            return pos[2] < floor and bool(np.all(np.abs(pos[:2] - point[:2]) < reach))
+            return pos[2] < floor and beyond_footprint(pos, point, box) == 0.0
         under = float(np.linalg.norm(pos[:2] - point[:2])) < PLACE_TOLERANCE
         return under and pos[2] < point[2] - extents(inp, name)[2] / 2 - 0.01
 
@@ -467,7 +468,7 @@ def placed_at_target(inp: CheckInput) -> Violation | None:
         """How far the object is from resting there (0: it does), in metres."""
         pos = np.asarray(inp.obs.objects[name].pos, dtype=float)
         if receptacle is not None:
-            return float(np.linalg.norm(np.maximum(np.abs(pos[:2] - point[:2]) - reach, 0.0)))
+            return beyond_footprint(pos, point, box)
         if pos[2] > point[2] + SETTLED_ABOVE:  # resting on something lying on the target
             return float(np.linalg.norm(pos - point))
         return max(float(np.linalg.norm(pos[:2] - point[:2])) - PLACE_TOLERANCE, 0.0)
@@ -493,6 +494,40 @@ def placed_at_target(inp: CheckInput) -> Violation | None:
         rerun=True,
         regrasp=True,
     )
+
+
+def beyond_footprint(pos, centre, size) -> float:
+    """Metres across the table that ``pos`` lies outside a box's footprint, widened by three sigmas of
+    perception's accuracy (0: over it)."""
+    margin = np.asarray(size[:2], dtype=float) / 2 + 3 * POSITION_SIGMA
+    offset = np.abs(np.asarray(pos[:2], dtype=float) - np.asarray(centre[:2], dtype=float))
+    return float(np.linalg.norm(np.maximum(offset - margin, 0.0)))
+
+
+def state_reached(effect: StateEffect, name: object, obs: Observation) -> tuple[bool, str]:
+    """Once a skill has run: whether perception reads the object's state as the skill leaves it, and what it read."""
+    seen = obs.objects.get(name) if isinstance(name, str) else None
+    if seen is None:
+        return False, f"{name!r} ({effect.parameter}) is not in view: its state cannot be read"
+    return not effect.unmet(seen.state), f"{name}'s state reads {seen.state:.3f}; the skill leaves it {effect.wanted}"
+
+
+def placement_reached(placement: Placement, name: object, over: object, obs: Observation) -> tuple[bool, str]:
+    """Once a skill has run: whether perception sees the object over the other's box (its footprint, not
+    below its bottom), and where it sees it. A box perception gives no extents for is not judged."""
+    seen = obs.objects.get(name) if isinstance(name, str) else None
+    support = obs.objects.get(over) if isinstance(over, str) else None
+    if seen is None or support is None:
+        missing = placement.parameter if seen is None else placement.over
+        return False, f"{missing} is not in view: where {placement.parameter} ended cannot be read"
+    where = f"{name} rests at {_fmt(seen.pos)}"
+    if not np.any(support.size):
+        return True, f"{where}; {over} has no perceived extents"
+    outside = beyond_footprint(seen.pos, support.pos, support.size)
+    under = seen.pos[2] < support.pos[2] - support.size[2] / 2 - POSITION_SIGMA
+    if outside == 0.0 and not under:
+        return True, f"{where}, over {over}"
+    return False, f"{where}, {100 * outside:.1f} cm outside {over}'s box{' and below it' if under else ''}"
 
 
 CHECKS: dict[str, Check] = {
