@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from lerobot_policy_recent.descriptions.embodiments import Embodiment, get_embodiment, resolve_model_file
-from lerobot_policy_recent.robosuite_envs.calibration import CALIBRATION_VERSION, Calibration
+from lerobot_policy_recent.robosuite_envs.calibration import CALIBRATION_VERSION, TABLE_REACH_HEIGHT_M, Calibration
 from lerobot_policy_recent.robosuite_envs.primitives import control
 from lerobot_policy_recent.robosuite_envs.primitives.session import CONTROL_FREQ, RobotSession
 
@@ -31,6 +31,8 @@ UNREACHED_M = 0.05  # a calibration pose the stopped arm is this far off is out 
 # Calibration poses, (x, y, height above the table top) in metres: the table area the tasks use.
 POSES = ((0.0, 0.0, 0.12), (-0.15, -0.25, 0.12), (0.15, -0.25, 0.12), (0.15, 0.22, 0.12), (-0.15, 0.22, 0.12))
 LOW_POSE = (0.0, -0.1, 0.03)  # near the table: where grasps happen
+REACH_STEP_M = 0.02  # how far out each probe of the reach at the table goes beyond the last
+REACHED_M = 0.01  # a probe the stopped grip site is within this of counts as reached (a sweep's margin)
 
 
 def calibration(name: str, *, refresh: bool = False) -> Calibration:
@@ -91,6 +93,7 @@ def measure(name: str) -> Calibration:
         arm = probe.arm_facts()
         gripper = probe.gripper_facts()
         tracking = probe.tracking()
+        table_reach = probe.table_reach(arm["reach_m"])
     finally:
         env.close()
     return Calibration(
@@ -100,6 +103,7 @@ def measure(name: str) -> Calibration:
         **arm,
         **gripper,
         **tracking,
+        table_reach_m=table_reach,
         measured_with=f"robosuite {robosuite.__version__}, mujoco {mujoco.__version__}",
         seconds=round(time.perf_counter() - started, 2),
     )
@@ -221,17 +225,7 @@ class _Probe:
         errors, unreached = [], []
         for x, y, height in (*POSES, LOW_POSE):
             goal = np.array([x, y, table + height])
-            trail = []
-            for _ in range(int(POSE_SECONDS * CONTROL_FREQ)):
-                self.env.step(control.servo_action(session, goal))
-                session.update(self.env.sensed())
-                trail.append(session.obs.eef_pos.copy())
-                if (
-                    len(trail) > control.STALL_STEPS
-                    and np.linalg.norm(trail[-1] - trail[-1 - control.STALL_STEPS]) < control.SETTLED
-                ):
-                    break  # still: what is left is the steady-state error
-            error = float(np.linalg.norm(goal - session.obs.eef_pos))
+            error = self._servo(session, goal)
             if error > UNREACHED_M:
                 unreached.append(tuple(round(float(v), 3) for v in goal))
             else:
@@ -242,6 +236,36 @@ class _Probe:
             "settle_tol_m": round(max(control.POS_TOL, SETTLE_MARGIN * worst), 4),
             "unreached": tuple(unreached),
         }
+
+    # ---------------------------------------------------------------- reach at the table
+    def table_reach(self, stretched: float) -> float:
+        """How far from the base, on the table plane, the grip site gets to TABLE_REACH_HEIGHT_M above the
+        table: walked out from the table's centre, away from the base, until a probe stops short."""
+        session = RobotSession("calibration", self.env.sensed())
+        base = np.asarray(self.data.xpos[self.model.body_name2id(self.robot.robot_model.root_body)][:2], dtype=float)
+        out = -base / np.linalg.norm(base) if np.linalg.norm(base) > 1e-6 else np.array([1.0, 0.0])
+        height = self.env.table_top_z + TABLE_REACH_HEIGHT_M
+        reached, distance = 0.0, float(np.linalg.norm(base))
+        while distance <= stretched:
+            goal = np.array([*(base + out * distance), height])
+            if self._servo(session, goal) > REACHED_M:
+                break
+            reached, distance = distance, distance + REACH_STEP_M
+        return round(reached, 3)
+
+    def _servo(self, session: RobotSession, goal: np.ndarray) -> float:
+        """Servo the grip site to ``goal`` until it stops (what is left is the steady-state error); how far off."""
+        trail = []
+        for _ in range(int(POSE_SECONDS * CONTROL_FREQ)):
+            self.env.step(control.servo_action(session, goal))
+            session.update(self.env.sensed())
+            trail.append(session.obs.eef_pos.copy())
+            if (
+                len(trail) > control.STALL_STEPS
+                and np.linalg.norm(trail[-1] - trail[-1 - control.STALL_STEPS]) < control.SETTLED
+            ):
+                break
+        return float(np.linalg.norm(goal - session.obs.eef_pos))
 
 
 def _rel_quat(parent_mat: np.ndarray, child_mat: np.ndarray) -> tuple[float, float, float, float]:

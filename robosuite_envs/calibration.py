@@ -9,7 +9,10 @@ driving the embodiment in simulation once (:mod:`~lerobot_policy_recent.robosuit
   the point between them where a closed grasp holds (both in the grip-site frame), how far the
   open gripper reaches below the grip site, and how long it takes to close and to open;
 - tracking: the worst steady-state error of the arm's servo over a few poses above the table, and
-  from it the tolerance within which a stopped arm counts as arrived.
+  from it the tolerance within which a stopped arm counts as arrived;
+- reach at the table: how far from its base (on the table plane) the arm brings its grip site, pointing
+  down, to a few centimetres above the table top. Its stretched length says nothing of this: a Panda
+  that reaches 1.1 m in the air gets its hand low only about 0.8 m out.
 """
 
 from __future__ import annotations
@@ -17,7 +20,8 @@ from __future__ import annotations
 import json
 from dataclasses import asdict, dataclass
 
-CALIBRATION_VERSION = 3
+CALIBRATION_VERSION = 4
+TABLE_REACH_HEIGHT_M = 0.03  # grip site above the table top for the reach at the table: a sweep's or grasp's height
 
 
 @dataclass(frozen=True)
@@ -46,6 +50,7 @@ class Calibration:
     tracking_error_m: float  # worst steady-state error over the calibration poses it reached
     settle_tol_m: float  # a stopped grip site within this of its goal has arrived
     unreached: tuple[tuple[float, float, float], ...] = ()  # calibration poses (world) it could not reach
+    table_reach_m: float = float("inf")  # farthest grip site from the base (table plane) it servos to near the table
     measured_with: str = ""  # simulator versions
     seconds: float = 0.0  # how long the calibration took
     version: int = CALIBRATION_VERSION
@@ -82,6 +87,8 @@ class Calibration:
             f"tracking error    {self.tracking_error_m * 1000:.1f} mm steady-state (worst pose); "
             f"a stopped arm within {self.settle_tol_m * 1000:.1f} mm has arrived",
             f"unreached poses   {unreached}",
+            f"reach at table    {self.table_reach_m:.3f} m from the base ({TABLE_REACH_HEIGHT_M * 100:.0f} cm above the "
+            "table, pointing down)",
             f"measured with     {self.measured_with} in {self.seconds:.1f} s (calibration v{self.version})",
         ]
 
@@ -98,6 +105,7 @@ class Nominal:
     grasp_point: tuple[float, float, float] = (0.0, 0.0, 0.0)
     tracking_error_m: float = 0.0
     unreached: tuple = ()
+    table_reach_m: float = float("inf")
     base_xyz: tuple[float, float, float] = (0.0, 0.0, 0.0)  # an API's base frame then sits at the world origin
 
 

@@ -51,7 +51,7 @@ def drift_threshold(sigma: float, false_rate: float = FALSE_MOVES) -> float:
 MOVED = drift_threshold(POSITION_SIGMA)
 CLEARANCE = 0.03  # metres around a release target that must be free
 SLIDE_SHORT = 0.025  # metres a swept obstacle may stop short of where the hand leaves it
-TABLE_LIMIT = 0.3  # |x|, |y| a swept obstacle may end at (stays on the table)
+TABLE_LIMIT = 0.35  # |x|, |y| a swept obstacle may end at: 5 cm in from the 0.8 m table's edges
 FINGER = 0.01  # metres from the hand's centre to the face that pushes
 PUSH_TOLERANCE = 0.03  # metres a pushed object may end from where the push should leave it
 PLACE_TOLERANCE = 0.04  # metres a released object may settle from the point it was released over
@@ -73,6 +73,7 @@ class SceneFacts:
     base_xy: tuple[float, float] = (0.0, 0.0)  # the robot's base on the table plane
     reach: float = float("inf")  # metres: the arm's reach (the ontology's upper bound)
     push_path: tuple[Waypoint, ...] = ()  # a push as its hand's path, for robots without one (the ontology's)
+    table_reach: float = float("inf")  # metres from the base (table plane) the hand gets down to the table (calibrated)
 
 
 @dataclass(frozen=True)
@@ -274,12 +275,12 @@ def sweep_statements(inp: CheckInput, obstacle: str, held: set[str]) -> tuple[st
     """Slide the hand (and whatever it holds) through the obstacle until it is clear of the target.
 
     The start must be free: the hand (or its load) does not come down on anything else there, once
-    moved a little across the sweep if need be. Among free starts, the side is the one where the
-    swept obstacle ends farthest from everything else on the table
-    (objects it rests on excepted), preferring sideways sweeps: they keep the hand as far from the
-    base as the target itself, so they stay in reach. (Requiring an open finger's reach of
-    clearance instead turned most sweeps towards the base, and the Panda holding the cube could
-    not reach their start beyond the plate.)
+    moved a little across the sweep if need be. The hand's start and end must lie within the arm's
+    reach at the table (calibrated: a Panda gets its hand low only about 0.8 m from its base). Among
+    such sweeps, sideways, towards the base or away from it, the side is the one where the swept
+    obstacle ends farthest from everything else on the table (objects it rests on excepted). (Before
+    the reach at the table was known, sideways sweeps were preferred as the ones that stay in reach;
+    one left a slab 3 cm from the next object to grasp, with no reachable sweep left to clear it.)
     """
     state = inp.obs.objects[obstacle]
     size = extents(inp, obstacle)
@@ -314,9 +315,10 @@ def sweep_statements(inp: CheckInput, obstacle: str, held: set[str]) -> tuple[st
     # what comes down at the start: the load's footprint, or the closed fingertips'
     footprint = np.asarray(carried[:2], dtype=float) / 2 if carried else np.full(2, FINGERTIPS)
 
-    def shift(direction: np.ndarray) -> float:
-        """The farthest of ``shifts`` that leaves the obstacle clear of everything else (else the least)."""
-        return next((d for d in shifts if gap(direction, d) > 0.0), shifts[-1])
+    base = np.asarray(inp.scene.base_xy, dtype=float)
+
+    def reachable(point: np.ndarray) -> bool:
+        return float(np.linalg.norm(point - base)) <= inp.scene.table_reach
 
     def gap(direction: np.ndarray, shift: float) -> float:
         end = centre[:2] + direction * shift
@@ -339,16 +341,20 @@ def sweep_statements(inp: CheckInput, obstacle: str, held: set[str]) -> tuple[st
         clear = all(np.any(np.abs(at - pos) >= extent + footprint) for pos, extent in others)
         return clear and float(np.abs((at - nominal) @ across)) <= half / 2, at
 
-    directions = [np.array(d, dtype=float) for d in ((0, 1), (0, -1), (-1, 0))]
+    def plan(direction: np.ndarray) -> tuple[tuple, np.ndarray, np.ndarray]:
+        """A sweep this way: its rank, and the hand's start and end. Its shift is the farthest of
+        ``shifts`` that leaves the obstacle clear of everything else with the hand's end in reach
+        (else the least)."""
+        free, at = start_of(direction)
+        ends = [(d, at + direction * (d + 0.02)) for d in shifts]  # where its near side ends clear
+        fits = [(d, end) for d, end in ends if reachable(end)] or ends[-1:]
+        d, end = next(((d, end) for d, end in fits if gap(direction, d) > 0.0), fits[-1])
+        clear = gap(direction, d)
+        return (free and reachable(at) and reachable(end), clear > 0.0, clear), at, end
 
-    def rank(direction: np.ndarray) -> tuple:
-        clear = gap(direction, shift(direction))
-        return start_of(direction)[0], clear > 0.0 and direction[0] == 0, clear > 0.0, clear
-
-    direction = max(directions, key=rank)
-    at = start_of(direction)[1]
-    start = np.array([*at, height])
-    goal = np.array([*(at + direction * (shift(direction) + 0.02)), height])  # where its near side ends clear
+    directions = [np.array(d, dtype=float) for d in ((0, 1), (0, -1), (-1, 0), (1, 0))]
+    _, at, end = max((plan(d) for d in directions), key=lambda p: p[0])
+    start, goal = np.array([*at, height]), np.array([*end, height])
     return _push_calls(inp, start, goal)
 
 
