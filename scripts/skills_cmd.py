@@ -93,8 +93,10 @@ def _show(args) -> int:
     print(f"# subtask: {skill.subtask}")
     print(f"# preconditions: {', '.join(skill.preconditions) or '-'}")
     print(f"# effects: {', '.join(skill.effects) or '-'}")
-    if skill.state_effects:
-        print(f"# leaves: {'; '.join(f'{e.parameter} state {e.wanted}' for e in skill.state_effects)}")
+    leaves = [f"{e.parameter} state {e.wanted}" for e in skill.state_effects]
+    leaves += [f"{p.parameter} over {p.over}" for p in skill.placements]
+    if leaves:
+        print(f"# leaves: {'; '.join(leaves)}")
     print(f"# capabilities: {', '.join(skill.capabilities or derived_capabilities(skill))}")
     sites = source_call_sites(skill)
     print(f"# call sites: {', '.join(f'{s.name} (line {s.span.line})' for s in sites) or '-'}")

@@ -41,6 +41,8 @@ def test_calibration_reads_the_arm_the_ontology_reads_and_measures_the_rest(name
     assert measured.mechanism == "fingers" and abs(np.linalg.norm(measured.closing_axis) - 1) < 1e-2
     assert 0 < measured.close_time_s < 10 and measured.opening_open != measured.opening_closed
     assert measured.tracking_error_m < measured.settle_tol_m <= 0.05 and not measured.unreached
+    # at the table the arm reaches past the table's centre, and less far than stretched out in the air
+    assert np.linalg.norm(measured.base_xyz[:2]) < measured.table_reach_m < measured.reach_m
 
 
 @pytest.mark.slow

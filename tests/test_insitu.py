@@ -627,3 +627,30 @@ def test_a_block_that_fell_off_the_tower_is_grasped_and_put_there_again(ontology
     assert "blue rests at" in event.observation and "across from red" in event.observation
     assert event.after.splitlines() == [event.before, "pick(env, task, obj_name=top)", event.before]
     assert result.success and result.ei == 0
+
+
+def test_a_sweep_starts_and_ends_where_the_hand_gets_down_to_the_table():
+    """plate_clear_switch on the Panda, seed 3: a slab on the plate 0.73 m out. Swept sideways, it ended
+    3 cm from the block the skill grasps next; towards the base, the hand must come down 0.81 m out,
+    beyond the 0.80 m the Panda reaches at the table (calibrated). What is left is away from the base,
+    the hand starting between the base and the slab, and the slab ends clear of everything."""
+    sizes = {"obstacle": (0.1, 0.1, 0.03), "plate": (0.14, 0.14, 0.012), "block": (0.05, 0.05, 0.05)}
+    sizes["bin"] = (0.2, 0.2, 0.08)
+    at = {"obstacle": [0.167, -0.021, 0.818], "plate": [0.17, -0.02, 0.806], "block": [0.12, -0.22, 0.825]}
+    at["bin"] = [0.05, 0.17, 0.84]
+    target = {"place_pos": [0.168, -0.016, 0.836]}
+
+    def sweep(reach: float) -> tuple[np.ndarray, np.ndarray]:
+        scene = SceneFacts(
+            frozenset({"obstacle", "block"}), sizes, frozenset({"block"}), base_xy=(-0.56, 0.0), table_reach=reach
+        )
+        inp = CheckInput(observed(**at), target, UR5E.get("ur5_release_at").parameters, frozenset(), {}, scene, UR5E)
+        (call,) = target_clear(inp).statements
+        return tuple(np.array(v) for v in _positions(call))
+
+    start, goal = sweep(0.80)
+    base = np.array([-0.56, 0.0])
+    assert max(np.linalg.norm(start[:2] - base), np.linalg.norm(goal[:2] - base)) <= 0.80
+    assert goal[0] > start[0] + 0.1 and abs(goal[1] - start[1]) < 1e-6  # away from the base
+    # sideways, the slab would end 3.5 mm from the block's box; away from the base it ends 10 cm from everything
+    assert np.allclose(sweep(float("inf"))[1], goal)  # so a reach unknown changes nothing here

@@ -104,6 +104,8 @@ def test_skills_show_prints_code_metadata_and_last_validation(capsys):
     out = capsys.readouterr().out
     assert "def open_drawer(" in out and "# effects:" in out and "seeds passed [0, 1, 42, 123, 2024]" in out
     assert "# leaves: drawer state at least 0.1" in out
+    assert main(["skills", "show", "arrange_in_row"]) == 0
+    assert "# leaves: first over row; second over row; third over row" in capsys.readouterr().out
 
 
 @pytest.mark.parametrize(
