@@ -29,7 +29,7 @@ from lerobot_policy_recent.recent_plugin.methods import method_named
 from lerobot_policy_recent.recent_plugin.settings import RecentSettings
 from lerobot_policy_recent.robosuite_envs.gym_env import RecentEnv
 from lerobot_policy_recent.robosuite_envs.observation import Observation
-from lerobot_policy_recent.robosuite_envs.splits import TEST_TASKS
+from lerobot_policy_recent.robosuite_envs.splits import is_test_task
 
 PAIRS = (
     ("kinematic/plate_clear_switch", "UR5e"),
@@ -91,7 +91,7 @@ def main() -> None:
     parser.add_argument("--json", default=None)
     args = parser.parse_args()
     pairs = [tuple(p.split(":")) for p in args.pairs.split(",")]
-    held_out = [t for t, _ in pairs if any(t in tasks for tasks in TEST_TASKS.values())]
+    held_out = [t for t, _ in pairs if is_test_task(t)]
     if held_out:
         parser.error(f"{', '.join(held_out)}: test-split tasks; this benchmark tunes prompts and runs on dev only")
 

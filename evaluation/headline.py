@@ -19,6 +19,7 @@ from lerobot_policy_recent.evaluation.methods import ABLATION_METHODS, method_of
 from lerobot_policy_recent.evaluation.metrics import (
     group,
     held_out_apart,
+    record_split,
     rule_coverage,
     split_crashed,
     summarize,
@@ -28,7 +29,7 @@ from lerobot_policy_recent.evaluation.report.provenance import commit_counts, ep
 from lerobot_policy_recent.evaluation.report.tables import ordered_rows
 from lerobot_policy_recent.evaluation.runner import load_records
 from lerobot_policy_recent.recent_plugin.agent import lm_call_limit
-from lerobot_policy_recent.robosuite_envs.splits import TEST_TASKS
+from lerobot_policy_recent.robosuite_envs.splits import RETIRED_TEST_TASKS
 from lerobot_policy_recent.robosuite_envs.suites import get_task
 from lerobot_policy_recent.skills.repository import task_calls
 
@@ -106,21 +107,26 @@ def _paper_row(method: str, note: str = "") -> str:
 
 
 def _tasks_line(records: list[dict]) -> str:
-    """Each setting's tasks with their primitive calls, its targets, and how much of the test split they are."""
+    """Each setting's tasks with their primitive calls, its targets, and which split they were run as
+    (the split each record names: the one in force when it ran)."""
     parts = []
     for suite in SETTINGS:
         ids = sorted({r["task_id"] for r in records if r["suite"] == suite})
         if not ids:
             continue
-        held_out = TEST_TASKS.get(suite, ())
-        share = f"all {len(held_out)}" if set(held_out) <= set(ids) else f"{len(ids)} of {len(held_out)}"
+        splits = sorted({record_split(r) for r in records if r["suite"] == suite})
         targets = sorted({r["target"] for r in records if r["suite"] == suite})
         described = []
         for task_id in ids:
             task = get_task(task_id)
             calls = task_calls([step.skill for step in task.plan]).primitives
             described.append(f"`{task_id.split('/', 1)[1]}` ({calls})")
-        parts.append(f"{suite}: {share} test tasks, on {' and '.join(targets)}: {', '.join(described)}")
+        retired = set(ids) & {t for tasks in RETIRED_TEST_TASKS.values() for t in tasks}
+        note = " (test when run; dev since 2026-11-28: run during development)" if retired else ""
+        parts.append(
+            f"{suite}: {len(ids)} {'/'.join(splits)} task{'s' if len(ids) != 1 else ''}{note}, "
+            f"on {' and '.join(targets)}: {', '.join(described)}"
+        )
     return "; ".join(parts)
 
 

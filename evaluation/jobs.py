@@ -23,7 +23,7 @@ from lerobot_policy_recent.recent_plugin.agent import RecentAgent
 from lerobot_policy_recent.recent_plugin.failures import FailureCategory
 from lerobot_policy_recent.recent_plugin.infillers.base import Infiller
 from lerobot_policy_recent.recent_plugin.settings import RecentSettings
-from lerobot_policy_recent.robosuite_envs.splits import SPLITS, split_of
+from lerobot_policy_recent.robosuite_envs.splits import SPLITS, no_test_split, split_of
 from lerobot_policy_recent.robosuite_envs.suites import SEEDS, SUITES, get_suite
 
 SUITE_TARGETS = {
@@ -77,6 +77,8 @@ class BenchConfig:
         (A worker keeps each method's groundings across episodes, so this order grounds no more.)"""
         if self.split not in ("all", *SPLITS):
             raise ValueError(f"unknown split {self.split!r}; choose from all, {', '.join(SPLITS)}")
+        if self.split == "test" and no_test_split():
+            raise ValueError(f"--split test: {no_test_split()}")
         jobs = []
         for suite in self.suites:
             specs = get_suite(suite)

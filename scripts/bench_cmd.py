@@ -12,6 +12,7 @@ from pathlib import Path
 
 from lerobot_policy_recent.evaluation.methods import METHODS, model_of, parse_methods
 from lerobot_policy_recent.evaluation.runner import PACKED
+from lerobot_policy_recent.robosuite_envs.splits import TEST_DRAW
 from lerobot_policy_recent.robosuite_envs.suites import SEEDS, SUITES
 
 
@@ -224,6 +225,8 @@ def _run(args) -> int:
         "seeds": list(config.seeds),
         "tasks": list(config.tasks) or "all",
         "variations": config.variations,
+        "split": config.split,
+        "test_draw": dict(TEST_DRAW),  # the test draw's seeds in force (None: no test draw, every episode dev)
     }
     results = config.out / "results.json"
     runs = json.loads(results.read_text()).get("runs", []) if results.exists() else []

@@ -11,7 +11,7 @@ from tqdm import tqdm
 from lerobot_policy_recent.descriptions.apis import api_spec_path
 from lerobot_policy_recent.descriptions.embodiments import EMBODIMENTS, get_embodiment
 from lerobot_policy_recent.robosuite_envs.primitives import api_functions
-from lerobot_policy_recent.robosuite_envs.splits import split_of, split_table
+from lerobot_policy_recent.robosuite_envs.splits import no_test_split, split_of, split_table
 from lerobot_policy_recent.robosuite_envs.subtasks import SUBTASKS, get_subtask
 from lerobot_policy_recent.robosuite_envs.suites import SEEDS, SUITES, get_task
 from lerobot_policy_recent.robosuite_envs.variations import ON, VARIATIONS
@@ -102,7 +102,9 @@ def _list(args) -> int:
             held_out = " [test]" if split_of(t.task_id, SEEDS[0]) == "test" else ""
             print(f"  {t.task_id:<32} {len(t.plan)} subtask(s) {calls:>3} calls{held_out}  {t.instruction}")
     seeds = summary["split"]["seeds"]
-    print(f"\nSplit: [test] tasks on seeds {seeds['test']} are held out; dev seeds {seeds['dev']} (docs/benchmark.md)")
+    why = no_test_split()
+    held = f"[test] tasks on seeds {seeds['test']} are held out" if why is None else why
+    print(f"\nSplit: {held}; dev seeds {seeds['dev']} (docs/benchmark.md)")
     print("\nVariations (--variations on = " + ", ".join(ON) + "):")
     for name, text in VARIATIONS.items():
         print(f"  {name:<18} {text}")

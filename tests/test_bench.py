@@ -46,6 +46,7 @@ def test_every_episode_has_a_record_and_results_json_aggregates_them(bench_dir):
         assert r["worker_niceness"] == 0  # a local instance's episodes run below nothing of the run's own
     results = json.loads((bench_dir / "results.json").read_text())
     assert results["backend"] == "rule" and results["seeds"] == [0, 1] and results["machine"]["cores"]
+    assert results["test_draw"] == {"kinematic": None, "end_effector": None}  # the split in force: all dev
     assert results["command"].startswith("recent bench") and results["runs"][-1]["command"] == results["command"]
     setting = results["by_setting"]["recent|kinematic-v1"]
     assert setting["episodes"] == 2 and set(setting) >= {"sr", "gc", "go", "ei", "it", "igt"}
@@ -141,16 +142,19 @@ def test_metrics_follow_the_papers_definitions():
     assert summary["gc"]["mean"] == pytest.approx(80.0) and summary["ei"] == {"mean": 1.0, "std": 1.0}
 
 
-def test_a_run_can_take_only_the_held_out_split_and_records_say_which_split():
+def test_a_run_can_take_only_the_held_out_split_and_records_say_which_split(monkeypatch):
     from lerobot_policy_recent.evaluation.jobs import BenchConfig
-    from lerobot_policy_recent.robosuite_envs.splits import TEST_SEEDS, TEST_TASKS
+    from lerobot_policy_recent.robosuite_envs import splits
 
-    test = BenchConfig(out="/tmp/x", suites=("end_effector",), seeds=(3, *TEST_SEEDS), split="test").jobs()
-    assert {j.task_id for j in test} == set(TEST_TASKS["end_effector"]) and {j.seed for j in test} == set(TEST_SEEDS)
-    dev = BenchConfig(out="/tmp/x", suites=("end_effector",), seeds=(3, *TEST_SEEDS), split="dev").jobs()
-    assert all(j.seed == 3 or j.task_id not in TEST_TASKS["end_effector"] for j in dev)
-    everything = BenchConfig(out="/tmp/x", suites=("end_effector",), seeds=(3, *TEST_SEEDS)).jobs()
-    assert sorted(dev + test, key=str) == sorted(everything, key=str)
+    with pytest.raises(ValueError, match="--split test: no test draw is fixed yet"):
+        BenchConfig(out="/tmp/x", suites=("end_effector",), split="test").jobs()
+    retired = set(splits.RETIRED_TEST_TASKS["end_effector"])
+    dev = BenchConfig(out="/tmp/x", suites=("end_effector",), seeds=(3, *splits.TEST_SEEDS), split="dev").jobs()
+    assert {j.task_id for j in dev} >= retired and {j.seed for j in dev} == {3, *splits.TEST_SEEDS}
+    monkeypatch.setitem(splits.TEST_DRAW, "end_effector", 90210)  # a draw fixed, none of whose tasks is listed
+    everything = BenchConfig(out="/tmp/x", suites=("end_effector",), seeds=(3, *splits.TEST_SEEDS)).jobs()
+    assert BenchConfig(out="/tmp/x", suites=("end_effector",), seeds=(3, *splits.TEST_SEEDS), split="test").jobs() == []
+    assert sorted(dev, key=str) == sorted(everything, key=str)
     with pytest.raises(ValueError, match="unknown split 'val'"):
         BenchConfig(out="/tmp/x", split="val").jobs()
     with pytest.raises(ValueError, match="they are in --suite kinematic-v1"):  # an earlier suite's task, named

@@ -82,7 +82,8 @@ def test_envs_list_json_counts_the_world(capsys):
     assert calls["kinematic"]["mean"] >= 24.6 and calls["end_effector"]["mean"] >= 29  # the paper's length
     split = world["split"]  # the held-out split, as the world issue specifies it
     assert split["seeds"]["test"] == [0, 1, 42, 123, 2024] and split["seeds"]["dev"]
-    assert len(split["kinematic"]["test"]) >= 6 and len(split["end_effector"]["test"]) >= 4
+    assert split["test_draw"] == {"kinematic": None, "end_effector": None}  # no test draw before a snapshot
+    assert split["kinematic"]["test"] == [] and len(split["kinematic"]["retired_test"]) == 6
     assert not set(split["kinematic"]["test"]) & set(split["kinematic"]["dev"])
     assert len(split["kinematic"]["dev"]) + len(split["kinematic"]["test"]) == world["suites"]["kinematic"]
 

@@ -8,7 +8,9 @@ import json
 from lerobot_policy_recent.evaluation.runner import PACKED
 from lerobot_policy_recent.scripts.cli import main
 
-TASK = "kinematic/panel_peg_lid_zone"  # a held-out task: 24 primitive calls, so 48 LM calls at two per call
+TASK = (
+    "kinematic/panel_peg_lid_zone"  # a test task until 2026-11-28: 24 primitive calls, so 48 LM calls at two per call
+)
 OUTCOMES = {"recent": (True, True), "oracle-rule": (True, False), "cap": (False, False)}  # (UR5e, Sawyer)
 
 
@@ -72,7 +74,8 @@ def test_the_headline_is_the_test_split_with_a_caption_of_what_the_records_say_w
     caption = text.split("Caption: ", 1)[1]
     for fact in (
         "held-out **test** split",
-        "kinematic: 1 of 6 test tasks, on Sawyer and UR5e: `panel_peg_lid_zone` (24)",
+        "kinematic: 1 test task (test when run; dev since 2026-11-28: run during development), on Sawyer and UR5e: "
+        "`panel_peg_lid_zone` (24)",
         "2 episodes per method",
         "seeds [0]; variations on",
         "the same for every method: 48 (the larger of 24 and two per primitive call of the task)",
