@@ -245,6 +245,8 @@ class SkillExecutor:
                     if self.adapter is not None and not segment.checked:
                         segment.checked = True
                         self.adapter.before_segment(self, self.cursor)
+                        if self.failure is not None:  # refused by a check: nothing of it runs
+                            return None
                     self._running = self._compile(self.segments[self.cursor])
                     self._segment_start, self.segment_obs = self.steps, self.session.obs
                     self.emit(SegmentStarted(self.grounded.skill, self.cursor, self.segments[self.cursor].source))
@@ -281,6 +283,10 @@ class SkillExecutor:
             return False
         self._ended = self.cursor >= len(self.segments)
         return not self._ended
+
+    def refuse(self, category: FailureCategory, message: str) -> None:
+        """End the skill before its current segment runs: a check found it cannot succeed (no repair)."""
+        self._fail(category, message, repairable=False)
 
     def _fail(self, category: FailureCategory, message: str, *, repairable: bool = True) -> None:
         segment = self.segments[min(self.cursor, len(self.segments) - 1)]

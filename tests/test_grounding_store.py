@@ -87,8 +87,8 @@ def test_the_key_changes_with_the_code_that_prompts_the_lm(ontology, tmp_path):
     from lerobot_policy_recent.recent_plugin.grounding.store import GROUNDING_CODE, grounding_code_digest
 
     package = Path(grounding_code_digest.__wrapped__.__code__.co_filename).parents[2]
-    same, edited, reworded = tmp_path / "same", tmp_path / "edited", tmp_path / "reworded"
-    for copy in (same, edited, reworded):
+    same, edited, reworded, vocabulary = (tmp_path / n for n in ("same", "edited", "reworded", "vocabulary"))
+    for copy in (same, edited, reworded, vocabulary):
         for folder in GROUNDING_CODE:
             shutil.copytree(
                 package / folder, copy / folder, ignore=shutil.ignore_patterns("__pycache__"), dirs_exist_ok=True
@@ -100,6 +100,11 @@ def test_the_key_changes_with_the_code_that_prompts_the_lm(ontology, tmp_path):
     assert grounding_code_digest(same) == grounding_code_digest()  # the same sources, the same digest
     assert grounding_code_digest(edited) != grounding_code_digest()
     assert grounding_code_digest(reworded) != grounding_code_digest()
+    conditions = vocabulary / "ontology" / "conditions.yaml"  # a condition now checked for every robot
+    conditions.write_text(
+        conditions.read_text().replace("  target_reachable:\n", "  target_reachable:\n    always: false\n")
+    )
+    assert grounding_code_digest(vocabulary) != grounding_code_digest()
 
     agent = RecentAgent(RecentSettings(infiller=RuleConfig()), infiller=RuleInfiller(), ontology=ontology)
     assert grounding_code_digest() in agent.grounding_key(agent.skill("put_in_bin"), ontology.target("UR5e"))

@@ -247,6 +247,7 @@ def test_effect_and_reach_checks_read_the_observation():
     release = UR5E.get("ur5_release_at").parameters
     far = within_reach(check_input([0, 0, 0], {"place_pos": [0.4, 0.3, 0.82]}, release))
     assert far is not None and "beyond the arm's 0.90 m reach" in far.observation and not far.statements
+    assert far.refuse  # nothing can move the robot: the skill is refused there, by name
     assert within_reach(check_input([0, 0, 0], {"place_pos": [0.1, 0.0, 0.82]}, release)) is None
 
 
@@ -654,3 +655,17 @@ def test_a_sweep_starts_and_ends_where_the_hand_gets_down_to_the_table():
     assert goal[0] > start[0] + 0.1 and abs(goal[1] - start[1]) < 1e-6  # away from the base
     # sideways, the slab would end 3.5 mm from the block's box; away from the base it ends 10 cm from everything
     assert np.allclose(sweep(float("inf"))[1], goal)  # so a reach unknown changes nothing here
+
+
+@pytest.mark.slow
+def test_a_target_the_world_drew_out_of_reach_is_refused_by_name_before_the_arm_is_sent(ontology):
+    """bench_panel, dev seed 3, variations mix (far_target): the plate lies 0.94 m from the Panda's base.
+    Its own skill is refused at the place, naming the target and the reach, instead of pushing at a slab
+    it cannot get to until the step budget ends."""
+    agent = RecentAgent(RecentSettings(infiller=RuleConfig()), infiller=RuleInfiller(), ontology=ontology)
+    result = run_episode(agent, "kinematic/bench_panel", "Panda", seed=3, variations="mix")
+    (failure,) = result.failures
+    assert failure.category == "unreachable_object" and failure.skill == "place_on_plate"
+    assert (
+        failure.message.startswith("refused: release target [0.330, 0.310, ") and "beyond the arm's" in failure.message
+    )

@@ -52,10 +52,11 @@ GROUNDING_CODE = (
 
 @functools.cache
 def grounding_code_digest(root: Path = Path(__file__).parents[2]) -> str:
-    """sha256 (16 hex digits) of the Python sources under ``GROUNDING_CODE`` of ``root``, in path order."""
+    """sha256 (16 hex digits) of the Python sources and YAML data under ``GROUNDING_CODE`` of ``root``, in
+    path order (the ontology's condition vocabulary is YAML: a condition checked for every robot is a new key)."""
     digest = hashlib.sha256()
     for folder in GROUNDING_CODE:
-        for source in sorted((root / folder).glob("*.py")):
+        for source in sorted([*(root / folder).glob("*.py"), *(root / folder).glob("*.yaml")]):
             digest.update(f"{folder}/{source.name}\n".encode())
             digest.update(source.read_bytes())
     return digest.hexdigest()[:16]

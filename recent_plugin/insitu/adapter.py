@@ -184,6 +184,10 @@ class InSituAdapter:
             return
         observation = "; ".join(v.observation for v in violations)
         checks = tuple(v.check for v in violations)
+        refused = [v for v in violations if v.refuse]
+        if refused:  # infeasible as sensed: fail here, named, rather than send the arm
+            executor.refuse(FailureCategory.UNREACHABLE_OBJECT, "refused: " + "; ".join(v.observation for v in refused))
+            return
         if any(v.rerun for v in violations):
             self._rerun(executor, segment, at, checks, observation, regrasp=any(v.regrasp for v in violations))
             return

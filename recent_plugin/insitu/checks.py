@@ -111,6 +111,7 @@ class Violation:
     cue: str = ""  # the observation as the LM's hint shows it; empty: ``observation`` itself
     follow: tuple[str, ...] = ()  # the skill's own statements, copied in after the patch (what derives from it)
     regrasp: bool = False  # with ``rerun``: the object is no longer in hand, so its grasp is done again first
+    refuse: bool = False  # nothing can do it (a target beyond the arm's reach): the skill fails here, named
 
 
 Check = Callable[[CheckInput], Violation | None]
@@ -384,7 +385,8 @@ POSITION_ROLES = ("grasp_target", "release_target", "motion_target", "push_start
 
 
 def within_reach(inp: CheckInput) -> Violation | None:
-    """A target farther from the base (on the table plane) than the arm reaches cannot be attained."""
+    """A target farther from the base (on the table plane) than the arm reaches cannot be attained: the
+    skill is refused there, by name, before the arm is sent (no patch can move the robot)."""
     base = np.asarray(inp.scene.base_xy, dtype=float)
     for role in POSITION_ROLES:
         target = _by_role(inp, role)
@@ -396,6 +398,7 @@ def within_reach(inp: CheckInput) -> Violation | None:
                 "within_reach",
                 f"{role.replace('_', ' ')} {_fmt(target)} lies {distance:.2f} m from the base, beyond the arm's "
                 f"{inp.scene.reach:.2f} m reach",
+                refuse=True,
             )
     return None
 
