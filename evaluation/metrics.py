@@ -39,6 +39,16 @@ def crashed(record: dict) -> bool:
     return bool(record.get("crashed")) or record.get("failure_category") == "crash"
 
 
+def refused(record: dict) -> bool:
+    """An episode a check refused before the arm was sent, as infeasible as sensed (a target drawn out of
+    reach): a named refusal, not a silent failure, reported apart from the feasible episodes."""
+    return (
+        not record.get("success")
+        and record.get("failure_category") == "unreachable_object"
+        and str(record.get("failure_message") or "").startswith("refused:")
+    )
+
+
 def split_crashed(records: list[dict]) -> tuple[list[dict], list[dict]]:
     """(episodes that ran to a verdict, crashed ones): only the first go into any figure."""
     return [r for r in records if not crashed(r)], [r for r in records if crashed(r)]
@@ -72,6 +82,9 @@ def summarize(records: list[dict]) -> dict[str, object]:
     for metric in METRICS:
         values = [m[metric] for m in per_seed]
         out[metric] = {"mean": statistics.fmean(values), "std": statistics.pstdev(values) if len(values) > 1 else 0.0}
+    feasible = [r for r in records if not refused(r)]
+    out["refused"] = len(records) - len(feasible)  # refused as infeasible, by name
+    out["sr_feasible"] = 100.0 * statistics.fmean(bool(r["success"]) for r in feasible) if feasible else None
     return {**out, **rate_intervals(records)}
 
 

@@ -480,3 +480,36 @@ def test_the_report_counts_the_failures_no_check_noticed():
     lines = unnoticed_lines(records)
     assert "| recent | 2 | 1 | 50 % |" in lines and "| source | 1 | 0 | 0 % |" in lines
     assert unnoticed_lines([{"method": "recent", "success": True}]) == []
+
+
+def test_an_episode_refused_as_infeasible_is_counted_apart_from_the_feasible_ones():
+    """A target the world drew out of reach ends with a named refusal (variations mix): the report and
+    results.json keep it apart, so the feasible episodes' SR is not diluted by what no robot could do."""
+    from lerobot_policy_recent.evaluation.metrics import summarize
+    from lerobot_policy_recent.evaluation.report.tables import failure_table
+
+    refusal = "refused: release target [0.330, 0.310, 0.842] lies 0.94 m from the base, beyond the arm's 0.88 m reach"
+    records = [
+        {"method": "source", "seed": 3, "success": True, "failure_category": None},
+        {
+            "method": "source",
+            "seed": 3,
+            "success": False,
+            "failure_category": "unreachable_object",
+            "failure_message": refusal,
+        },
+        {
+            "method": "source",
+            "seed": 3,
+            "success": False,
+            "failure_category": "unreachable_object",
+            "failure_message": "unreachable: the object is not there",
+        },
+    ]
+    summary = summarize(records)
+    assert summary["refused"] == 1 and summary["sr_feasible"] == 50.0
+    table = failure_table(records)
+    assert "| episode: refused as infeasible (named, before the arm was sent) | 1 |" in table
+    assert (
+        "| episode: unreachable_object | 1 |" in table and "| *succeeded, of the episodes not refused* | 1/2 |" in table
+    )

@@ -24,6 +24,7 @@ from lerobot_policy_recent.evaluation.metrics import (
     group,
     held_out_apart,
     record_split,
+    refused,
     rule_coverage,
     summarize,
 )
@@ -192,7 +193,9 @@ def failure_counts(records: list[dict]) -> dict[str, Counter]:
     counts: dict[str, Counter] = {}
     for r in records:
         c = counts.setdefault(r["method"], Counter())
-        if not r["success"] and r.get("failure_category"):
+        if refused(r):
+            c["episode: refused as infeasible (named, before the arm was sent)"] += 1
+        elif not r["success"] and r.get("failure_category"):
             c[f"episode: {r['failure_category']}"] += 1
         for category, n in (r.get("rejected") or {}).items():
             c[f"rejected: {category}"] += n
@@ -210,6 +213,10 @@ def failure_table(records: list[dict]) -> str:
     lines.append("| *episodes run* | " + " | ".join(f"*{episodes[m]}*" for m in methods) + " |")
     for category in categories:
         lines.append(f"| {category} | " + " | ".join(str(counts[m][category]) for m in methods) + " |")
+    feasible = {m: [r for r in records if r["method"] == m and not refused(r)] for m in methods}
+    if any(len(feasible[m]) < episodes[m] for m in methods):
+        cells = [f"{sum(r['success'] for r in rs)}/{len(rs)}" if rs else "–" for rs in feasible.values()]
+        lines.append("| *succeeded, of the episodes not refused* | " + " | ".join(cells) + " |")
     return "\n".join(lines)
 
 
