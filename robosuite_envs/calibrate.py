@@ -104,6 +104,7 @@ def measure(name: str) -> Calibration:
         **gripper,
         **tracking,
         table_reach_m=table_reach,
+        table_top_z=round(float(env.table_top_z), 4),
         measured_with=f"robosuite {robosuite.__version__}, mujoco {mujoco.__version__}",
         seconds=round(time.perf_counter() - started, 2),
     )

@@ -51,6 +51,7 @@ class Calibration:
     settle_tol_m: float  # a stopped grip site within this of its goal has arrived
     unreached: tuple[tuple[float, float, float], ...] = ()  # calibration poses (world) it could not reach
     table_reach_m: float = float("inf")  # farthest grip site from the base (table plane) it servos to near the table
+    table_top_z: float = float("-inf")  # world height of the table top it was measured at (what objects rest on)
     measured_with: str = ""  # simulator versions
     seconds: float = 0.0  # how long the calibration took
     version: int = CALIBRATION_VERSION
@@ -88,7 +89,7 @@ class Calibration:
             f"a stopped arm within {self.settle_tol_m * 1000:.1f} mm has arrived",
             f"unreached poses   {unreached}",
             f"reach at table    {self.table_reach_m:.3f} m from the base ({TABLE_REACH_HEIGHT_M * 100:.0f} cm above the "
-            "table, pointing down)",
+            f"table top at z = {self.table_top_z:.3f} m, pointing down)",
             f"measured with     {self.measured_with} in {self.seconds:.1f} s (calibration v{self.version})",
         ]
 
@@ -106,6 +107,7 @@ class Nominal:
     tracking_error_m: float = 0.0
     unreached: tuple = ()
     table_reach_m: float = float("inf")
+    table_top_z: float = float("-inf")
     base_xyz: tuple[float, float, float] = (0.0, 0.0, 0.0)  # an API's base frame then sits at the world origin
 
 

@@ -669,3 +669,29 @@ def test_a_target_the_world_drew_out_of_reach_is_refused_by_name_before_the_arm_
     assert (
         failure.message.startswith("refused: release target [0.330, 0.310, ") and "beyond the arm's" in failure.message
     )
+
+
+def test_an_object_that_left_the_table_is_refused_by_name_not_re_read():
+    """mix's ball (non_flat) rolled off the table: re-read, the next move went to 12 cm above the floor and
+    failed as out_of_workspace. The re-read sees it below the table top, and the skill is refused there."""
+    read = [0.10, -0.05, 0.82]
+    scene = SceneFacts(frozenset({"cube"}), {"cube": (0.045, 0.045, 0.045)}, table_top=0.8)
+
+    def now_at(pos):
+        return CheckInput(observed(cube=pos), {}, (), frozenset({"cube"}), {"obj_pos": ("cube", read)}, scene, UR5E)
+
+    fell = object_unmoved(now_at([0.581, -0.24, 0.022]))
+    assert fell.refuse and not fell.statements and "it left the table" in fell.observation
+    moved = object_unmoved(now_at([0.16, -0.05, 0.82]))  # still on the table: read again, as before
+    assert not moved.refuse and moved.statements == ("obj_pos = task.get_object_position('cube')",)
+
+
+@pytest.mark.slow
+def test_a_ball_that_rolled_off_the_table_is_refused_by_name_when_its_grasp_fails(ontology):
+    """assembly_zone, dev seed 3, variations mix (non_flat): the ball, set down in the zone, rolls off the
+    table. The failed grasp's repair would read it again, 75 cm lower; the skill is refused instead."""
+    agent = RecentAgent(RecentSettings(infiller=RuleConfig()), infiller=RuleInfiller(), ontology=ontology)
+    result = run_episode(agent, "kinematic/assembly_zone", "Panda", seed=3, variations="mix")
+    failure = result.failures[-1]
+    assert failure.category == "unreachable_object" and failure.message.startswith("refused: cube lies at [")
+    assert failure.message.endswith("below the table top: it left the table")

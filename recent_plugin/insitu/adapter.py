@@ -57,6 +57,7 @@ from lerobot_policy_recent.recent_plugin.insitu.checks import (
     SceneFacts,
     Violation,
     moved_reads,
+    off_table,
     placement_reached,
     state_reached,
 )
@@ -314,7 +315,13 @@ class InSituAdapter:
         recomputation is copied in (no LM call), as a violated effect's rerun is."""
         chain = dependencies(executor.segments[: segment.index], segment.node, set(executor.primitives))
         stale = _position_reads(executor, loads(segment.node).union(*(loads(s.node) for s in chain)))
-        moved = [f"{name} moved since {var} was read" for var, name, _, _ in moved_reads(stale, executor.session.obs)]
+        reads = moved_reads(stale, executor.session.obs)
+        gone = [g for _, name, _, now in reads if (g := off_table(executor.session.obs, self.scene, name, now))]
+        if gone:  # it left the table: no retry brings it back, so the skill is refused here, by name
+            self.emit(CheckVerdict(executor.grounded.skill, segment.index, "object_unmoved", False, "; ".join(gone)))
+            executor.refuse(FailureCategory.UNREACHABLE_OBJECT, "refused: " + "; ".join(gone))
+            return True
+        moved = [f"{name} moved since {var} was read" for var, name, _, _ in reads]
         # what may compute another value, as a repair recomputes: not an unrolled loop's constants, nor a
         # `lift += 0.01` that would add its offset twice
         redo = recomputation(executor.segments[: segment.index], segment.node, set(executor.primitives))

@@ -49,6 +49,7 @@ def drift_threshold(sigma: float, false_rate: float = FALSE_MOVES) -> float:
 # metres an object may drift from where the skill read it before it counts as moved: beyond what the
 # perception's noise explains (about 2 cm at 4 mm), and within what a grasp or a place on a 5 cm block tolerates
 MOVED = drift_threshold(POSITION_SIGMA)
+OFF_TABLE = 0.05  # metres an object's perceived top lies below the table top once it has left the table
 CLEARANCE = 0.03  # metres around a release target that must be free
 SLIDE_SHORT = 0.025  # metres a swept obstacle may stop short of where the hand leaves it
 TABLE_LIMIT = 0.35  # |x|, |y| a swept obstacle may end at: 5 cm in from the 0.8 m table's edges
@@ -74,6 +75,7 @@ class SceneFacts:
     reach: float = float("inf")  # metres: the arm's reach (the ontology's upper bound)
     push_path: tuple[Waypoint, ...] = ()  # a push as its hand's path, for robots without one (the ontology's)
     table_reach: float = float("inf")  # metres from the base (table plane) the hand gets down to the table (calibrated)
+    table_top: float = float("-inf")  # world height of the table top (the workcell's, as calibration measured it)
 
 
 @dataclass(frozen=True)
@@ -171,6 +173,9 @@ def object_unmoved(inp: CheckInput) -> Violation | None:
     them (the skill's own statements, copied: the LM writes only the edit)."""
     statements, seen, dirty = [], [], set()
     for variable, name, drift, now in moved_reads(inp.stale_reads, inp.obs):
+        gone = off_table(inp.obs, inp.scene, name, now)
+        if gone:  # fell off: nothing this robot does brings it back
+            return Violation("object_unmoved", gone, refuse=True)
         seen.append(f"{name} moved {100 * drift:.1f} cm since {variable} was read (now at {_fmt(now)})")
         statements.append(f"{variable} = task.get_object_position({name!r})")
         dirty.add(variable)
@@ -183,6 +188,14 @@ def object_unmoved(inp: CheckInput) -> Violation | None:
             follow.append(step.source)
             dirty |= step.writes
     return Violation("object_unmoved", "; ".join(seen), tuple(statements), instruction, follow=tuple(follow))
+
+
+def off_table(obs: Observation, scene: SceneFacts, name: str, now) -> str | None:
+    """Where perception sees an object whose top lies below the table top (it left the table), or None."""
+    top = float(now[2]) + seen_extents(obs, scene, name)[2] / 2
+    if top >= scene.table_top - OFF_TABLE:
+        return None
+    return f"{name} lies at {_fmt(now)}, {scene.table_top - top:.2f} m below the table top: it left the table"
 
 
 def object_present(inp: CheckInput) -> Violation | None:
@@ -260,10 +273,14 @@ def _strangers(inp: CheckInput, held: set[str]) -> list[tuple[str, object]]:
 
 def extents(inp: CheckInput, name: str) -> tuple[float, float, float]:
     """An object's bounding-box extents as perception reports them (the model's nominal ones where it does not)."""
-    state = inp.obs.objects.get(name)
+    return seen_extents(inp.obs, inp.scene, name)
+
+
+def seen_extents(obs: Observation, scene: SceneFacts, name: str) -> tuple[float, float, float]:
+    state = obs.objects.get(name)
     if state is not None and np.any(state.size):
         return tuple(float(v) for v in state.size)
-    return inp.scene.sizes.get(name, (0.05, 0.05, 0.05))
+    return scene.sizes.get(name, (0.05, 0.05, 0.05))
 
 
 def _described(size) -> str:
