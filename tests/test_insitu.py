@@ -248,6 +248,10 @@ def test_effect_and_reach_checks_read_the_observation():
     far = within_reach(check_input([0, 0, 0], {"place_pos": [0.4, 0.3, 0.82]}, release))
     assert far is not None and "beyond the arm's 0.90 m reach" in far.observation and not far.statements
     assert far.refuse  # nothing can move the robot: the skill is refused there, by name
+    below = SceneFacts(frozenset({"cube"}), {"cube": (0.05, 0.05, 0.05)}, base_xy=(-0.56, 0.0), table_top=0.8)
+    inp = CheckInput(observed(cube=[0, 0, 0]), {"place_pos": [0.1, 0.0, 0.12]}, release, frozenset(), {}, below, UR5E)
+    fallen = within_reach(inp)  # a target read from a ball on the floor
+    assert fallen.refuse and "0.68 m below the table top: what it was read from left the table" in fallen.observation
     assert within_reach(check_input([0, 0, 0], {"place_pos": [0.1, 0.0, 0.82]}, release)) is None
 
 

@@ -402,14 +402,22 @@ POSITION_ROLES = ("grasp_target", "release_target", "motion_target", "push_start
 
 
 def within_reach(inp: CheckInput) -> Violation | None:
-    """A target farther from the base (on the table plane) than the arm reaches cannot be attained: the
-    skill is refused there, by name, before the arm is sent (no patch can move the robot)."""
+    """A target farther from the base (on the table plane) than the arm reaches, or below the table top,
+    cannot be attained: the skill is refused there, by name, before the arm is sent (no patch can move
+    the robot, or bring back what fell off the table)."""
     base = np.asarray(inp.scene.base_xy, dtype=float)
     for role in POSITION_ROLES:
         target = _by_role(inp, role)
         if target is None:
             continue
         distance = float(np.linalg.norm(target[:2] - base))
+        if target[2] < inp.scene.table_top - OFF_TABLE:  # read from an object that left the table
+            return Violation(
+                "within_reach",
+                f"{role.replace('_', ' ')} {_fmt(target)} lies {inp.scene.table_top - target[2]:.2f} m below the "
+                "table top: what it was read from left the table",
+                refuse=True,
+            )
         if distance > inp.scene.reach:
             return Violation(
                 "within_reach",
