@@ -59,6 +59,7 @@ def test_diagnose_json(capsys):
         "object_grasped",
         "target_clear",
         "fingers_clear",
+        "target_reachable",  # checked on every robot: the world can draw a target out of reach
     }
 
 
