@@ -18,6 +18,7 @@ from collections import defaultdict
 from collections.abc import Callable, Iterable
 
 from lerobot_policy_recent.evaluation.confidence import paired_comparisons, rate_intervals
+from lerobot_policy_recent.recent_plugin.failures import is_refusal
 from lerobot_policy_recent.robosuite_envs.splits import split_of
 
 METRICS = ("sr", "gc", "go", "ei", "it", "igt", "go_pre", "patches")
@@ -42,11 +43,7 @@ def crashed(record: dict) -> bool:
 def refused(record: dict) -> bool:
     """An episode a check refused before the arm was sent, as infeasible as sensed (a target drawn out of
     reach): a named refusal, not a silent failure, reported apart from the feasible episodes."""
-    return (
-        not record.get("success")
-        and record.get("failure_category") == "unreachable_object"
-        and str(record.get("failure_message") or "").startswith("refused:")
-    )
+    return not record.get("success") and is_refusal(record.get("failure_category"), record.get("failure_message"))
 
 
 def split_crashed(records: list[dict]) -> tuple[list[dict], list[dict]]:

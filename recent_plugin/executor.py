@@ -31,7 +31,7 @@ from lerobot_policy_recent.ontology.diagnosis import Warning
 from lerobot_policy_recent.ontology.skill_code import entry_function, segment_statements
 from lerobot_policy_recent.ontology.specs import load_api_spec
 from lerobot_policy_recent.ontology.target import Target
-from lerobot_policy_recent.recent_plugin.failures import PRIMITIVE_FAILURE_CATEGORY, FailureCategory
+from lerobot_policy_recent.recent_plugin.failures import PRIMITIVE_FAILURE_CATEGORY, REFUSED, FailureCategory
 from lerobot_policy_recent.recent_plugin.grounding.gate import SAFE_HELPERS
 from lerobot_policy_recent.recent_plugin.grounding.grounder import GroundedSkill
 from lerobot_policy_recent.recent_plugin.sandbox import BudgetExceeded, Meter, SkillBudget, instrument
@@ -284,9 +284,9 @@ class SkillExecutor:
         self._ended = self.cursor >= len(self.segments)
         return not self._ended
 
-    def refuse(self, category: FailureCategory, message: str) -> None:
+    def refuse(self, why: str) -> None:
         """End the skill before its current segment runs: a check found it cannot succeed (no repair)."""
-        self._fail(category, message, repairable=False)
+        self._fail(FailureCategory.UNREACHABLE_OBJECT, REFUSED + why, repairable=False)
 
     def _fail(self, category: FailureCategory, message: str, *, repairable: bool = True) -> None:
         segment = self.segments[min(self.cursor, len(self.segments) - 1)]

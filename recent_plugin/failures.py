@@ -23,6 +23,14 @@ class FailureCategory(StrEnum):
     CRASH = "crash"  # not the method's failure: the run broke off (the LM worker died, an error); no verdict
 
 
+REFUSED = "refused: "  # how a skill a check found infeasible before the arm moved ends (SkillExecutor.refuse)
+
+
+def is_refusal(category: object, message: object) -> bool:
+    """A skill refused as infeasible as sensed (beyond reach, off the table), by name, not a failure of the attempt."""
+    return str(category) == FailureCategory.UNREACHABLE_OBJECT and str(message or "").startswith(REFUSED)
+
+
 PRIMITIVE_FAILURE_CATEGORY = {
     "unreachable": FailureCategory.UNREACHABLE_OBJECT,
     "out_of_workspace": FailureCategory.WORKSPACE,

@@ -187,7 +187,7 @@ class InSituAdapter:
         checks = tuple(v.check for v in violations)
         refused = [v for v in violations if v.refuse]
         if refused:  # infeasible as sensed: fail here, named, rather than send the arm
-            executor.refuse(FailureCategory.UNREACHABLE_OBJECT, "refused: " + "; ".join(v.observation for v in refused))
+            executor.refuse("; ".join(v.observation for v in refused))
             return
         if any(v.rerun for v in violations):
             self._rerun(executor, segment, at, checks, observation, regrasp=any(v.regrasp for v in violations))
@@ -319,7 +319,7 @@ class InSituAdapter:
         gone = [g for _, name, _, now in reads if (g := off_table(executor.session.obs, self.scene, name, now))]
         if gone:  # it left the table: no retry brings it back, so the skill is refused here, by name
             self.emit(CheckVerdict(executor.grounded.skill, segment.index, "object_unmoved", False, "; ".join(gone)))
-            executor.refuse(FailureCategory.UNREACHABLE_OBJECT, "refused: " + "; ".join(gone))
+            executor.refuse("; ".join(gone))
             return True
         moved = [f"{name} moved since {var} was read" for var, name, _, _ in reads]
         # what may compute another value, as a repair recomputes: not an unrolled loop's constants, nor a
