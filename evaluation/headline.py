@@ -139,8 +139,21 @@ def _budget_line(records: list[dict], max_lm_calls: int | None) -> str:
     span = f"{limits[0]}" if len(limits) == 1 else f"{limits[0]}–{limits[-1]}"
     return (
         f"LM calls per task, grounding and run time together, the same for every method: {span} "
-        f"(the larger of {max_lm_calls} and two per primitive call of the task)"
+        f"(the larger of {max_lm_calls} and two per primitive call of the task); used per episode: "
+        + _used_line(records, max_lm_calls)
     )
+
+
+def _used_line(records: list[dict], max_lm_calls: int) -> str:
+    """What each method spent of the budget: the range and mean of its LM calls per episode, and how
+    many of its episodes ended with the budget spent (a budget that never binds is stated as such)."""
+    parts = []
+    for (method,), rs in sorted(group(records, lambda r: (r["method"],)).items()):
+        calls = [int(r.get("lm_calls") or 0) for r in rs]
+        spent = sum(c >= lm_call_limit(get_task(r["task_id"]), max_lm_calls) for c, r in zip(calls, rs, strict=True))
+        spread = f"{min(calls)}" if min(calls) == max(calls) else f"{min(calls)}–{max(calls)}"
+        parts.append(f"`{method}` {spread} (mean {sum(calls) / len(calls):.1f}; budget spent in {spent}/{len(rs)})")
+    return ", ".join(parts)
 
 
 def _models_line(records: list[dict]) -> str:

@@ -307,5 +307,6 @@ class RecentAgent:
                 max_retries=self.settings.max_retries,
                 max_repairs=self.settings.max_repairs,
                 emit=emit,
+                lm_budget_binds=budget is not None and budget.limit > 0,
             )
         )

@@ -75,13 +75,15 @@ class Adapter(Protocol):
 
 @dataclass
 class RepairBudget:
-    """At most ``per_skill`` repairs of each skill, and only of the segment that just failed."""
+    """At most ``per_skill`` repairs of each skill (None: no count, where the task's LM budget ends
+    the loop instead), and only of the segment that just failed."""
 
-    per_skill: int
+    per_skill: int | None
     used: Counter = field(default_factory=Counter)
 
     def take(self, executor: SkillExecutor, failure: SkillFailure) -> bool:
-        if self.used[failure.skill] >= self.per_skill or failure.segment < executor.cursor:
+        spent = self.per_skill is not None and self.used[failure.skill] >= self.per_skill
+        if spent or failure.segment < executor.cursor:
             return False
         self.used[failure.skill] += 1
         return True

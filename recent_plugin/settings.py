@@ -30,7 +30,10 @@ class RecentSettings:
     # baselines are named methods
     method: Method = field(default_factory=RecentFastPath)
     max_retries: int = 2  # retries per rejected span
-    max_repairs: int = 2  # reactive repairs of failed segments, per skill
+    # reactive repairs of failed segments, per skill: RECENT's (its repairs re-read and retry, mostly rendered
+    # without the LM); a baseline's repairs are all LM calls, so its loop runs until the task's LM budget
+    # is spent, and this caps it only where there is no budget (--max_lm_calls=0, the rule backend)
+    max_repairs: int = 2
     # LM calls per task, grounding and run time together, the same for every method; 0: no limit. A paper-length
     # task gets TaskSpec.lm_calls_per_primitive calls per primitive call of its skills where that is more
     max_lm_calls: int = 24

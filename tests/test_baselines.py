@@ -294,6 +294,20 @@ def test_every_method_gets_the_same_lm_call_budget_per_task_cached_groundings_in
     assert second.grounding.cached and len(second.runtime_calls) == 1 and len(infiller.units) == 3
 
 
+@pytest.mark.parametrize("method", ["repair", "agentless", "cap"])
+def test_a_baselines_loop_runs_until_the_task_succeeds_or_its_lm_budget_is_spent(ontology, method):
+    """Not stopped at ``max_repairs`` (2): a rewrite that fails again is rewritten again, each one an
+    LM call, until the task's 6 calls are spent; without a limit, ``max_repairs`` still ends it."""
+    wrong = UR5E_BODY.replace("open_ur5_ee(env, task)", PANDA_LINE)
+    rewrite = wrong if method == "cap" else PANDA_LINE
+    for limit, calls in ((6, 6), (0, 3)):
+        infiller = ScriptedInfiller([wrong] + [rewrite] * 10)
+        settings = RecentSettings(infiller=RuleConfig(), method=method_named(method), max_lm_calls=limit)
+        result = run_episode(RecentAgent(settings, ontology=ontology, infiller=infiller), "cube_in_bin", "UR5e", seed=0)
+        assert not result.success and len(infiller.units) == calls, (limit, len(infiller.units))
+        assert [c.kind for c in result.runtime_calls] == ["repair"] * (calls - 1)
+
+
 def test_recent_is_held_to_the_same_budget(ontology):
     infiller = ScriptedInfiller([""] * 20)  # every answer rejected
     settings = RecentSettings(infiller=RuleConfig(), method=method_named("recent"), max_retries=10, max_lm_calls=3)

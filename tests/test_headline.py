@@ -32,6 +32,7 @@ def _record(method: str, target: str, success: bool, *, seed: int = 0, commit: s
         "it": 0.0 if rule else 5.0,
         "igt": 1.0,
         "patches": 1,
+        "lm_calls": 0 if rule else (48 if method == "cap" else 20),  # cap's loop ran until the 48-call budget was spent
         "backend": "rule" if rule else "llamacpp",
         "model": "ontology-substitution" if rule else "qwen2.5-coder-1.5b-instruct-q4_k_m.gguf",
         "rule_coverage": 75.0 if method == "recent" else None,
@@ -79,6 +80,8 @@ def test_the_headline_is_the_test_split_with_a_caption_of_what_the_records_say_w
         "2 episodes per method",
         "seeds [0]; variations on",
         "the same for every method: 48 (the larger of 24 and two per primitive call of the task)",
+        "used per episode: `cap` 48 (mean 48.0; budget spent in 2/2), `oracle-rule` 0 (mean 0.0; budget spent in "
+        "0/2), `recent` 20 (mean 20.0; budget spent in 0/2)",
         "Model: qwen2.5-coder-1.5b-instruct-q4_k_m.gguf via llamacpp; `oracle-rule`: ontology-substitution via rule",
         "seeded sampling at temperature 0.2",
         "AMD EPYC, 2 cores",

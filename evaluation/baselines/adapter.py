@@ -6,7 +6,9 @@ with the error appended and runs it from its first statement, in place of all th
 left to run; ``repair`` rewrites the failed statement with the error and the observed scene;
 ``agentless`` rewrites the statement first and the whole function if the skill fails again. Every
 call is a ``repair`` (EI, IT). A repair is held to the security gate only, as the first program
-was: it runs until it fails.
+was: it runs until it fails. The loop goes on until the task succeeds or its LM budget is spent
+(every repair is an LM call), as the baselines' own loops do; ``max_repairs`` bounds it only
+where no budget does.
 """
 
 from __future__ import annotations
@@ -46,7 +48,8 @@ class BaselineAdapter:
     context: ProgramContext
     skills: dict[str, Skill]  # the plan's skills by name (their prompts' examples)
     max_retries: int = 2
-    max_repairs: int = 2  # per skill
+    # per skill; None: until the task's LM budget is spent (each repair is at least one LM call)
+    max_repairs: int | None = 2
     calls: list[LMCall] = field(default_factory=list)
     events: list[AdaptationEvent] = field(default_factory=list)
     emit: Emit = ignore

@@ -43,8 +43,13 @@ class Baseline(Method):
 
     def adapter(self, a: Adaptation) -> Adapter:
         skills = {step.skill: a.skill(step.skill) for step in a.task.plan}
+        fields = a.adapter_fields()
+        if (
+            a.lm_budget_binds
+        ):  # every repair is an LM call: the loop runs until the task succeeds or the budget is spent
+            fields["max_repairs"] = None
         return BaselineAdapter(
-            **a.adapter_fields(),
+            **fields,
             style=self.style,
             context=self.context(a.task, tuple(skills.values()), a.target, a.ontology, a.max_retries),
             skills=skills,

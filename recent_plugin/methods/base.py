@@ -49,6 +49,9 @@ class Adaptation:
     max_retries: int
     max_repairs: int
     emit: Emit = ignore
+    # every LM call is taken from a task budget with a limit: a loop that only the LM drives may run
+    # until that budget is spent (a baseline's repairs) instead of stopping at ``max_repairs``
+    lm_budget_binds: bool = False
 
     def adapter_fields(self) -> dict[str, object]:
         """What every run-time adapter is built with: the robot, every API, the LM, the budgets, the log."""
