@@ -699,3 +699,16 @@ def test_a_ball_that_rolled_off_the_table_is_refused_by_name_when_its_grasp_fail
     failure = result.failures[-1]
     assert failure.category == "unreachable_object" and failure.message.startswith("refused: cube lies at [")
     assert failure.message.endswith("below the table top: it left the table")
+
+
+@pytest.mark.slow
+def test_a_copied_place_keeps_its_guards_and_refuses_a_target_read_off_the_table(ontology):
+    """plate_stack_panel, dev seed 7, mix: the stacked block misses; the place's rerun copies the
+    skill's grasp and place. The copies carried no guards, so the copied place went to 8 cm above the
+    floor and failed as out_of_workspace; with the original's guards it is refused by name."""
+    agent = RecentAgent(RecentSettings(infiller=RuleConfig()), infiller=RuleInfiller(), ontology=ontology)
+    result = run_episode(agent, "kinematic/plate_stack_panel", "Panda", seed=7, variations="mix")
+    assert any(e.checks == ("placed_at_target",) for e in result.adaptations)  # the rerun that copied the place
+    failure = result.failures[-1]
+    assert failure.category == "unreachable_object" and failure.skill == "stack"
+    assert failure.message.startswith("refused: release target [") and "left the table" in failure.message

@@ -255,17 +255,24 @@ class InSituAdapter:
 
         ``regrasp``: the object left the hand (a place that did not hold), so the skill's latest grasp
         before the statement is done again first, from a fresh read. The patch is code the skill
-        already holds — copied, not generated — so no LM is asked. The copy is checked again once it
-        completes, up to ``max_repairs`` times per skill.
+        already holds — copied, not generated — so no LM is asked. The copied grasp and statement keep
+        their guards (a copied place is held to the same reach and clearance as the original); the copy
+        is checked again once it completes, up to ``max_repairs`` times per skill.
         """
         primitives = set(executor.primitives)
         earlier = executor.segments[: segment.index]
         grasp = self._latest_grasp(earlier) if regrasp else None
         redo: tuple[str, ...] = ()
+        copied: list[tuple[int, Segment]] = []  # (offset in redo, the statement it copies)
         if grasp is not None:
             redo = (*recomputation(earlier[: grasp.index], grasp.node, primitives), grasp.source)
+            copied.append((len(redo) - 1, grasp))
         redo += (*recomputation(earlier, segment.node, primitives), segment.source)
+        copied.append((len(redo) - 1, segment))
         self._insert_copy(executor, segment, at, redo, checks, observation, shown=(segment.source, *redo))
+        for offset, original in copied:
+            copy = executor.segments[at + offset]
+            copy.guards, copy.checked = original.guards, False
         self._reruns[executor.grounded.skill] += 1
         if self._reruns[executor.grounded.skill] <= self.max_repairs:
             executor.segments[at + len(redo) - 1].effects = segment.effects
