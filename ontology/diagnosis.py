@@ -27,7 +27,7 @@ from lerobot_policy_recent.ontology.skill_code import (
     position_bindings,
     position_names,
 )
-from lerobot_policy_recent.ontology.specs import NAMED_BY_POINT, PATH_ROLE, ParameterSpec, PrimitiveSpec
+from lerobot_policy_recent.ontology.specs import NAMED_BY_POINT, PATH_ROLE, ApiSpec, ParameterSpec, PrimitiveSpec
 
 SPAN_TYPES = ("api_substitution", "parameter_binding", "interface_rewiring", "preparatory_step", "path_tracing")
 
@@ -88,6 +88,9 @@ class Conflict:
     # original call named (a Franka Hand place(obj_name=base) onto a place that takes a point: the
     # point is base's). Validation holds the LM's point to that object.
     designated: tuple[tuple[str, str], ...] = ()
+    # the call has no counterpart to make and is dropped (rendered as ``pass``): a hand closed only to
+    # push with, on an end effector that takes no shape (see :func:`_shaping_only`)
+    omitted: bool = False
 
     def preparatory_calls(self) -> list[str]:
         """``close_robotiq85``, or ``move_gripper_to(obj_name=obj_name)``: each preparatory call with
@@ -139,6 +142,7 @@ class Diagnosis:
                     "mapping": {m.source: m.target for m in c.mapping},
                     "dropped": list(c.dropped),
                     "unfilled": list(c.unfilled),
+                    **({"omitted": True} if c.omitted else {}),
                     **({"preparatory": c.preparatory_calls()} if c.preparatory else {}),
                     **(
                         {"conversions": {m.target: m.conversion.template for m in c.mapping if m.conversion}}
@@ -176,7 +180,7 @@ def diagnose(onto: Ontology, skill_name: str, code: str, robot: str, source: str
         if target is not None and not _same_signature(original, target):
             target = None  # the same name, another interface (the two Panda APIs' picks: a position, a name)
         if target is None:
-            conflict = _conflict(onto, site, original, source, robot, names)
+            conflict = _conflict(onto, site, original, source, robot, names, sites)
             conflicts.append(conflict)
             target = conflict.substitute
         if target is not None:
@@ -194,9 +198,29 @@ def _same_signature(original: PrimitiveSpec, target: PrimitiveSpec) -> bool:
 
 
 def _conflict(
-    onto: Ontology, site: CallSite, original: PrimitiveSpec, source: str, robot: str, names: PositionNames
+    onto: Ontology,
+    site: CallSite,
+    original: PrimitiveSpec,
+    source: str,
+    robot: str,
+    names: PositionNames,
+    sites: tuple[CallSite, ...] | list[CallSite] = (),
 ) -> Conflict:
     candidates = onto.substitutes(source, site.name, robot)
+    if candidates and _shaping_only(onto.api(source), original, candidates, sites):
+        substitute = min(candidates, key=lambda c: c.name)
+        return Conflict(
+            span=site.span,
+            span_type="api_substitution",
+            original=site.name,
+            substitute=None,
+            omitted=True,
+            reason=(
+                f"{site.name} only closes the hand to push or press with (nothing in the skill opens or releases it); "
+                f"{robot} has no fingers to close, and {substitute.name} would hold whatever it touches: "
+                "the call is dropped"
+            ),
+        )
     tracers = onto.path_tracers(source, site.name, robot) if not candidates else []
     if tracers:
         return _path_conflict(onto, site, original, tracers[0], robot)
@@ -251,6 +275,31 @@ def _conflict(
     )
     after = f", after {', '.join(conflict.preparatory_calls())}" if preparatory else ""
     return replace(conflict, reason=f"no {site.name}; use {substitute.name} (same effects){after}")
+
+
+# Closing the fingers with nothing opened or released anywhere in the skill shapes the hand for contact
+# (a fist that pushes, presses or sweeps): no object is held. An end effector whose counterpart engages
+# objects on contact instead (suction) has no shape to take, and making that call would pick up what the
+# push touches.
+SHAPES_HAND = "close_fingers"
+ENGAGES_ON_CONTACT = "activate_suction"
+LETS_GO = frozenset({"open_fingers", "release_object", "detach_object", "deactivate_suction"})
+
+
+def _shaping_only(
+    source_api: ApiSpec, original: PrimitiveSpec, candidates: list[PrimitiveSpec], sites: list[CallSite]
+) -> bool:
+    """Whether the call only shapes the hand (see ``SHAPES_HAND``), onto a robot whose counterpart
+    would grip on contact instead."""
+    if SHAPES_HAND not in original.capabilities or original.effects - {"end_effector_engaged"}:
+        return False
+    if not all(ENGAGES_ON_CONTACT in c.capabilities and SHAPES_HAND not in c.capabilities for c in candidates):
+        return False
+    called = (source_api.get(s.name) for s in sites)
+    return not any(spec is not None and spec.capabilities & LETS_GO for spec in called)
+
+
+OMITTED = "pass"  # how a dropped call is rendered: a statement, so that any block around it stays one
 
 
 def _path_conflict(

@@ -30,6 +30,7 @@ def grounding_summary(grounded) -> dict:
                 "original": c.original,
                 "substitute": c.substitute.name if c.substitute else None,
                 "span_type": c.span_type,
+                **({"omitted": c.reason} if c.omitted else {}),
             }
             for c in grounded.diagnosis.conflicts
         ],
@@ -52,7 +53,10 @@ def print_grounding(summary: dict) -> None:
     else:
         print("(no change: the skill is directly compatible)")
     for c in summary["conflicts"]:
-        substitute = c["substitute"] or f"(no primitive of {summary['robot']} has its effects)"
+        if c.get("omitted"):
+            substitute = f"nothing: {c['omitted']}"
+        else:
+            substitute = c["substitute"] or f"(no primitive of {summary['robot']} has its effects)"
         print(f"  line {c['line']}: {c['original']} -> {substitute} ({c['span_type']})")
     verdict = (
         "valid" if summary["valid"] else f"REJECTED ({summary['failure']['category']}: {summary['failure']['message']})"

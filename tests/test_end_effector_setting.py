@@ -5,6 +5,7 @@ between names and positions, one source call for several target calls where a ta
 from __future__ import annotations
 
 import pytest
+from doubles import ScriptedInfiller
 
 from lerobot_policy_recent.ontology.diagnosis import diagnose
 from lerobot_policy_recent.ontology.skill_code import named_positions
@@ -53,6 +54,25 @@ def test_a_handle_grasp_the_cup_has_no_primitive_for_is_traced_on_the_named_hand
     assert release.substitute.name == "deactivate_vacuum" and [s.render() for s in release.path] == [
         "deactivate_vacuum()"
     ]
+
+
+def test_a_hand_closed_only_to_push_is_dropped_on_the_cup_and_a_grip_is_not(ontology, rule_infiller):
+    """The Franka Hand closes its fingers to sweep blocks into the pen (nothing opens them again). On
+    the cup, switching suction on instead lifted the row's blocks as it pushed: the call is dropped.
+    Where the skill opens the hand again (a lid's knob gripped, swung, let go) the close is a grip,
+    and stays one; on the 2F-85 the fingers close as they did."""
+    sweep = load_skill("sweep_into_pen")
+    close = _conflict(ontology, sweep, "Suction", "close_gripper")
+    assert close.omitted and close.substitute is None and "has no fingers to close" in close.reason
+    grounded = ground_skill(sweep, ontology.target("Suction"), ontology, rule_infiller)
+    assert grounded.valid and "activate_vacuum" not in grounded.code and "    pass\n" in grounded.code
+    grip = _conflict(ontology, load_skill("open_hinged_box"), "Suction", "close_gripper")
+    assert not grip.omitted and grip.substitute.name == "activate_vacuum"
+    assert not _conflict(ontology, sweep, "Robotiq85", "close_gripper").omitted
+
+    vacuum = ScriptedInfiller(["activate_vacuum(env, task)"])  # an LM that writes the counterpart anyway
+    wrote = ground_skill(sweep, ontology.target("Suction"), ontology, vacuum, max_retries=0)
+    assert not wrote.valid and "the ontology drops this call" in wrote.verdict.message
 
 
 def test_the_2f85_takes_the_franka_hands_calls_by_name_as_renames(ontology, rule_infiller):

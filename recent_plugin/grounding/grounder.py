@@ -17,7 +17,7 @@ from dataclasses import dataclass, field, replace
 
 from lerobot_policy_recent.logs.events import Event, PatchApplied, SkillDiagnosed, ValidationVerdict
 from lerobot_policy_recent.ontology.builder import Ontology
-from lerobot_policy_recent.ontology.diagnosis import Conflict, Diagnosis, Warning, diagnose
+from lerobot_policy_recent.ontology.diagnosis import OMITTED, Conflict, Diagnosis, Warning, diagnose
 from lerobot_policy_recent.ontology.skill_code import CodeSpan, object_of_point, position_names
 from lerobot_policy_recent.ontology.target import Target
 from lerobot_policy_recent.recent_plugin.failures import FailureCategory
@@ -115,7 +115,7 @@ class GroundedSkill:
                 self.skill,
                 self.robot,
                 [
-                    f"line {c.span.line}: {c.span_type} {c.original} -> {c.substitute.name if c.substitute else '?'}"
+                    f"line {c.span.line}: {c.span_type} {c.original} -> {_substitute_name(c)}"
                     for c in diagnosis.conflicts
                 ],
                 [f"line {w.span.line}: {w.check} ({w.phase})" for w in diagnosis.warnings],
@@ -233,6 +233,13 @@ def _resolve(
     return None if accepted is None else (accepted.candidate, len(accepted.text))
 
 
+def _substitute_name(conflict: Conflict) -> str:
+    """What a conflict's call becomes, as the diagnosis event shows it."""
+    if conflict.omitted:
+        return "nothing (dropped)"
+    return conflict.substitute.name if conflict.substitute else "?"
+
+
 def _check_span(text: str, unit: RefactoringUnit) -> Verdict | None:
     """The span must hold code and nothing it was not asked for (no `return`, no statement after the
     ontology's call), and a determined substitution must call the substitute it names."""
@@ -250,6 +257,11 @@ def _check_span(text: str, unit: RefactoringUnit) -> Verdict | None:
             FailureCategory.NON_EXECUTABLE, f"the span adds `{ast.unparse(returned)}`, which it was not asked for"
         )
     called = {name for name, _ in _ordered_calls(statements)}
+    if unit.hints.substitute_call == OMITTED and called:
+        return Verdict.reject(
+            FailureCategory.HALLUCINATED_API,
+            f"the ontology drops this call ({unit.hints.reason}), but the span calls {sorted(called)}",
+        )
     if unit.substitute and unit.substitute not in called:
         return Verdict.reject(
             FailureCategory.HALLUCINATED_API,

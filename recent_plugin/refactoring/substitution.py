@@ -10,7 +10,7 @@ from __future__ import annotations
 import ast
 import re
 
-from lerobot_policy_recent.ontology.diagnosis import Conflict, ParameterMapping
+from lerobot_policy_recent.ontology.diagnosis import OMITTED, Conflict, ParameterMapping
 from lerobot_policy_recent.ontology.specs import PATH_ROLE
 
 PLACEHOLDER = re.compile(r"<[a-z_]+>")
@@ -18,6 +18,8 @@ PLACEHOLDER = re.compile(r"<[a-z_]+>")
 
 def render_substitute_call(span: str, conflict: Conflict) -> str | None:
     substitute = conflict.substitute
+    if conflict.omitted:
+        return OMITTED
     if substitute is None:
         return None
     statement = ast.parse(span).body[0]
