@@ -306,6 +306,10 @@ def test_a_baselines_loop_runs_until_the_task_succeeds_or_its_lm_budget_is_spent
         result = run_episode(RecentAgent(settings, ontology=ontology, infiller=infiller), "cube_in_bin", "UR5e", seed=0)
         assert not result.success and len(infiller.units) == calls, (limit, len(infiller.units))
         assert [c.kind for c in result.runtime_calls] == ["repair"] * (calls - 1)
+    # RepairAgent's growing prompt: a rewrite recalls the rewrites that failed before it; CaP's does not
+    recalled = "tried before and failed: `open_gripper(env, task)` (NameError: name 'open_gripper' is not defined)"
+    assert (recalled in infiller.units[2].hints.feedback) == (method == "repair")
+    assert recalled not in infiller.units[1].hints.feedback  # the first repair has no history yet
 
 
 def test_recent_is_held_to_the_same_budget(ontology):

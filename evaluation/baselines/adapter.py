@@ -35,6 +35,7 @@ from lerobot_policy_recent.recent_plugin.grounding.attempts import (
 from lerobot_policy_recent.recent_plugin.grounding.gate import Verdict
 from lerobot_policy_recent.recent_plugin.grounding.grounder import GroundedSkill
 from lerobot_policy_recent.recent_plugin.infillers.base import Infiller
+from lerobot_policy_recent.recent_plugin.refactoring.fim_prompt import one_line
 from lerobot_policy_recent.recent_plugin.refactoring.units import RefactoringUnit, apply_unit
 from lerobot_policy_recent.skills.repository import Skill
 
@@ -54,6 +55,8 @@ class BaselineAdapter:
     events: list[AdaptationEvent] = field(default_factory=list)
     emit: Emit = ignore
     _budget: RepairBudget = field(init=False)
+    # per skill, each failed statement and its error, oldest first (what a style may recall)
+    _failed: dict[str, list[str]] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         self._budget = RepairBudget(self.max_repairs)
@@ -78,6 +81,11 @@ class BaselineAdapter:
         skill = self.skills[name]
         error = f"line {failure.line}: {failure.category}: {failure.message}"
         error = self.style.error_feedback(str(failure.category), error)
+        failed = self._failed.setdefault(name, [])
+        recalled = self.style.history(failed)
+        failed.append(f"`{one_line(executor.segments[failure.segment].source)}` ({failure.message})")
+        if recalled:
+            error = f"{error}; {recalled}"
         observation = self.style.scene(executor.session.obs)
         whole = self.style.rewrites_whole(self._budget.used[name])
         code = executor.source()

@@ -88,6 +88,11 @@ class BaselineStyle:
         """How a run-time failure is told to the LM."""
         return error
 
+    def history(self, failed: list[str]) -> str:
+        """What a repair prompt recalls of the skill's earlier attempts that failed (``failed``: one
+        line each, oldest first): nothing by default, as CaP and Agentless see only the last error."""
+        return ""
+
     def scene(self, obs: Observation) -> str:
         """The observed scene, as a repair prompt shows it."""
         return describe_scene(obs)
