@@ -334,7 +334,10 @@ def test_a_paper_length_task_budgets_two_lm_calls_per_primitive_call(ontology):
 def test_cap_distilled_runs_caps_protocol_on_a_model_of_its_own(ontology, llama_infiller):
     """The run's LM is the 1.5B; cap-distilled answers with its own slot (the 0.5B here), and says so."""
     agent = RecentAgent(
-        RecentSettings(method=method_named("cap-distilled")), ontology=ontology, infiller=llama_infiller
+        # 3 calls: the loop would otherwise regenerate until the task's 24 are spent
+        RecentSettings(method=method_named("cap-distilled"), max_lm_calls=3),
+        ontology=ontology,
+        infiller=llama_infiller,
     )
     assert "0.5b" in agent.infiller.model and agent.infiller.model != llama_infiller.model
     result = run_episode(agent, "cube_in_bin", "UR5e", seed=0, max_steps=300)
