@@ -8,6 +8,7 @@ conflict carries everything the refactoring step needs — no LM is involved her
 from __future__ import annotations
 
 import re
+from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 
 from lerobot_policy_recent.ontology.builder import Ontology
@@ -204,7 +205,7 @@ def _conflict(
     source: str,
     robot: str,
     names: PositionNames,
-    sites: tuple[CallSite, ...] | list[CallSite] = (),
+    sites: Sequence[CallSite],
 ) -> Conflict:
     candidates = onto.substitutes(source, site.name, robot)
     if candidates and _shaping_only(onto.api(source), original, candidates, sites):
@@ -287,7 +288,7 @@ LETS_GO = frozenset({"open_fingers", "release_object", "detach_object", "deactiv
 
 
 def _shaping_only(
-    source_api: ApiSpec, original: PrimitiveSpec, candidates: list[PrimitiveSpec], sites: list[CallSite]
+    source_api: ApiSpec, original: PrimitiveSpec, candidates: list[PrimitiveSpec], sites: Sequence[CallSite]
 ) -> bool:
     """Whether the call only shapes the hand (see ``SHAPES_HAND``), onto a robot whose counterpart
     would grip on contact instead."""

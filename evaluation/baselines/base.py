@@ -44,9 +44,8 @@ class Baseline(Method):
     def adapter(self, a: Adaptation) -> Adapter:
         skills = {step.skill: a.skill(step.skill) for step in a.task.plan}
         fields = a.adapter_fields()
-        if (
-            a.lm_budget_binds
-        ):  # every repair is an LM call: the loop runs until the task succeeds or the budget is spent
+        # every repair is an LM call: where a budget binds, the loop runs until it is spent or the task succeeds
+        if a.lm_budget_binds:
             fields["max_repairs"] = None
         return BaselineAdapter(
             **fields,
