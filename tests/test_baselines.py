@@ -170,7 +170,8 @@ def test_a_safe_but_wrong_program_runs_up_to_the_failing_call_and_gc_counts_what
     press = _rule_body(ontology, "press_button", task).replace("(env, task", "(env, task, speed=1.0", 1)
     infiller = ScriptedInfiller([place, press])
     agent = RecentAgent(
-        RecentSettings(infiller=RuleConfig(), method=method_named("cap"), max_repairs=0),
+        # two calls, the two programs: none is left to repair with (a baseline's loop ends with its budget)
+        RecentSettings(infiller=RuleConfig(), method=method_named("cap"), max_lm_calls=2),
         ontology=ontology,
         infiller=infiller,
     )
