@@ -54,6 +54,26 @@ def test_a_held_load_is_swept_with_the_hand():
     assert len(path) == 3 and bottom >= SLAB.top + clearance.CLEAR_MARGIN - 1e-9
 
 
+def test_a_load_carried_a_hair_above_a_block_goes_over_it_but_slides_over_a_marking():
+    """A block carried at its neighbours' height clears one by 3 mm on paper: within perception's
+    noise it drags it along, so the path rises; over a 1 mm marking the same line is kept."""
+    eef = np.array([-0.2, 0.0, 0.9])
+    block_top = eef[2] - 0.025 - 0.025 - 0.003  # the load (5 cm, centred 2.5 cm down) passes 3 mm above it
+    obs = Observation(
+        eef_pos=eef,
+        eef_quat=np.array([0.0, 0.0, 0.0, 1.0]),
+        gripper_opening=0.0,
+        objects={"load": ObjectState(eef - [0.0, 0.0, 0.025], np.zeros(4), np.array([0.05, 0.05, 0.05]))},
+        object_detected=True,
+    )
+    sweep = clearance.Sweep.of(obs)
+    block = clearance.Box("block", np.array([0.0, 0.0, block_top - 0.02]), np.array([0.02, 0.02, 0.02]))
+    path = clearance.path_over(eef, [0.2, 0.0, 0.9], [block], sweep)
+    assert len(path) == 3 and path[0][2] - 0.05 >= block.top + clearance.CLEAR_MARGIN - 1e-9
+    marking = clearance.Box("row", np.array([0.0, 0.0, block_top - 0.0005]), np.array([0.1, 0.1, 0.0005]))
+    assert len(clearance.path_over(eef, [0.2, 0.0, 0.9], [marking], sweep)) == 1
+
+
 def _observation(positions: dict[str, list[float]]) -> Observation:
     return Observation(
         eef_pos=np.zeros(3),

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from lerobot_policy_recent.robosuite_envs.observation import Observation
+from lerobot_policy_recent.robosuite_envs.observation import POSITION_SIGMA, Observation
 
 HAND_RADIUS = 0.07  # metres the open hand reaches sideways from the grip site (a Panda's touched a cube 7 cm off)
 FINGER_DEPTH = 0.02  # metres the fingertips reach below the grip site
@@ -28,6 +28,7 @@ CLEAR_MARGIN = 0.02  # metres the hand's lowest point passes above a box's top
 GOAL_MARGIN = 0.01  # metres beyond a box within which a goal counts as the box's (perception's noise)
 SLIDE_DEPTH = 0.01  # metres below a box's top the hand's lowest point may pass before the box is in the way
 CLIMB_SPARE = 0.005  # metres a climb over a box that stopped the hand adds above the clearance
+LOAD_CLEARANCE = 2.5 * POSITION_SIGMA  # metres a carried load's underside passes above a box's perceived top
 
 
 @dataclass(frozen=True)
@@ -82,11 +83,15 @@ class Sweep:
         return cls((HAND, Part(offset, np.asarray(load.size, dtype=float) / 2)))
 
     def blocks(self, box: Box, start: np.ndarray, end: np.ndarray) -> bool:
-        """The grip site's segment ``start`` → ``end`` sinks the hand or its load into ``box`` by more
-        than ``SLIDE_DEPTH`` (a hand sliding along at a marking's height is meant to be there)."""
-        for part in self.parts:
+        """The grip site's segment ``start`` → ``end`` sinks the hand into ``box`` by more than
+        ``SLIDE_DEPTH`` (a hand sliding along at a marking's height is meant to be there), or carries
+        its load over anything but a marking with less than ``LOAD_CLEARANCE`` to spare (a block
+        carried at its neighbours' height, 2 mm above one by the numbers, dragged it off its slot)."""
+        for index, part in enumerate(self.parts):
+            solid = index > 0 and 2 * box.half[2] > SLIDE_DEPTH  # a load, over more than a marking
+            top = LOAD_CLEARANCE if solid else -SLIDE_DEPTH
             low = box.centre - box.half - part.offset - part.half
-            high = box.centre + box.half - part.offset + part.half - [0.0, 0.0, SLIDE_DEPTH]
+            high = box.centre + box.half - part.offset + part.half + [0.0, 0.0, top]
             if _segment_meets(start, end, low, high):
                 return True
         return False
