@@ -40,14 +40,7 @@ def test_a_descent_beside_a_box_keeps_its_line_going_over_would_not_avoid_it():
 def test_a_held_load_is_swept_with_the_hand():
     """A block hanging 4 cm below the grip site clears the slab only where the block's bottom does."""
     eef = np.array([-0.2, 0.0, 0.9])
-    obs = Observation(
-        eef_pos=eef,
-        eef_quat=np.array([0.0, 0.0, 0.0, 1.0]),
-        gripper_opening=0.0,
-        objects={"block": ObjectState(eef - [0.0, 0.0, 0.04], np.zeros(4), np.array([0.05, 0.05, 0.05]))},
-        object_detected=True,
-    )
-    sweep = clearance.Sweep.of(obs)
+    sweep = clearance.Sweep.of(_carrying(eef, hanging=0.04))
     assert len(sweep.parts) == 2
     path = clearance.path_over(eef, [0.2, 0.0, 0.9], [SLAB], sweep)  # the bare hand would clear: 0.88 > 0.845
     bottom = path[0][2] - 0.04 - 0.025
@@ -59,19 +52,23 @@ def test_a_load_carried_a_hair_above_a_block_goes_over_it_but_slides_over_a_mark
     noise it drags it along, so the path rises; over a 1 mm marking the same line is kept."""
     eef = np.array([-0.2, 0.0, 0.9])
     block_top = eef[2] - 0.025 - 0.025 - 0.003  # the load (5 cm, centred 2.5 cm down) passes 3 mm above it
-    obs = Observation(
-        eef_pos=eef,
-        eef_quat=np.array([0.0, 0.0, 0.0, 1.0]),
-        gripper_opening=0.0,
-        objects={"load": ObjectState(eef - [0.0, 0.0, 0.025], np.zeros(4), np.array([0.05, 0.05, 0.05]))},
-        object_detected=True,
-    )
-    sweep = clearance.Sweep.of(obs)
+    sweep = clearance.Sweep.of(_carrying(eef, hanging=0.025))
     block = clearance.Box("block", np.array([0.0, 0.0, block_top - 0.02]), np.array([0.02, 0.02, 0.02]))
     path = clearance.path_over(eef, [0.2, 0.0, 0.9], [block], sweep)
     assert len(path) == 3 and path[0][2] - 0.05 >= block.top + clearance.CLEAR_MARGIN - 1e-9
     marking = clearance.Box("row", np.array([0.0, 0.0, block_top - 0.0005]), np.array([0.1, 0.1, 0.0005]))
     assert len(clearance.path_over(eef, [0.2, 0.0, 0.9], [marking], sweep)) == 1
+
+
+def _carrying(eef: np.ndarray, hanging: float) -> Observation:
+    """The hand at ``eef`` holding a 5 cm block whose centre hangs ``hanging`` below the grip site."""
+    return Observation(
+        eef_pos=eef,
+        eef_quat=np.array([0.0, 0.0, 0.0, 1.0]),
+        gripper_opening=0.0,
+        objects={"load": ObjectState(eef - [0.0, 0.0, hanging], np.zeros(4), np.array([0.05, 0.05, 0.05]))},
+        object_detected=True,
+    )
 
 
 def _observation(positions: dict[str, list[float]]) -> Observation:
