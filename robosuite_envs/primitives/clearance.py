@@ -85,8 +85,9 @@ class Sweep:
     def blocks(self, box: Box, start: np.ndarray, end: np.ndarray) -> bool:
         """The grip site's segment ``start`` → ``end`` sinks the hand into ``box`` by more than
         ``SLIDE_DEPTH`` (a hand sliding along at a marking's height is meant to be there), or carries
-        its load over anything but a marking with less than ``LOAD_CLEARANCE`` to spare (a block
-        carried at its neighbours' height, 2 mm above one by the numbers, dragged it off its slot)."""
+        its load over anything but a marking with less than ``LOAD_CLEARANCE`` to spare: both the
+        load's underside and the box's top are perceived with noise, and a load that passes 2 mm
+        above a block by the numbers may be resting on it and drag it along."""
         for index, part in enumerate(self.parts):
             solid = index > 0 and 2 * box.half[2] > SLIDE_DEPTH  # a load, over more than a marking
             top = LOAD_CLEARANCE if solid else -SLIDE_DEPTH
