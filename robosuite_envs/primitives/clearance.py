@@ -88,9 +88,9 @@ class Sweep:
         its load over anything but a marking with less than ``LOAD_CLEARANCE`` to spare: both the
         load's underside and the box's top are perceived with noise, and a load that passes 2 mm
         above a block by the numbers may be resting on it and drag it along."""
-        for index, part in enumerate(self.parts):
-            solid = index > 0 and 2 * box.half[2] > SLIDE_DEPTH  # a load, over more than a marking
-            top = LOAD_CLEARANCE if solid else -SLIDE_DEPTH
+        over_solid = 2 * box.half[2] > SLIDE_DEPTH  # taller than a marking
+        for part in self.parts:
+            top = LOAD_CLEARANCE if part is not HAND and over_solid else -SLIDE_DEPTH
             low = box.centre - box.half - part.offset - part.half
             high = box.centre + box.half - part.offset + part.half + [0.0, 0.0, top]
             if _segment_meets(start, end, low, high):
