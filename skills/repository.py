@@ -59,6 +59,9 @@ class Placement:
 
     parameter: str  # the entry's parameter that names the object moved
     over: str  # the one that names where it ends
+    # where on it, when the skill puts it at a spot (a slot of a row): metres across the table from
+    # the other's perceived centre; None: anywhere over its box
+    at: tuple[float, float] | None = None
 
 
 @dataclass(frozen=True)
@@ -162,21 +165,32 @@ def _state_effects(meta: dict, path: Path, parameters: set[str]) -> tuple[StateE
 
 
 def _placements(meta: dict, path: Path, parameters: set[str]) -> tuple[Placement, ...]:
-    """``placements: [{object: obj, over: region}]``: both name parameters of the entry."""
+    """``placements: [{object: obj, over: region}]``: both name parameters of the entry; ``at: [dx, dy]``
+    names the spot on it (a row's slot), in metres from its centre."""
     value = meta.get("placements") or []
     if not isinstance(value, list):
         raise ValueError(f"{path}: field 'placements' must be a list, got {value!r}")
+    placements = []
     for item in value:
+        names = {k: v for k, v in item.items() if k != "at"} if isinstance(item, dict) else None
         if (
-            not isinstance(item, dict)
-            or set(item) != {"object", "over"}
-            or not all(isinstance(v, str) and v in parameters for v in item.values())
+            names is None
+            or set(names) != {"object", "over"}
+            or not all(isinstance(v, str) and v in parameters for v in names.values())
         ):
             raise ValueError(
-                f"{path}: field 'placements' entry {item!r} must be {{object: <param>, over: <param>}}, "
-                f"each one of {sorted(parameters)}"
+                f"{path}: field 'placements' entry {item!r} must be {{object: <param>, over: <param>}} (and an "
+                f"optional at: [dx, dy]), each one of {sorted(parameters)}"
             )
-    return tuple(Placement(item["object"], item["over"]) for item in value)
+        at = item.get("at")
+        if at is not None and not (
+            isinstance(at, list)
+            and len(at) == 2
+            and all(isinstance(v, int | float) and not isinstance(v, bool) for v in at)
+        ):
+            raise ValueError(f"{path}: field 'placements' entry {item!r}: 'at' must be [dx, dy] in metres, got {at!r}")
+        placements.append(Placement(item["object"], item["over"], None if at is None else (float(at[0]), float(at[1]))))
+    return tuple(placements)
 
 
 def source_call_sites(skill: Skill) -> list[CallSite]:

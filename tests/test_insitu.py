@@ -30,6 +30,7 @@ from lerobot_policy_recent.recent_plugin.insitu.checks import (
     fingers_clear,
     object_unmoved,
     placed_at_target,
+    placement_reached,
     pushed_to_goal,
     target_clear,
     within_reach,
@@ -618,6 +619,43 @@ def test_a_place_is_checked_where_the_object_came_to_rest():
     assert by_name(**tower, blue=[-0.248, 0.004, 0.925]) is None
     fell = by_name(**tower, blue=[-0.17, 0.02, 0.825])
     assert fell is not None and fell.observation.startswith("blue rests at") and "from red at" in fell.observation
+
+
+def test_a_block_a_later_carry_pushed_off_its_slot_is_not_counted_as_placed():
+    """``arrange_in_row`` declares where on the row each block goes (its slot, ``at``). A block a later
+    carry dragged 4 cm along the row is still over the row's box, but no longer on its slot: the
+    skill's placement is unmet, where the row's box alone passed it (the cup's line-up, dev seed 3)."""
+    from lerobot_policy_recent.skills.repository import load_skill
+
+    (first, *_) = load_skill("arrange_in_row").placements
+    assert (first.parameter, first.over, first.at) == ("first", "row", (0.0, -0.1))
+    row = ObjectState(np.array([-0.25, 0.0, 0.8]), np.array([0, 0, 0, 1.0]), size=np.array([0.06, 0.28, 0.001]))
+
+    def read(red_at):
+        red = ObjectState(np.array(red_at), np.array([0, 0, 0, 1.0]), size=np.array([0.045, 0.045, 0.045]))
+        return placement_reached(
+            first, "red", "row", Observation(np.zeros(3), np.array([0, 0, 0, 1.0]), 0.0, {"red": red, "row": row})
+        )
+
+    assert read([-0.252, -0.09, 0.822])[0]  # 1 cm from its slot: the slot lies under it
+    met, said = read([-0.255, -0.059, 0.821])
+    assert not met and "off its spot of row at [-0.250, -0.100]" in said
+    assert placement_reached(
+        replace(first, at=None),
+        "red",
+        "row",
+        Observation(
+            np.zeros(3),
+            np.array([0, 0, 0, 1.0]),
+            0.0,
+            {
+                "red": ObjectState(
+                    np.array([-0.255, -0.059, 0.821]), np.array([0, 0, 0, 1.0]), size=np.array([0.045] * 3)
+                ),
+                "row": row,
+            },
+        ),
+    )[0]  # over the row's box
 
 
 @pytest.mark.slow

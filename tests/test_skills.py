@@ -174,3 +174,10 @@ def test_a_placement_must_name_two_parameters(tmp_path):
         ValueError, match=r"move_to_region\.yaml: field 'placements' entry .* each one of \['obj', 'region'\]"
     ):
         repository.load_skill("move_to_region", library)
+    meta.write_text(meta.read_text().split("placements:")[0] + "placements: [{object: obj, over: region, at: [0.1]}]\n")
+    with pytest.raises(ValueError, match=r"move_to_region\.yaml: field 'placements' entry .*'at' must be \[dx, dy\]"):
+        repository.load_skill("move_to_region", library)
+    meta.write_text(
+        meta.read_text().split("placements:")[0] + "placements: [{object: obj, over: region, at: [0, 0.1]}]\n"
+    )
+    assert repository.load_skill("move_to_region", library).placements[0].at == (0.0, 0.1)

@@ -559,9 +559,16 @@ def placement_reached(placement: Placement, name: object, over: object, obs: Obs
         return True, f"{where}; {over} has no perceived extents"
     outside = beyond_footprint(seen.pos, support.pos, support.size)
     under = seen.pos[2] < support.pos[2] - support.size[2] / 2 - POSITION_SIGMA
-    if outside == 0.0 and not under:
+    if outside or under:
+        return False, f"{where}, {100 * outside:.1f} cm outside {over}'s box{' and below it' if under else ''}"
+    if placement.at is None:
         return True, f"{where}, over {over}"
-    return False, f"{where}, {100 * outside:.1f} cm outside {over}'s box{' and below it' if under else ''}"
+    # at a spot: it lies under the object's own perceived box (moved off it later, by a neighbour's carry, it does not)
+    spot = np.asarray(support.pos[:2], dtype=float) + placement.at
+    off = beyond_footprint(spot, seen.pos, seen.size)
+    if off == 0.0:
+        return True, f"{where}, on its spot of {over} at {_fmt(spot)}"
+    return False, f"{where}, {100 * off:.1f} cm off its spot of {over} at {_fmt(spot)}"
 
 
 CHECKS: dict[str, Check] = {
