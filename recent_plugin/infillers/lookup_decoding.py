@@ -25,6 +25,13 @@ The KV cache is kept between calls: a prompt that shares its start with the prev
 same skill's next span) only evaluates what differs. Earlier prompts' states are saved too
 (:mod:`~lerobot_policy_recent.recent_plugin.infillers.prompt_states`): a prompt that shares a longer start with one of
 them than with the last prompt starts from that state instead.
+
+A prompt is evaluated in blocks of ``PROMPT_BLOCK`` tokens counted from its start, and only whole
+blocks are reused. llama.cpp's logits depend on how a prompt was cut into batches (a split at
+another token moved the 1.5B's logits by up to 0.4), so a prompt resumed from wherever an earlier
+one diverged would decode differently from the same prompt evaluated cold: an episode's LM answers
+would depend on which episodes ran before it in the worker. With fixed blocks every reused cell was
+computed as a cold evaluation computes it, and the answers are the same whatever came before.
 """
 
 from __future__ import annotations
@@ -50,6 +57,7 @@ class Decoded:
     context_full: bool = False  # the prompt left no room in the model's context: nothing was generated
 
 
+PROMPT_BLOCK = 64  # tokens per prompt batch, from the prompt's start: a reused KV cell is one a cold run computes alike
 MAX_NGRAM = 6  # the longest tail matched to find a draft
 MAX_DRAFT = 48  # the longest draft from the prompt: a refused batch costs about as much as a dozen single tokens
 # The longest draft from the expected text (the hint's call): a push sweep's call, 54 to 56 tokens, is
@@ -218,6 +226,10 @@ class GreedyGrammarSampler:
             self._grammar = None
 
 
+def _whole_blocks(n: int) -> int:
+    return n - n % PROMPT_BLOCK
+
+
 class LookupDecoder:
     """Greedy (grammar-constrained) decoding with prompt-lookup drafts on a ``llama_cpp.Llama``."""
 
@@ -235,18 +247,25 @@ class LookupDecoder:
         self.max_draft = max_draft
         self.max_expected = max_expected
         self.states = states if states is not None else PromptStates(0)
+        self._blocks = 0  # leading cached tokens evaluated as whole prompt blocks (the cells that may be reused)
+        self._left: bytes = b""  # the cache's tokens as this decoder left them (another user of the model resets it)
 
     def _start_from(self, prompt: list[int]) -> int:
-        """Put the longest start of ``prompt`` that the KV cache or a saved state holds into the cache; its length.
+        """Put the longest start of ``prompt`` that the KV cache or a saved state holds, in whole prompt
+        blocks, into the cache; its length.
 
         At least the prompt's last token is left to evaluate, so its logits are fresh."""
         tokens = np.asarray(prompt[:-1], dtype=np.intc)
         cached = np.asarray(self._cached(), dtype=np.intc)
-        keep = shared_start(cached, tokens)
+        if cached.tobytes() != self._left:  # evaluated by someone else, in other batches
+            self._blocks = 0
+        keep = _whole_blocks(min(shared_start(cached, tokens), self._blocks))
         found = self.states.best(tokens)
-        if found is not None and found[1] > keep and self._restore(found[0].tokens, found[0].data, found[0].size):
-            self.states.restored += 1
-            keep = found[1]
+        if found is not None:
+            usable = _whole_blocks(min(found[1], len(found[0].tokens)))
+            if usable > keep and self._restore(found[0].tokens, found[0].data, found[0].size):
+                self.states.restored += 1
+                keep = usable
         self._truncate(keep)
         return keep
 
@@ -261,6 +280,7 @@ class LookupDecoder:
             return False
         llm.input_ids[: len(tokens)] = tokens
         llm.n_tokens = len(tokens)
+        self._blocks = _whole_blocks(len(tokens))  # saved after its prompt was evaluated block by block
         return True
 
     def _save(self, prompt: list[int]) -> None:
@@ -280,6 +300,13 @@ class LookupDecoder:
     def _truncate(self, n: int) -> None:
         self.llm._ctx.kv_cache_seq_rm(-1, n, -1)
         self.llm.n_tokens = n
+        self._blocks = min(self._blocks, n)
+
+    def _evaluate_prompt(self, prompt: list[int], keep: int) -> None:
+        """Evaluate ``prompt`` after its first ``keep`` tokens (a whole number of blocks), block by block."""
+        for start in range(keep, len(prompt), PROMPT_BLOCK):
+            self._decode(prompt[start : start + PROMPT_BLOCK], all_logits=False)
+        self._blocks = _whole_blocks(len(prompt))
 
     def _decode(self, tokens: list[int], *, all_logits: bool) -> None:
         llm = self.llm
@@ -312,7 +339,7 @@ class LookupDecoder:
         max_tokens = min(max_tokens, room - 1)
         started = time.perf_counter()
         keep = self._start_from(prompt)
-        self._decode(prompt[keep:], all_logits=False)
+        self._evaluate_prompt(prompt, keep)
         self._save(prompt)
         prompt_seconds = time.perf_counter() - started
         sampler = GreedyGrammarSampler(llm, grammar, temperature=temperature, rng=np.random.default_rng(seed))
@@ -359,6 +386,7 @@ class LookupDecoder:
                     break
         finally:
             sampler.close()
+            self._left = np.asarray(self._cached(), dtype=np.intc).tobytes()
         text = llm.detokenize(out, prev_tokens=prompt).decode("utf-8", errors="ignore")
         for stop in stops:
             if stop in text:
