@@ -171,7 +171,7 @@ def test_a_prompt_starts_from_the_saved_state_it_shares_most_with(ontology, put_
         i for i, (a, b) in enumerate(zip(session.tokenize(texts[0], special=True), tokens, strict=False)) if a != b
     )
     assert session.prompt_state_stats()["restored"] == restored_before + 1
-    assert again.evaluated_prompt_tokens == len(tokens) - (shared - shared % lookup_decoding.PROMPT_BLOCK)
+    assert again.evaluated_prompt_tokens == len(tokens) - (shared - shared % lookup_decoding.REUSE_ALIGN)
 
     session.forget_prompt_states()
     cold = session.generate(texts[1], max_tokens=24, stops=stops)
@@ -182,16 +182,16 @@ def test_a_prompt_starts_from_the_saved_state_it_shares_most_with(ontology, put_
 def test_a_prompt_is_scored_alike_whatever_the_cache_held_before(llama_session):
     """What ran before a call must not change its answer (an episode's record would depend on the
     episodes before it in the worker). llama.cpp's logits depend on where a prompt was cut into
-    batches, so a prompt resumed from wherever an earlier one diverged (here mid-block, at token
-    137) scored differently from a cold run (by up to 0.36 in a logit). Evaluated in whole blocks from its start, the prompt's
-    next-token logits are bit for bit the same: cold, from the live cache, and from a saved state."""
+    batches, so a prompt resumed from wherever an earlier one diverged (here at token 137) scored
+    differently from a cold run (by up to 0.36 in a logit). Resumed only at aligned starts, the
+    prompt's next-token logits are bit for bit the same: cold, from the live cache, and from a saved state."""
     import llama_cpp
 
     session = llama_session
     code = open(lookup_decoding.__file__).read()[:6000]
     prompt = session.tokenize(code)[:300]
     other = prompt[:137] + session.tokenize("# something else entirely\n" * 4)
-    assert other[137] != prompt[137] and 137 % lookup_decoding.PROMPT_BLOCK
+    assert other[137] != prompt[137] and 137 % lookup_decoding.REUSE_ALIGN
     unrelated = session.tokenize("def area(w, h):\n    return w * h\n" * 3)
 
     def scored(*before: list[int]) -> np.ndarray:

@@ -26,12 +26,14 @@ same skill's next span) only evaluates what differs. Earlier prompts' states are
 (:mod:`~lerobot_policy_recent.recent_plugin.infillers.prompt_states`): a prompt that shares a longer start with one of
 them than with the last prompt starts from that state instead.
 
-A prompt is evaluated in blocks of ``PROMPT_BLOCK`` tokens counted from its start, and only whole
-blocks are reused. llama.cpp's logits depend on how a prompt was cut into batches (a split at
-another token moved the 1.5B's logits by up to 0.4), so a prompt resumed from wherever an earlier
-one diverged would decode differently from the same prompt evaluated cold: an episode's LM answers
-would depend on which episodes ran before it in the worker. With fixed blocks every reused cell was
-computed as a cold evaluation computes it, and the answers are the same whatever came before.
+Only a shared start that is a whole number of ``REUSE_ALIGN`` tokens is reused, and every batch
+of a prompt starts at such a multiple. llama.cpp's CPU kernels compute a batch's rows in groups
+(of 8 on the EPYC host) and the rows left over at a batch's end another way, so a prompt resumed
+where an earlier one diverged, mid-group, decoded differently from the same prompt evaluated cold
+(resuming at token 137 moved the 1.5B's next-token logits by up to 0.4; at any multiple of 8, by
+nothing): an episode's LM answers depended on which episodes ran before it in the worker. Aligned,
+every reused cell is computed as a cold evaluation computes it, and the answers are the same
+whatever came before. 32 leaves room for kernels with wider groups.
 """
 
 from __future__ import annotations
@@ -57,7 +59,7 @@ class Decoded:
     context_full: bool = False  # the prompt left no room in the model's context: nothing was generated
 
 
-PROMPT_BLOCK = 64  # tokens per prompt batch, from the prompt's start: a reused KV cell is one a cold run computes alike
+REUSE_ALIGN = 32  # a reused start, and every prompt batch's start, is a multiple of this many tokens
 MAX_NGRAM = 6  # the longest tail matched to find a draft
 MAX_DRAFT = 48  # the longest draft from the prompt: a refused batch costs about as much as a dozen single tokens
 # The longest draft from the expected text (the hint's call): a push sweep's call, 54 to 56 tokens, is
@@ -226,8 +228,8 @@ class GreedyGrammarSampler:
             self._grammar = None
 
 
-def _whole_blocks(n: int) -> int:
-    return n - n % PROMPT_BLOCK
+def _aligned(n: int) -> int:
+    return n - n % REUSE_ALIGN
 
 
 class LookupDecoder:
@@ -247,22 +249,22 @@ class LookupDecoder:
         self.max_draft = max_draft
         self.max_expected = max_expected
         self.states = states if states is not None else PromptStates(0)
-        self._blocks = 0  # leading cached tokens evaluated as whole prompt blocks (the cells that may be reused)
+        self._aligned = 0  # leading cached tokens a cold evaluation computes alike (the cells that may be reused)
         self._left: bytes = b""  # the cache's tokens as this decoder left them (another user of the model resets it)
 
     def _start_from(self, prompt: list[int]) -> int:
-        """Put the longest start of ``prompt`` that the KV cache or a saved state holds, in whole prompt
-        blocks, into the cache; its length.
+        """Put the longest start of ``prompt`` that the KV cache or a saved state holds, a multiple of
+        ``REUSE_ALIGN``, into the cache; its length.
 
         At least the prompt's last token is left to evaluate, so its logits are fresh."""
         tokens = np.asarray(prompt[:-1], dtype=np.intc)
         cached = np.asarray(self._cached(), dtype=np.intc)
         if cached.tobytes() != self._left:  # evaluated by someone else, in other batches
-            self._blocks = 0
-        keep = _whole_blocks(min(shared_start(cached, tokens), self._blocks))
+            self._aligned = 0
+        keep = _aligned(min(shared_start(cached, tokens), self._aligned))
         found = self.states.best(tokens)
         if found is not None:
-            usable = _whole_blocks(min(found[1], len(found[0].tokens)))
+            usable = _aligned(min(found[1], len(found[0].tokens)))
             if usable > keep and self._restore(found[0].tokens, found[0].data, found[0].size):
                 self.states.restored += 1
                 keep = usable
@@ -280,7 +282,7 @@ class LookupDecoder:
             return False
         llm.input_ids[: len(tokens)] = tokens
         llm.n_tokens = len(tokens)
-        self._blocks = _whole_blocks(len(tokens))  # saved after its prompt was evaluated block by block
+        self._aligned = _aligned(len(tokens))  # saved after its prompt was evaluated in aligned batches
         return True
 
     def _save(self, prompt: list[int]) -> None:
@@ -300,13 +302,15 @@ class LookupDecoder:
     def _truncate(self, n: int) -> None:
         self.llm._ctx.kv_cache_seq_rm(-1, n, -1)
         self.llm.n_tokens = n
-        self._blocks = min(self._blocks, n)
+        self._aligned = min(self._aligned, n)
 
     def _evaluate_prompt(self, prompt: list[int], keep: int) -> None:
-        """Evaluate ``prompt`` after its first ``keep`` tokens (a whole number of blocks), block by block."""
-        for start in range(keep, len(prompt), PROMPT_BLOCK):
-            self._decode(prompt[start : start + PROMPT_BLOCK], all_logits=False)
-        self._blocks = _whole_blocks(len(prompt))
+        """Evaluate ``prompt`` after its first ``keep`` tokens (a multiple of ``REUSE_ALIGN``), in
+        batches that each start at a multiple of it."""
+        size = max(REUSE_ALIGN, self.llm.n_batch - self.llm.n_batch % REUSE_ALIGN)
+        for start in range(keep, len(prompt), size):
+            self._decode(prompt[start : start + size], all_logits=False)
+        self._aligned = _aligned(len(prompt))  # the rows left over at the end were computed another way
 
     def _decode(self, tokens: list[int], *, all_logits: bool) -> None:
         llm = self.llm
