@@ -129,7 +129,7 @@ class RecentAgent:
                 skill,
                 target,
                 self.ontology,
-                self.episode_lm(budget, seed),
+                self.episode_lm(budget, seed, scope=f"grounding {skill.name}"),
                 task,
                 max_retries=self.settings.max_retries,
             )
@@ -169,14 +169,16 @@ class RecentAgent:
             return None
         return CallBudget(lm_call_limit(task, self.settings.max_lm_calls, self.library))
 
-    def episode_lm(self, budget: CallBudget | None, seed: int | None = None) -> Infiller:
+    def episode_lm(self, budget: CallBudget | None, seed: int | None = None, *, scope: str = "run time") -> Infiller:
         """The method's infiller over the LM for one episode: every LM call taken from ``budget``, and
-        sampled (``temperature`` > 0) from a generator seeded by ``lm_seed`` and the episode ``seed``."""
+        sampled (``temperature`` > 0) from a generator seeded by ``lm_seed``, the episode ``seed`` and
+        the call's place in its ``scope`` (a skill's grounding, or the run time)."""
         if budget is None:
             return self.infiller
         s = self.settings
         episode_seed = zlib.crc32(f"{s.lm_seed}:{seed}".encode())
-        return s.method.infiller(BudgetedInfiller(self.lm, budget, temperature=s.temperature, seed=episode_seed))
+        lm = BudgetedInfiller(self.lm, budget, temperature=s.temperature, seed=episode_seed, scope=scope)
+        return s.method.infiller(lm)
 
     def lm_key(self) -> str:
         """The LM and budgets a grounding depends on: the weights' sha256, the backend's settings, the

@@ -429,3 +429,38 @@ def test_every_skill_on_every_robot_from_either_source_api_cuts_its_units(ontolo
             for source in ("Panda", "FrankaHand"):
                 for conflict in diagnose(ontology, skill.name, skill.code, robot, source=source).conflicts:
                     unit_from_conflict(skill.code, conflict, ontology.target(robot))
+
+
+def test_a_skills_grounding_samples_alike_whatever_was_grounded_before_it():
+    """A skill grounded in an earlier episode of the worker is served from the cache, so it must be
+    the grounding this episode would make itself. Its calls draw with seeds from the episode, the
+    skill and their place in its grounding, not their place in the episode (after other skills in
+    another task: other seeds, another record)."""
+    from lerobot_policy_recent.recent_plugin.grounding.budget import BudgetedInfiller, CallBudget
+    from lerobot_policy_recent.recent_plugin.infillers.base import Completion
+
+    class Sampling:
+        name, model, samples = "sampling", "fixed", True
+
+        def __init__(self):
+            self.seeds: list[int] = []
+
+        def infill(self, unit, *, temperature=0.0, seed=0):
+            self.seeds.append(seed)
+            return Completion("pass", generated_tokens=1, seconds=0.0)
+
+    def stack_seeds(calls_before: int) -> list[int]:
+        lm, budget = Sampling(), CallBudget(0)
+        earlier = BudgetedInfiller(lm, budget, temperature=0.2, seed=3, scope="grounding put_in_bin")
+        for _ in range(calls_before):
+            earlier.infill(None)
+        del lm.seeds[:]
+        stack = BudgetedInfiller(lm, budget, temperature=0.2, seed=3, scope="grounding stack")
+        stack.infill(None)
+        stack.infill(None)
+        return lm.seeds
+
+    assert stack_seeds(0) == stack_seeds(4) and len(set(stack_seeds(0))) == 2
+    other_episode = Sampling()
+    BudgetedInfiller(other_episode, CallBudget(0), temperature=0.2, seed=7, scope="grounding stack").infill(None)
+    assert other_episode.seeds[0] != stack_seeds(0)[0]  # episode seeds stay real repetitions

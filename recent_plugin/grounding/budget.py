@@ -44,22 +44,25 @@ class CallBudget:
 class BudgetedInfiller:
     """The LM behind a :class:`CallBudget`, for one episode: each call takes one, and none is made once
     it is spent. With a ``temperature`` above 0 every call of an LM that samples does so, seeded from
-    the episode's ``seed`` and the call's place in the episode: seeds are real repetitions, and a call
-    draws the same tokens again from the same model state (llama.cpp's batched and single-token
-    evaluations differ in the last bits, so a replay on a cold cache may differ where the model is all
-    but indifferent)."""
+    the episode's ``seed``, the ``scope`` that makes it (one skill's grounding, or the run time) and
+    its place in that scope: seeds are real repetitions, and a skill grounded in an earlier episode
+    of the worker (served from the cache) is the grounding this episode would have made itself.
+    Seeded by the call's place in the whole episode, it was not: the same skill came after other
+    skills in another task, drew with other seeds, and the record depended on what ran before."""
 
-    def __init__(self, lm: Infiller, budget: CallBudget, *, temperature: float = 0.0, seed: int = 0):
+    def __init__(self, lm: Infiller, budget: CallBudget, *, temperature: float = 0.0, seed: int = 0, scope: str = ""):
         self.lm, self.budget = lm, budget
         self.name, self.model = lm.name, lm.model
         self.samples = samples(lm)
-        self.temperature, self.seed = (temperature if self.samples else 0.0), seed
+        self.temperature, self.seed, self.scope = (temperature if self.samples else 0.0), seed, scope
+        self.calls = 0  # made through this infiller: the call's place in its scope
 
     def infill(self, unit: RefactoringUnit) -> Completion:
         self.budget.take()
+        self.calls += 1
         if self.temperature <= 0:
             return self.lm.infill(unit)
-        call_seed = zlib.crc32(f"{self.seed}:{self.budget.used}".encode())
+        call_seed = zlib.crc32(f"{self.seed}:{self.scope}:{self.calls}".encode())
         return self.lm.infill(unit, temperature=self.temperature, seed=call_seed)  # type: ignore[call-arg]
 
     def count_tokens(self, text: str) -> int:
