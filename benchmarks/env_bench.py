@@ -4,7 +4,9 @@
 
 Targets (issue "robosuite world"): steps/s without cameras within 20% of bare robosuite Lift with
 the same robot and controller, measured in the same run; reset <= 0.5 s; primitive controller
-cost per step <= 0.2 ms median.
+cost per step <= 0.2 ms median. The execution issue adds: within 20% of Lift on the longest task's
+scene (``--scene``). The three envs take turns, block by block, and each ratio is the median of
+the rounds' ratios: on a shared host Lift alone ran anywhere from 89 to 144 steps/s in one hour.
 """
 
 from __future__ import annotations
@@ -67,8 +69,11 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--robot", default="Panda")
     parser.add_argument("--task", default="cube_in_bin", help="compared with Lift (one cube + a bin: like for like)")
-    parser.add_argument("--scene", default="kinematic/tidy_bench", help="a full suite scene, reported alongside")
-    parser.add_argument("--steps", type=int, default=600)
+    parser.add_argument(
+        "--scene", default="kinematic/plate_clear_switch", help="a full suite scene (default: the longest task's)"
+    )
+    parser.add_argument("--steps", type=int, default=600, help="steps per block")
+    parser.add_argument("--rounds", type=int, default=5, help="blocks of each env, taken in turn")
     parser.add_argument("--resets", type=int, default=20)
     parser.add_argument("--json", help="also write the results here")
     args = parser.parse_args()
@@ -77,14 +82,18 @@ def main() -> None:
     ours.reset(seed=0)
     lift = bare_lift(ours.embodiment.robot)
     lift.reset()
-    rates = {"ours": [], "lift": []}
-    for _ in range(3):  # interleaved, so both see the same machine load
-        rates["ours"].append(steps_per_second(ours.step, args.steps))
-        rates["lift"].append(steps_per_second(lift.step, args.steps))
     scene = RecentEnv(task=args.scene, robot=args.robot, render_mode="none", max_episode_steps=10**9)
     scene.reset(seed=0)
-    scene_rate = steps_per_second(scene.step, args.steps)
+    stepping = {"ours": ours.step, "lift": lift.step, "scene": scene.step}
+    rates: dict[str, list[float]] = {name: [] for name in stepping}
+    for _ in range(args.rounds):  # in turn, so that all three see the same machine load
+        for name, step in stepping.items():
+            rates[name].append(steps_per_second(step, args.steps))
     scene.close()
+
+    def ratio_to_lift(name: str) -> float:
+        return statistics.median(a / b for a, b in zip(rates[name], rates["lift"], strict=True))
+
     resets = []
     for seed in range(args.resets):
         started = time.perf_counter()
@@ -101,21 +110,24 @@ def main() -> None:
         "task": args.task,
         "ours_steps_per_s": statistics.median(rates["ours"]),
         "lift_steps_per_s": statistics.median(rates["lift"]),
+        "ours_over_lift": ratio_to_lift("ours"),
         "scene": args.scene,
-        "scene_steps_per_s": scene_rate,
+        "scene_steps_per_s": statistics.median(rates["scene"]),
+        "scene_over_lift": ratio_to_lift("scene"),
         "reset_median_s": statistics.median(resets),
         "reset_max_s": max(resets),
         "controller_median_ms": statistics.median(cost) * 1000,
         "controller_p95_ms": float(np.percentile(cost, 95)) * 1000,
     }
-    ratio = results["ours_steps_per_s"] / results["lift_steps_per_s"]
     print(f"env benchmark — {results['machine']} — {results['date']} — {args.robot}, {args.task}")
     print("| measure | value | target |")
     print("|---|---|---|")
-    print(f"| our env, steps/s (no cameras, median of 3 x {args.steps}) | {results['ours_steps_per_s']:.0f} | — |")
+    blocks = f"median of {args.rounds} x {args.steps}"
+    print(f"| our env, steps/s (no cameras, {blocks}) | {results['ours_steps_per_s']:.0f} | — |")
     print(f"| bare robosuite Lift, same robot and controller | {results['lift_steps_per_s']:.0f} | — |")
-    print(f"| ratio ours / Lift | {ratio:.2f} | >= 0.80 |")
-    print(f"| {args.scene} (a full suite scene: more bodies to simulate) | {scene_rate:.0f} | — |")
+    print(f"| ratio ours / Lift (median of the rounds') | {results['ours_over_lift']:.2f} | >= 0.80 |")
+    print(f"| {args.scene} (a full suite scene: more bodies to simulate) | {results['scene_steps_per_s']:.0f} | — |")
+    print(f"| ratio {args.scene} / Lift (median of the rounds') | {results['scene_over_lift']:.2f} | >= 0.80 |")
     print(
         f"| reset, median of {args.resets} (max) | {results['reset_median_s'] * 1000:.0f} ms ({results['reset_max_s'] * 1000:.0f} ms) | <= 500 ms |"
     )
