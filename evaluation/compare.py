@@ -23,7 +23,18 @@ from pathlib import Path
 
 from lerobot_policy_recent.evaluation.runner import has_records, load_records
 
-OUTCOME = ("success", "gc", "steps", "failure_category", "go", "go_pre", "ei", "patches", "generated_tokens")
+OUTCOME = (
+    "success",
+    "gc",
+    "steps",
+    "failure_category",
+    "failure_message",
+    "go",
+    "go_pre",
+    "ei",
+    "patches",
+    "generated_tokens",
+)
 TIMINGS = ("it", "igt_cold")
 
 
