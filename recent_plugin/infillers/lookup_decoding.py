@@ -28,12 +28,11 @@ them than with the last prompt starts from that state instead.
 
 Only a shared start that is a whole number of ``REUSE_ALIGN`` tokens is reused, and every batch
 of a prompt starts at such a multiple. llama.cpp's CPU kernels compute a batch's rows in groups
-(of 8 on the EPYC host) and the rows left over at a batch's end another way, so a prompt resumed
-where an earlier one diverged, mid-group, decoded differently from the same prompt evaluated cold
-(resuming at token 137 moved the 1.5B's next-token logits by up to 0.4; at any multiple of 8, by
-nothing): an episode's LM answers depended on which episodes ran before it in the worker. Aligned,
-every reused cell is computed as a cold evaluation computes it, and the answers are the same
-whatever came before. 32 leaves room for kernels with wider groups.
+and the rows left over at a batch's end another way, so a prompt resumed where an earlier one
+diverged, mid-group, decoded differently from the same prompt evaluated cold: an episode's LM
+answers depended on which episodes ran before it in the worker (measured in docs/llm_runtime.md).
+Aligned, every reused cell is computed as a cold evaluation computes it, and the answers are the
+same whatever came before. The alignment is a multiple of the groups seen, with room for wider ones.
 """
 
 from __future__ import annotations
