@@ -377,6 +377,69 @@ def test_a_robot_without_a_push_sweeps_along_the_ontologys_push_path(ontology):
     assert heights[1] == heights[2]
 
 
+FRANKA_HAND = load_api_spec(api_spec_path("franka_hand"))
+
+
+def test_the_open_fingers_reach_along_the_jaws_closing_axis_and_a_quarter_turn_clears_them(ontology):
+    """Pantry seed 7: green lay 3.9 cm from blue along the Franka Hand's closing axis. Swept, it took the
+    hand (20 cm across) into the cabinet; turned a quarter, the jaw closes across it, and turns back after."""
+    scene = SceneFacts(
+        frozenset({"blue", "green", "red"}), {"blue": (0.04, 0.04, 0.04), "green": BLOCK, "red": BLOCK},
+        push_path=ontology.path_of("push_object"), closing_axis=(1.0, 0.0, 0.0),  # world x, as observed() turns the hand
+    )  # fmt: skip
+    params = FRANKA_HAND.get("pick").parameters
+
+    def check(scene=scene, **at):
+        inp = CheckInput(observed(blue=[0.0, 0.0, 0.82], **at), {"obj_name": "blue"}, params, frozenset({"blue"}), {},
+                         scene, FRANKA_HAND)  # fmt: skip
+        return fingers_clear(inp)
+
+    assert check(green=[0.0, 0.0615, 0.82]) is None  # across the jaw: the fingers come down beside it
+    along = check(green=[0.0615, 0.0, 0.82])
+    assert "along the open fingers' closing axis" in along.observation
+    assert along.statements == ("rotate_gripper(env, task, angle=1.5708)",)
+    assert along.after == ("rotate_gripper(env, task, angle=-1.5708)",)
+    # turned, the jaw would come down on red: the sweep, as without a calibrated axis
+    blocked = check(green=[0.0615, 0.0, 0.82], red=[0.0, -0.065, 0.82])
+    assert not blocked.after and blocked.statements[0].startswith("move_to_position(env, task, pos=[")
+    unknown = check(replace(scene, closing_axis=None), green=[0.0, 0.0615, 0.82])
+    assert not unknown.after and "within the open fingers' reach" in unknown.observation
+
+
+def test_a_sweep_with_moves_closes_an_open_empty_jaw_first_and_opens_it_after(ontology):
+    """Open, the leading finger came down on the block's edge and the block slid between the fingers."""
+    scene = SceneFacts(
+        frozenset({"obstacle"}), {"obstacle": (0.1, 0.1, 0.03)}, push_path=ontology.path_of("push_object"),
+        opening=(0.0, 0.8),
+    )  # fmt: skip
+    robotiq = ontology.api("Robotiq85")
+    descent = tuple(replace(p, role="release_target") for p in robotiq.get("move_to_position").parameters[:1])
+
+    def sweep(opening: float) -> tuple[str, ...]:
+        obs = replace(observed(obstacle=[0.178, -0.024, 0.834]), gripper_opening=opening)
+        return target_clear(
+            CheckInput(obs, {"pos": [0.173, -0.015, 0.846]}, descent, frozenset(), {}, scene, robotiq)
+        ).statements
+
+    opened = sweep(0.8)
+    assert opened[0] == "close_robotiq85(env, task)" and opened[-1] == "open_robotiq85(env, task)"
+    assert len(opened) == 6 and sweep(0.0) == opened[1:-1]  # closed already: the moves alone
+
+
+@pytest.mark.slow
+def test_a_grasp_beside_a_block_along_the_jaw_turns_the_hand_and_back(ontology):
+    """box_and_drawer on the Franka Hand's own skills (the ceiling row's episode), seed 7: fill_box turns
+    the hand for blue, turns it back once blue is held, and the lid still closes."""
+    agent = RecentAgent(
+        RecentSettings(infiller=RuleConfig(), method=method_named("recent")), infiller=RuleInfiller(), ontology=ontology
+    )
+    result = run_episode(agent, "end_effector/box_and_drawer", "FrankaHand", seed=7, variations="on")
+    assert result.success
+    turn, back = [e for e in result.adaptations if e.checks == ("fingers_clear",)]
+    assert turn.after.startswith("rotate_gripper(env, task, angle=1.5708)")
+    assert back.after == "rotate_gripper(env, task, angle=-1.5708)"
+
+
 def test_a_second_recomputation_copies_only_the_latest_definitions():
     """After one repair the skill holds its path computation twice; the next repair copies it once."""
     block = """    obj_pos = task.get_object_position(obj)

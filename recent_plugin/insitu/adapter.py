@@ -201,7 +201,7 @@ class InSituAdapter:
         instruction = "; and ".join(v.instruction for v in violations if v.statements)
         cue = "; ".join(v.cue or v.observation for v in violations)
         follow = tuple(dict.fromkeys(s for v in violations if v.statements for s in v.follow))
-        self._patch(
+        patched = self._patch(
             executor,
             segment,
             at,
@@ -214,6 +214,9 @@ class InSituAdapter:
             cue=cue,
             follow=follow,
         )
+        undo = tuple(dict.fromkeys(s for v in violations for s in v.after))
+        if patched and undo and _inserted(executor, segment, statements):
+            self._insert_copy(executor, segment, segment.index + 1, undo, checks, observation, shown=undo)
 
     def _evaluate(self, executor: SkillExecutor, segment: Segment, warning: Warning) -> Violation | None:
         call = next(
@@ -500,6 +503,14 @@ def _guards(warning: Warning, node: ast.stmt) -> bool:
     if warning.through is None:
         return first <= warning.span.line <= last
     return warning.span.line <= first <= warning.span.line + warning.through
+
+
+def _inserted(executor: SkillExecutor, segment: Segment, statements: tuple[str, ...]) -> bool:
+    """The statements right before ``segment`` are ``statements``: the patch is the one suggested (an
+    LM that wrote its own is not undone by what undoes the suggestion)."""
+    start = segment.index - len(statements)
+    wanted = [ast.dump(node) for s in statements for node in ast.parse(textwrap.dedent(s)).body]
+    return start >= 0 and [ast.dump(s.node) for s in executor.segments[start : segment.index]] == wanted
 
 
 def _calls(node: ast.AST) -> set[str]:

@@ -18,6 +18,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
+from robosuite.utils.transform_utils import quat2mat
 
 from lerobot_policy_recent.ontology.specs import PATH_ROLE, WORLD_FRAME, ApiSpec, ParameterSpec, Waypoint
 from lerobot_policy_recent.robosuite_envs.observation import POSITION_SIGMA, Observation
@@ -60,6 +61,10 @@ SETTLED_ABOVE = 0.02  # metres above that point it may rest: a place ends once i
 FINGERTIPS = 0.015  # metres: half the closed fingertips' footprint, what comes down first on an empty sweep
 START_MARGIN = 0.005  # metres a sweep's start is moved beyond what it would come down on
 FINGER_SPAN = 0.055  # metres from a grasp's centre an open jaw reaches: half a 2F-85's 8.5 cm stroke, and a pad
+# metres across its closing axis a finger reaches from the grasp's centre: half a pad (1.2 cm), perception's
+# 3 sigma on where the obstacle lies, and a little for the hand's yaw turning on the way down
+FINGER_ACROSS = 0.012 + 3 * POSITION_SIGMA + 0.003
+JAW_STROKE = 0.075  # metres across an object the open jaw takes in with room to spare (a Franka Hand's 8 cm, less 5 mm)
 
 
 @dataclass(frozen=True)
@@ -76,6 +81,8 @@ class SceneFacts:
     push_path: tuple[Waypoint, ...] = ()  # a push as its hand's path, for robots without one (the ontology's)
     table_reach: float = float("inf")  # metres from the base (table plane) the hand gets down to the table (calibrated)
     table_top: float = float("-inf")  # world height of the table top (the workcell's, as calibration measured it)
+    opening: tuple[float, float] | None = None  # a jaw's opening reading closed and open (calibrated); None: a cup
+    closing_axis: tuple[float, float, float] | None = None  # grip-site frame, one pad to the other (calibrated)
 
 
 @dataclass(frozen=True)
@@ -114,6 +121,9 @@ class Violation:
     follow: tuple[str, ...] = ()  # the skill's own statements, copied in after the patch (what derives from it)
     regrasp: bool = False  # with ``rerun``: the object is no longer in hand, so its grasp is done again first
     refuse: bool = False  # nothing can do it (a target beyond the arm's reach): the skill fails here, named
+    # the robot's own statements that undo the patch once the guarded statement has run (a hand turned for
+    # a grasp is turned back), copied in right after it where the patch is the one suggested
+    after: tuple[str, ...] = ()
 
 
 Check = Callable[[CheckInput], Violation | None]
@@ -232,26 +242,102 @@ def target_clear(inp: CheckInput) -> Violation | None:
 
 def fingers_clear(inp: CheckInput) -> Violation | None:
     """An obstacle lies where an open finger comes down beside the object (a slab the push shoved
-    along ahead of the cube): sweep it off first, or the hand stops on it, short of the grasp."""
+    along ahead of the cube): turn the hand a quarter turn where that clears the fingers of it, or
+    sweep it off first; else the hand stops on it, short of the grasp.
+
+    The fingers come down along the jaw's closing axis, as the hand is turned now (the grasp keeps its
+    yaw), so a block beside the object across that axis is clear of them. Judged in every direction, a
+    block across the jaw was swept; a block along it was swept too where a turn cleared it, and the
+    sweep ran the hand into the cabinet. Without a calibrated axis the jaw may reach out anywhere.
+    """
     target = _by_role(inp, "grasp_target")
     if target is None:
         return None
     held = _held(inp)
+    jaw = _jaw(inp)
     for name, state in _strangers(inp, held):
         size = np.asarray(extents(inp, name), dtype=float)
+        if not _in_jaw(jaw, inp, name, target):
+            continue
         gap = float(np.max(np.abs(np.asarray(state.pos[:2]) - target[:2]) - size[:2] / 2))  # to its nearest face
-        if gap < FINGER_SPAN and state.pos[2] + size[2] / 2 > target[2] - FINGER_DEPTH:
-            statements = sweep_statements(inp, name, held)
-            what = f"{name} ({_described(size)}) lies"
+        what = f"{name} ({_described(size)}) lies"
+        observation = f"{what} at {_fmt(state.pos)}, {100 * max(gap, 0.0):.1f} cm from the grasp {_fmt(target)}: "
+        turn = _quarter_turn(inp, jaw, target, held)
+        if turn:
             return Violation(
                 "fingers_clear",
-                f"{what} at {_fmt(state.pos)}, {100 * max(gap, 0.0):.1f} cm from the grasp {_fmt(target)}: "
-                "within the open fingers' reach",
-                statements,
-                "push it away first: " + "; then ".join(statements),
-                cue=f"{what} where the open fingers come down",
+                observation + "along the open fingers' closing axis",
+                turn[:1],
+                "turn the hand a quarter turn first: " + turn[0],
+                cue=f"{what} where the open fingers come down, and not across them",
+                # later skills were written for the hand as it was: turned, the hand met the box's open lid
+                after=turn[1:],
             )
+        statements = sweep_statements(inp, name, held)
+        return Violation(
+            "fingers_clear",
+            observation + "within the open fingers' reach",
+            statements,
+            "push it away first: " + "; then ".join(statements),
+            cue=f"{what} where the open fingers come down",
+        )
     return None
+
+
+def _in_jaw(jaw: Jaw, inp: CheckInput, name: str, target: np.ndarray) -> bool:
+    """The object's perceived box meets the open fingers' footprint and reaches up to where they come down."""
+    state, size = inp.obs.objects[name], np.asarray(extents(inp, name), dtype=float)
+    return (
+        _separation(jaw, np.asarray(state.pos[:2], dtype=float) - target[:2], size[:2] / 2) <= 0.0
+        and state.pos[2] + size[2] / 2 > target[2] - FINGER_DEPTH
+    )
+
+
+def _quarter_turn(inp: CheckInput, jaw: Jaw, target: np.ndarray, held: set[str]) -> tuple[str, ...]:
+    """The robot's yaw turn by a quarter and back, where it has one, the jaw's axis is known, the
+    turned jaw is clear of every obstacle, and the object fits across the turned jaw; else nothing."""
+    along, across, reach, width = jaw
+    turn = next((p for p in inp.api.primitives if "rotate_end_effector" in p.capabilities), None)
+    angle = None if turn is None else turn.by_role("yaw_angle")
+    if angle is None or inp.scene.closing_axis is None or reach == width:
+        return ()
+    turned: Jaw = (across, -along, reach, width)
+    if any(_in_jaw(turned, inp, name, target) for name, _ in _strangers(inp, held)):
+        return ()
+    grasped = [
+        n
+        for n in _moved_objects(inp)
+        if np.all(np.abs(inp.obs.objects[n].pos[:2] - target[:2]) <= np.asarray(extents(inp, n)[:2]) / 2)
+    ]
+    if any(float(np.asarray(extents(inp, n)[:2]) @ np.abs(across)) > JAW_STROKE for n in grasped):
+        return ()
+    return tuple(f"{turn.name}(env, task, {angle.name}={sign * math.pi / 2:.4f})" for sign in (1, -1))
+
+
+Jaw = tuple[np.ndarray, np.ndarray, float, float]  # on the table plane: unit axes along and across, half extents
+
+
+def _jaw(inp: CheckInput) -> Jaw:
+    """Where the open fingers come down around a grasp's centre, on the table plane: a rectangle's two
+    unit axes and half extents (along the closing axis as the hand is turned now, and across it)."""
+    axis = inp.scene.closing_axis
+    if axis is not None:
+        along = (quat2mat(np.asarray(inp.obs.eef_quat, dtype=float)) @ np.asarray(axis, dtype=float))[:2]
+        if np.linalg.norm(along) > 0.5:  # pointing down: the closing axis lies near the table plane
+            along = along / np.linalg.norm(along)
+            return along, np.array([-along[1], along[0]]), FINGER_SPAN, FINGER_ACROSS
+    return np.array([1.0, 0.0]), np.array([0.0, 1.0]), FINGER_SPAN, FINGER_SPAN
+
+
+def _separation(jaw: Jaw, offset: np.ndarray, half: np.ndarray) -> float:
+    """Metres between the jaw's rectangle and an axis-aligned box ``offset`` from its centre (negative:
+    they overlap), the largest gap over the four axes that could separate them."""
+    along, across, reach, width = jaw
+    gaps = []
+    for axis in (along, across, np.array([1.0, 0.0]), np.array([0.0, 1.0])):
+        jaw_radius = reach * abs(float(along @ axis)) + width * abs(float(across @ axis))
+        gaps.append(abs(float(offset @ axis)) - jaw_radius - float(half @ np.abs(axis)))
+    return max(gaps)
 
 
 def _held(inp: CheckInput) -> set[str]:
@@ -373,11 +459,12 @@ def sweep_statements(inp: CheckInput, obstacle: str, held: set[str]) -> tuple[st
     directions = [np.array(d, dtype=float) for d in ((0, 1), (0, -1), (-1, 0), (1, 0))]
     _, at, end = max((plan(d) for d in directions), key=lambda p: p[0])
     start, goal = np.array([*at, height]), np.array([*end, height])
-    return _push_calls(inp, start, goal)
+    return _push_calls(inp, start, goal, held)
 
 
-def _push_calls(inp: CheckInput, start: np.ndarray, goal: np.ndarray) -> tuple[str, ...]:
-    """The robot's own push primitive when it has one, else its Cartesian moves along a push's path."""
+def _push_calls(inp: CheckInput, start: np.ndarray, goal: np.ndarray, held: set[str]) -> tuple[str, ...]:
+    """The robot's own push primitive when it has one, else its Cartesian moves along a push's path
+    (with the jaw closed for them, where it is open and empty)."""
     push = next((p for p in inp.api.primitives if "push_object" in p.capabilities), None)
     if push is not None:
         begin, end = push.by_role("push_start"), push.by_role("push_goal")
@@ -391,11 +478,37 @@ def _push_calls(inp: CheckInput, start: np.ndarray, goal: np.ndarray) -> tuple[s
         return ()  # nothing to sweep with: the check reports what it saw, and the skill runs on
     at = {"push_start": start, "push_goal": goal}
     point = move.by_role(PATH_ROLE)
-    return tuple(
+    moves = tuple(
         f"{move.name}(env, task, {point.name}={_argument(inp, point, at[w.role] + np.asarray(w.offset))})"
         for w in inp.scene.push_path
         if w.role in at
     )
+    return moves if held else _with_jaw_closed(inp, moves)
+
+
+def _with_jaw_closed(inp: CheckInput, moves: tuple[str, ...]) -> tuple[str, ...]:
+    """Moves that push, done with an open, empty jaw closed first and opened again after.
+
+    The sweep is planned for closed fingertips at the grip site (as a push primitive closes the hand).
+    Open, a finger reaches half a stroke ahead of it: coming down behind a block, the leading finger
+    landed on its edge and the block slid in between the fingers, wedged, and the hand stopped on it.
+    """
+    if inp.scene.opening is None:
+        return moves
+    closed, opened = inp.scene.opening
+    if abs(opened - closed) < 1e-6 or (inp.obs.gripper_opening - closed) / (opened - closed) < 0.5:
+        return moves  # already closed (or nothing to tell it by)
+    close, reopen = (_no_argument_call(inp.api, capability) for capability in ("close_fingers", "open_fingers"))
+    if close is None or reopen is None:
+        return moves
+    return (close, *moves, reopen)
+
+
+def _no_argument_call(api: ApiSpec, capability: str) -> str | None:
+    primitive = next(
+        (p for p in api.primitives if capability in p.capabilities and not any(q.required for q in p.parameters)), None
+    )
+    return None if primitive is None else f"{primitive.name}(env, task)"
 
 
 POSITION_ROLES = ("grasp_target", "release_target", "motion_target", "push_start", "push_goal", "handle_target")
