@@ -150,7 +150,11 @@ def _pantry() -> Scene:
 
 
 def _pen_and_row() -> Scene:
+    """Blocks stay loose on the row (the suites line them up, then stack or sweep them), and a tower
+    is taken down into the row from its top: the chain that holds both of the family's categories
+    that only this scene has (stack, unstack into the row, sweep two into the pen)."""
     blocks = ("red", "blue", "green")
+    on_table = [_loose(b) for b in blocks]
     moves = []
     for first in blocks:
         for second in blocks:
@@ -161,14 +165,22 @@ def _pen_and_row() -> Scene:
                       [_loose(first), _loose(second), "pen_empty"], first=first, second=second, pen="pen")
             )  # fmt: skip
             third = next(b for b in blocks if b not in (first, second))
-            on_table = [_loose(b) for b in blocks]
-            moves.append(
-                _move("arrange_in_row", [*on_table, "row_empty"], [*on_table, "row_empty"],
-                      first=first, second=second, third=third, row="row")
-            )  # fmt: skip
-            moves.append(_move("stack_tower", on_table, on_table, base=first, middle=second, top=third))
-    facts = frozenset([*(_loose(b) for b in blocks), "pen_empty", "row_empty"])
+            moves += [
+                _move("arrange_in_row", [*on_table, "row_empty"], ["row_empty"],
+                      first=first, second=second, third=third, row="row"),
+                # top first: what lies on a block is taken off it before it
+                _move("arrange_in_row", [_tower(third, second, first), "row_empty"],
+                      [_tower(third, second, first), "row_empty"], on_table,
+                      first=first, second=second, third=third, row="row"),
+                _move("stack_tower", on_table, on_table, [_tower(first, second, third)],
+                      base=first, middle=second, top=third),
+            ]  # fmt: skip
+    facts = frozenset([*on_table, "pen_empty", "row_empty"])
     return Scene("pen_and_row", "end_effector", PEN_AND_ROW, facts, tuple(moves))
+
+
+def _tower(base: str, middle: str, top: str) -> str:
+    return f"tower:{base},{middle},{top}"
 
 
 def scenes(family: str) -> tuple[Scene, ...]:

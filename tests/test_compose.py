@@ -17,13 +17,14 @@ def calls(spec) -> int:
     return task_calls([s.skill for s in spec.plan]).primitives
 
 
+@pytest.mark.parametrize("family", ["kinematic", "end_effector"])
 @pytest.mark.parametrize("seed", [101, 102, 103])
-def test_a_dev_draw_meets_the_papers_constraints_and_repeats_no_suite_task(seed):
-    tasks = draw("kinematic", seed, 6, calls)
-    assert [t.task_id for t in tasks] == [f"kinematic/draw{seed}_{i:02d}" for i in range(6)]
+def test_a_dev_draw_meets_the_papers_constraints_and_repeats_no_suite_task(seed, family):
+    tasks = draw(family, seed, 6, calls)
+    assert [t.task_id for t in tasks] == [f"{family}/draw{seed}_{i:02d}" for i in range(6)]
     assert all(LENGTHS[0] <= len(t.plan) <= LENGTHS[-1] for t in tasks)
-    assert sum(calls(t) for t in tasks) / len(tasks) >= PAPER_CALLS["kinematic"]
-    family = {s.category for s in SUBTASKS.values() if s.family == "kinematic"}
+    assert sum(calls(t) for t in tasks) / len(tasks) >= PAPER_CALLS[family]
+    family = {s.category for s in SUBTASKS.values() if s.family == family}
     assert {SUBTASKS[s.subtask].category for t in tasks for s in t.plan} == family
     known = {plan_key(t.plan) for suite in SUITES.values() for t in suite}
     assert not {plan_key(t.plan) for t in tasks} & known and len({plan_key(t.plan) for t in tasks}) == 6
@@ -38,18 +39,31 @@ def test_a_seed_names_one_draw():
     assert [plan_key(t.plan) for t in first] != [plan_key(t.plan) for t in other]
 
 
-def test_a_family_whose_scenes_cannot_hold_all_its_categories_says_which():
+def test_a_tower_is_taken_down_into_the_row_from_its_top():
+    """The pen-and-row chain that holds the end-effector family's scene rearrangement and tool use: a
+    tower, taken down top first into the row, then two of its blocks swept into the pen."""
+    (pen,) = [t for t in draw("end_effector", 101, 6, calls) if "pen" in t.object_names()]
+    stack, arrange, sweep = pen.plan
+    assert (stack.subtask, arrange.subtask, sweep.subtask) == ("stack_tower", "arrange_in_row", "sweep_into_pen")
+    assert [arrange.args[k] for k in ("first", "second", "third")] == [stack.args[k] for k in ("top", "middle", "base")]
+
+
+def test_a_family_whose_scenes_cannot_hold_all_its_categories_says_which(monkeypatch):
+    from lerobot_policy_recent.robosuite_envs import compose
+
+    pantry_only = compose.scenes("end_effector")[:1]
+    monkeypatch.setattr(compose, "scenes", lambda family: pantry_only)
     with pytest.raises(ValueError, match="scene rearrangement, tool use: a draw cannot hold all four"):
         draw("end_effector", 5, 4, calls)
+    with pytest.raises(SystemExit, match="no end_effector scene chains"):
+        main(["envs", "compose", "--seed", "5", "--family", "end_effector"])
 
 
-def test_the_command_prints_a_draw_and_names_a_bad_family(capsys):
+def test_the_command_prints_a_draw(capsys):
     assert main(["envs", "compose", "--seed", "101", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["seed"] == 101 and len(out["tasks"]) == 6 and out["mean_calls"] >= 24.6
     assert out["tasks"][0]["plan"][0]["subtask"] in SUBTASKS
-    with pytest.raises(SystemExit, match="no end_effector scene chains"):
-        main(["envs", "compose", "--seed", "5", "--family", "end_effector"])
 
 
 def test_a_draw_file_makes_its_tasks_runnable_and_a_bad_one_is_named(tmp_path, monkeypatch, capsys):

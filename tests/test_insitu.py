@@ -404,6 +404,11 @@ def test_the_open_fingers_reach_along_the_jaws_closing_axis_and_a_quarter_turn_c
     assert not blocked.after and blocked.statements[0].startswith("move_to_position(env, task, pos=[")
     unknown = check(replace(scene, closing_axis=None), green=[0.0, 0.0615, 0.82])
     assert not unknown.after and "within the open fingers' reach" in unknown.observation
+    # a box's wall, fixed to the table, along the jaw (open_both_then_fill, seed 3): turned, never swept
+    with_box = replace(scene, sizes={**scene.sizes, "box": (0.14, 0.14, 0.08)})
+    wall = check(with_box, box=[0.09, 0.0, 0.80])
+    assert wall.statements == ("rotate_gripper(env, task, angle=1.5708)",) and "box (" in wall.observation
+    assert check(with_box, box=[0.09, 0.09, 0.80]) is None  # as near the turned jaw: nothing gained, nothing to sweep
 
 
 def test_a_sweep_with_moves_closes_an_open_empty_jaw_first_and_opens_it_after(ontology):

@@ -242,8 +242,9 @@ def target_clear(inp: CheckInput) -> Violation | None:
 
 def fingers_clear(inp: CheckInput) -> Violation | None:
     """An obstacle lies where an open finger comes down beside the object (a slab the push shoved
-    along ahead of the cube): turn the hand a quarter turn where that clears the fingers of it, or
-    sweep it off first; else the hand stops on it, short of the grasp.
+    along ahead of the cube, the wall of a box the object lies against): turn the hand a quarter turn
+    where that clears the fingers of it, or sweep a loose one off first; else the hand stops on it,
+    short of the grasp.
 
     The fingers come down along the jaw's closing axis, as the hand is turned now (the grasp keeps its
     yaw), so a block beside the object across that axis is clear of them. Judged in every direction, a
@@ -255,10 +256,11 @@ def fingers_clear(inp: CheckInput) -> Violation | None:
         return None
     held = _held(inp)
     jaw = _jaw(inp)
-    for name, state in _strangers(inp, held):
-        size = np.asarray(extents(inp, name), dtype=float)
+    strangers = [name for name, _ in _strangers(inp, held)]
+    for name in [*strangers, *_fixed(inp)]:
         if not _in_jaw(jaw, inp, name, target):
             continue
+        state, size = inp.obs.objects[name], np.asarray(extents(inp, name), dtype=float)
         gap = float(np.max(np.abs(np.asarray(state.pos[:2]) - target[:2]) - size[:2] / 2))  # to its nearest face
         what = f"{name} ({_described(size)}) lies"
         observation = f"{what} at {_fmt(state.pos)}, {100 * max(gap, 0.0):.1f} cm from the grasp {_fmt(target)}: "
@@ -273,6 +275,8 @@ def fingers_clear(inp: CheckInput) -> Violation | None:
                 # later skills were written for the hand as it was: turned, the hand met the box's open lid
                 after=turn[1:],
             )
+        if name not in strangers:
+            continue  # fixed to the table: nothing sweeps it
         statements = sweep_statements(inp, name, held)
         return Violation(
             "fingers_clear",
@@ -282,6 +286,11 @@ def fingers_clear(inp: CheckInput) -> Violation | None:
             cue=f"{what} where the open fingers come down",
         )
     return None
+
+
+def _fixed(inp: CheckInput) -> list[str]:
+    """What perception sees that the workcell fixes to the table (a cabinet, a box): never swept."""
+    return sorted(n for n in inp.obs.objects if n in inp.scene.sizes and n not in inp.scene.loose)
 
 
 def _in_jaw(jaw: Jaw, inp: CheckInput, name: str, target: np.ndarray) -> bool:
@@ -295,7 +304,10 @@ def _in_jaw(jaw: Jaw, inp: CheckInput, name: str, target: np.ndarray) -> bool:
 
 def _quarter_turn(inp: CheckInput, jaw: Jaw, target: np.ndarray, held: set[str]) -> tuple[str, ...]:
     """The robot's yaw turn by a quarter and back, where it has one, the jaw's axis is known, the
-    turned jaw is clear of every obstacle, and the object fits across the turned jaw; else nothing."""
+    object fits across the turned jaw, and the turned jaw is clear of everything loose and farther
+    from everything else than the jaw is now (a box's wall the object lies against: perception's
+    noise on a 14 cm box leaves a turned finger's few millimetres of room uncertain, the wall in
+    the jaw as it is, not); else nothing."""
     along, across, reach, width = jaw
     turn = next((p for p in inp.api.primitives if "rotate_end_effector" in p.capabilities), None)
     angle = None if turn is None else turn.by_role("yaw_angle")
@@ -303,6 +315,8 @@ def _quarter_turn(inp: CheckInput, jaw: Jaw, target: np.ndarray, held: set[str])
         return ()
     turned: Jaw = (across, -along, reach, width)
     if any(_in_jaw(turned, inp, name, target) for name, _ in _strangers(inp, held)):
+        return ()
+    if _clearance(turned, inp, target, held) <= _clearance(jaw, inp, target, held):
         return ()
     grasped = [
         n
@@ -312,6 +326,18 @@ def _quarter_turn(inp: CheckInput, jaw: Jaw, target: np.ndarray, held: set[str])
     if any(float(np.asarray(extents(inp, n)[:2]) @ np.abs(across)) > JAW_STROKE for n in grasped):
         return ()
     return tuple(f"{turn.name}(env, task, {angle.name}={sign * math.pi / 2:.4f})" for sign in (1, -1))
+
+
+def _clearance(jaw: Jaw, inp: CheckInput, target: np.ndarray, held: set[str]) -> float:
+    """Metres from the jaw to the nearest obstacle, loose or fixed, that reaches up to where the fingers
+    come down (negative: one lies in it)."""
+    gaps = [
+        _separation(jaw, np.asarray(inp.obs.objects[n].pos[:2], dtype=float) - target[:2],
+                    np.asarray(extents(inp, n)[:2], dtype=float) / 2)
+        for n in [*(n for n, _ in _strangers(inp, held)), *_fixed(inp)]
+        if inp.obs.objects[n].pos[2] + extents(inp, n)[2] / 2 > target[2] - FINGER_DEPTH
+    ]  # fmt: skip
+    return min(gaps, default=float("inf"))
 
 
 Jaw = tuple[np.ndarray, np.ndarray, float, float]  # on the table plane: unit axes along and across, half extents
