@@ -64,6 +64,7 @@ FINGER_SPAN = 0.055  # metres from a grasp's centre an open jaw reaches: half a 
 # metres across its closing axis a finger reaches from the grasp's centre: half a pad (1.2 cm), perception's
 # 3 sigma on where the obstacle lies, and a little for the hand's yaw turning on the way down
 FINGER_ACROSS = 0.012 + 3 * POSITION_SIGMA + 0.003
+MARKING = 0.005  # metres: what stands no higher off the table is a marking on it (a zone), no wall
 JAW_STROKE = 0.075  # metres across an object the open jaw takes in with room to spare (a Franka Hand's 8 cm, less 5 mm)
 
 
@@ -289,17 +290,25 @@ def fingers_clear(inp: CheckInput) -> Violation | None:
 
 
 def _fixed(inp: CheckInput) -> list[str]:
-    """What perception sees that the workcell fixes to the table (a cabinet, a box): never swept."""
-    return sorted(n for n in inp.obs.objects if n in inp.scene.sizes and n not in inp.scene.loose)
+    """What perception sees that the workcell fixes to the table and stands up from it (a cabinet, a
+    box; a zone marked on the table is no wall): never swept."""
+    return sorted(
+        n for n in inp.obs.objects if n in inp.scene.sizes and n not in inp.scene.loose and extents(inp, n)[2] > MARKING
+    )
 
 
 def _in_jaw(jaw: Jaw, inp: CheckInput, name: str, target: np.ndarray) -> bool:
     """The object's perceived box meets the open fingers' footprint and reaches up to where they come down."""
-    state, size = inp.obs.objects[name], np.asarray(extents(inp, name), dtype=float)
-    return (
-        _separation(jaw, np.asarray(state.pos[:2], dtype=float) - target[:2], size[:2] / 2) <= 0.0
-        and state.pos[2] + size[2] / 2 > target[2] - FINGER_DEPTH
-    )
+    return _reaches_fingers(inp, name, target) and _gap(jaw, inp, name, target) <= 0.0
+
+
+def _reaches_fingers(inp: CheckInput, name: str, target: np.ndarray) -> bool:
+    return inp.obs.objects[name].pos[2] + extents(inp, name)[2] / 2 > target[2] - FINGER_DEPTH
+
+
+def _gap(jaw: Jaw, inp: CheckInput, name: str, target: np.ndarray) -> float:
+    offset = np.asarray(inp.obs.objects[name].pos[:2], dtype=float) - target[:2]
+    return _separation(jaw, offset, np.asarray(extents(inp, name)[:2], dtype=float) / 2)
 
 
 def _quarter_turn(inp: CheckInput, jaw: Jaw, target: np.ndarray, held: set[str]) -> tuple[str, ...]:
@@ -331,13 +340,8 @@ def _quarter_turn(inp: CheckInput, jaw: Jaw, target: np.ndarray, held: set[str])
 def _clearance(jaw: Jaw, inp: CheckInput, target: np.ndarray, held: set[str]) -> float:
     """Metres from the jaw to the nearest obstacle, loose or fixed, that reaches up to where the fingers
     come down (negative: one lies in it)."""
-    gaps = [
-        _separation(jaw, np.asarray(inp.obs.objects[n].pos[:2], dtype=float) - target[:2],
-                    np.asarray(extents(inp, n)[:2], dtype=float) / 2)
-        for n in [*(n for n, _ in _strangers(inp, held)), *_fixed(inp)]
-        if inp.obs.objects[n].pos[2] + extents(inp, n)[2] / 2 > target[2] - FINGER_DEPTH
-    ]  # fmt: skip
-    return min(gaps, default=float("inf"))
+    obstacles = [*(n for n, _ in _strangers(inp, held)), *_fixed(inp)]
+    return min((_gap(jaw, inp, n, target) for n in obstacles if _reaches_fingers(inp, n, target)), default=math.inf)
 
 
 Jaw = tuple[np.ndarray, np.ndarray, float, float]  # on the table plane: unit axes along and across, half extents
