@@ -154,6 +154,7 @@ def _pen_and_row() -> Scene:
     is taken down into the row from its top: the chain that holds both of the family's categories
     that only this scene has (stack, unstack into the row, sweep two into the pen)."""
     blocks = ("red", "blue", "green")
+    width = {o.name: max(o.size[:2]) for o in PEN_AND_ROW if o.name in blocks}  # a tower narrows upwards
     on_table = [_loose(b) for b in blocks]
     moves = []
     for first in blocks:
@@ -172,9 +173,10 @@ def _pen_and_row() -> Scene:
                 _move("arrange_in_row", [_tower(third, second, first), "row_empty"],
                       [_tower(third, second, first), "row_empty"], on_table,
                       first=first, second=second, third=third, row="row"),
-                _move("stack_tower", on_table, on_table, [_tower(first, second, third)],
-                      base=first, middle=second, top=third),
             ]  # fmt: skip
+            if width[first] >= width[second] >= width[third]:  # green on the smaller blue slid off (draw 102)
+                moves.append(_move("stack_tower", on_table, on_table, [_tower(first, second, third)],
+                                   base=first, middle=second, top=third))  # fmt: skip
     facts = frozenset([*on_table, "pen_empty", "row_empty"])
     return Scene("pen_and_row", "end_effector", PEN_AND_ROW, facts, tuple(moves))
 

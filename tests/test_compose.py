@@ -46,6 +46,7 @@ def test_a_tower_is_taken_down_into_the_row_from_its_top():
     stack, arrange, sweep = pen.plan
     assert (stack.subtask, arrange.subtask, sweep.subtask) == ("stack_tower", "arrange_in_row", "sweep_into_pen")
     assert [arrange.args[k] for k in ("first", "second", "third")] == [stack.args[k] for k in ("top", "middle", "base")]
+    assert stack.args["base"] == "green"  # the widest block: a tower narrows upwards
 
 
 def test_a_family_whose_scenes_cannot_hold_all_its_categories_says_which(monkeypatch):
@@ -92,8 +93,9 @@ def test_a_draw_file_makes_its_tasks_runnable_and_a_bad_one_is_named(tmp_path, m
 
 
 @pytest.mark.slow
-def test_every_task_of_a_dev_draw_is_checked_on_its_source_robot(capsys):
-    """Feasibility is a simulation run: the Panda's reference skills, variations off, one dev seed."""
-    assert main(["envs", "compose", "--seed", "101", "--check", "3", "--json"]) == 0
+@pytest.mark.parametrize("family", ["kinematic", "end_effector"])
+def test_every_task_of_a_dev_draw_is_checked_on_its_source_robot(capsys, family):
+    """Feasibility is a simulation run: the source robot's reference skills, variations off, one dev seed."""
+    assert main(["envs", "compose", "--seed", "101", "--family", family, "--check", "3", "--json"]) == 0
     rows = json.loads(capsys.readouterr().out)["tasks"]
     assert [row["check"] for row in rows] == ["ok"] * 6
