@@ -411,26 +411,6 @@ def test_the_open_fingers_reach_along_the_jaws_closing_axis_and_a_quarter_turn_c
     assert check(with_box, box=[0.09, 0.09, 0.80]) is None  # as near the turned jaw: nothing gained, nothing to sweep
 
 
-def test_a_sweep_with_moves_closes_an_open_empty_jaw_first_and_opens_it_after(ontology):
-    """Open, the leading finger came down on the block's edge and the block slid between the fingers."""
-    scene = SceneFacts(
-        frozenset({"obstacle"}), {"obstacle": (0.1, 0.1, 0.03)}, push_path=ontology.path_of("push_object"),
-        opening=(0.0, 0.8),
-    )  # fmt: skip
-    robotiq = ontology.api("Robotiq85")
-    descent = tuple(replace(p, role="release_target") for p in robotiq.get("move_to_position").parameters[:1])
-
-    def sweep(opening: float) -> tuple[str, ...]:
-        obs = replace(observed(obstacle=[0.178, -0.024, 0.834]), gripper_opening=opening)
-        return target_clear(
-            CheckInput(obs, {"pos": [0.173, -0.015, 0.846]}, descent, frozenset(), {}, scene, robotiq)
-        ).statements
-
-    opened = sweep(0.8)
-    assert opened[0] == "close_robotiq85(env, task)" and opened[-1] == "open_robotiq85(env, task)"
-    assert len(opened) == 6 and sweep(0.0) == opened[1:-1]  # closed already: the moves alone
-
-
 @pytest.mark.slow
 def test_a_grasp_beside_a_block_along_the_jaw_turns_the_hand_and_back(ontology):
     """box_and_drawer on the Franka Hand's own skills (the ceiling row's episode), seed 7: fill_box turns

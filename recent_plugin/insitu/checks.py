@@ -82,7 +82,6 @@ class SceneFacts:
     push_path: tuple[Waypoint, ...] = ()  # a push as its hand's path, for robots without one (the ontology's)
     table_reach: float = float("inf")  # metres from the base (table plane) the hand gets down to the table (calibrated)
     table_top: float = float("-inf")  # world height of the table top (the workcell's, as calibration measured it)
-    opening: tuple[float, float] | None = None  # a jaw's opening reading closed and open (calibrated); None: a cup
     closing_axis: tuple[float, float, float] | None = None  # grip-site frame, one pad to the other (calibrated)
 
 
@@ -489,12 +488,11 @@ def sweep_statements(inp: CheckInput, obstacle: str, held: set[str]) -> tuple[st
     directions = [np.array(d, dtype=float) for d in ((0, 1), (0, -1), (-1, 0), (1, 0))]
     _, at, end = max((plan(d) for d in directions), key=lambda p: p[0])
     start, goal = np.array([*at, height]), np.array([*end, height])
-    return _push_calls(inp, start, goal, held)
+    return _push_calls(inp, start, goal)
 
 
-def _push_calls(inp: CheckInput, start: np.ndarray, goal: np.ndarray, held: set[str]) -> tuple[str, ...]:
-    """The robot's own push primitive when it has one, else its Cartesian moves along a push's path
-    (with the jaw closed for them, where it is open and empty)."""
+def _push_calls(inp: CheckInput, start: np.ndarray, goal: np.ndarray) -> tuple[str, ...]:
+    """The robot's own push primitive when it has one, else its Cartesian moves along a push's path."""
     push = next((p for p in inp.api.primitives if "push_object" in p.capabilities), None)
     if push is not None:
         begin, end = push.by_role("push_start"), push.by_role("push_goal")
@@ -508,37 +506,11 @@ def _push_calls(inp: CheckInput, start: np.ndarray, goal: np.ndarray, held: set[
         return ()  # nothing to sweep with: the check reports what it saw, and the skill runs on
     at = {"push_start": start, "push_goal": goal}
     point = move.by_role(PATH_ROLE)
-    moves = tuple(
+    return tuple(
         f"{move.name}(env, task, {point.name}={_argument(inp, point, at[w.role] + np.asarray(w.offset))})"
         for w in inp.scene.push_path
         if w.role in at
     )
-    return moves if held else _with_jaw_closed(inp, moves)
-
-
-def _with_jaw_closed(inp: CheckInput, moves: tuple[str, ...]) -> tuple[str, ...]:
-    """Moves that push, done with an open, empty jaw closed first and opened again after.
-
-    The sweep is planned for closed fingertips at the grip site (as a push primitive closes the hand).
-    Open, a finger reaches half a stroke ahead of it: coming down behind a block, the leading finger
-    landed on its edge and the block slid in between the fingers, wedged, and the hand stopped on it.
-    """
-    if inp.scene.opening is None:
-        return moves
-    closed, opened = inp.scene.opening
-    if abs(opened - closed) < 1e-6 or (inp.obs.gripper_opening - closed) / (opened - closed) < 0.5:
-        return moves  # already closed (or nothing to tell it by)
-    close, reopen = (_no_argument_call(inp.api, capability) for capability in ("close_fingers", "open_fingers"))
-    if close is None or reopen is None:
-        return moves
-    return (close, *moves, reopen)
-
-
-def _no_argument_call(api: ApiSpec, capability: str) -> str | None:
-    primitive = next(
-        (p for p in api.primitives if capability in p.capabilities and not any(q.required for q in p.parameters)), None
-    )
-    return None if primitive is None else f"{primitive.name}(env, task)"
 
 
 POSITION_ROLES = ("grasp_target", "release_target", "motion_target", "push_start", "push_goal", "handle_target")

@@ -53,10 +53,6 @@ class Recent(Method):
             table_reach=a.calibration.table_reach_m,  # how far out the hand gets down to the table, measured
             table_top=a.calibration.table_top_z,
             push_path=a.ontology.path_of("push_object"),
-            # a jaw's closed and open readings (a cup has none to close for a sweep)
-            opening=(a.calibration.opening_closed, a.calibration.opening_open)
-            if a.calibration.mechanism == "fingers"
-            else None,
             closing_axis=a.calibration.closing_axis,
         )
         skills = {step.skill: a.skill(step.skill) for step in a.task.plan}
