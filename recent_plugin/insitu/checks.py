@@ -240,6 +240,9 @@ def target_clear(inp: CheckInput) -> Violation | None:
     return None
 
 
+Jaw = tuple[np.ndarray, np.ndarray, float, float]  # on the table plane: unit axes along and across, half extents
+
+
 def fingers_clear(inp: CheckInput) -> Violation | None:
     """An obstacle lies where an open finger comes down beside the object (a slab the push shoved
     along ahead of the cube, the wall of a box the object lies against): turn the hand a quarter turn
@@ -313,9 +316,9 @@ def _gap(jaw: Jaw, inp: CheckInput, name: str, target: np.ndarray) -> float:
 def _quarter_turn(inp: CheckInput, jaw: Jaw, target: np.ndarray, held: set[str]) -> tuple[str, ...]:
     """The robot's yaw turn by a quarter and back, where it has one, the jaw's axis is known, the
     object fits across the turned jaw, and the turned jaw is clear of everything loose and farther
-    from everything else than the jaw is now (a box's wall the object lies against: perception's
-    noise on a 14 cm box leaves a turned finger's few millimetres of room uncertain, the wall in
-    the jaw as it is, not); else nothing."""
+    from everything else than the jaw is now; else nothing. (Beside a box's wall, perception's noise
+    leaves the turned fingers' few millimetres of room uncertain, where the wall in the jaw as it is
+    is certain: farther is the test, not clear.)"""
     along, across, reach, width = jaw
     turn = next((p for p in inp.api.primitives if "rotate_end_effector" in p.capabilities), None)
     angle = None if turn is None else turn.by_role("yaw_angle")
@@ -341,9 +344,6 @@ def _clearance(jaw: Jaw, inp: CheckInput, target: np.ndarray, held: set[str]) ->
     come down (negative: one lies in it)."""
     obstacles = [*(n for n, _ in _strangers(inp, held)), *_fixed(inp)]
     return min((_gap(jaw, inp, n, target) for n in obstacles if _reaches_fingers(inp, n, target)), default=math.inf)
-
-
-Jaw = tuple[np.ndarray, np.ndarray, float, float]  # on the table plane: unit axes along and across, half extents
 
 
 def _jaw(inp: CheckInput) -> Jaw:
