@@ -150,6 +150,10 @@ class ApiSpec:
     def get(self, name: str) -> PrimitiveSpec | None:
         return next((p for p in self.primitives if p.name == name), None)
 
+    def providing(self, capability: str) -> PrimitiveSpec | None:
+        """The first primitive with ``capability`` (the robot's push, its yaw turn), or None."""
+        return next((p for p in self.primitives if capability in p.capabilities), None)
+
     def actuator(self, effect: str) -> PrimitiveSpec | None:
         """A primitive that takes no argument and establishes ``effect`` (a gripper's close or open):
         what performs an actuation step of a traced path. The one with the fewest preconditions: a

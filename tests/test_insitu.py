@@ -615,6 +615,8 @@ def test_a_step_that_left_its_state_unreached_is_done_again_and_then_fails_by_na
     reruns = [e for e in result.adaptations if set(e.checks) & AFTER_SKILL]
     assert len(reruns) == settings.max_repairs and all(e.attempts == 0 for e in reruns)
     assert "task.get_object_position" in reruns[0].after.splitlines()[0]  # the skill again, from a fresh read
+    # the model was asked only by other checks' patches (a turn before a grasp), never for a rerun
+    assert result.ei == sum(e.attempts for e in result.adaptations if not set(e.checks) & AFTER_SKILL)
 
 
 def test_the_bundled_press_lights_the_button_and_its_check_passes(panda_agent):

@@ -509,7 +509,7 @@ def _inserted(executor: SkillExecutor, segment: Segment, statements: tuple[str, 
     """The statements right before ``segment`` are ``statements``: the patch is the one suggested (an
     LM that wrote its own is not undone by what undoes the suggestion)."""
     start = segment.index - len(statements)
-    wanted = [ast.dump(node) for s in statements for node in ast.parse(textwrap.dedent(s)).body]
+    wanted = [ast.dump(node) for s in statements for node in parse_statements(s)]
     return start >= 0 and [ast.dump(s.node) for s in executor.segments[start : segment.index]] == wanted
 
 

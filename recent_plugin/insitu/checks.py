@@ -16,6 +16,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 from robosuite.utils.transform_utils import quat2mat
@@ -240,7 +241,17 @@ def target_clear(inp: CheckInput) -> Violation | None:
     return None
 
 
-Jaw = tuple[np.ndarray, np.ndarray, float, float]  # on the table plane: unit axes along and across, half extents
+class Jaw(NamedTuple):
+    """Where the open fingers come down around a grasp's centre, on the table plane: a rectangle."""
+
+    along: np.ndarray  # unit: the closing axis
+    across: np.ndarray  # unit
+    reach: float  # metres, half extent along
+    width: float  # metres, half extent across
+
+    def turned(self) -> Jaw:
+        """The jaw after a quarter turn of the hand."""
+        return Jaw(self.across, -self.along, self.reach, self.width)
 
 
 def fingers_clear(inp: CheckInput) -> Violation | None:
@@ -259,36 +270,36 @@ def fingers_clear(inp: CheckInput) -> Violation | None:
         return None
     held = _held(inp)
     jaw = _jaw(inp)
-    strangers = [name for name, _ in _strangers(inp, held)]
-    for name in [*strangers, *_fixed(inp)]:
-        if not _in_jaw(jaw, inp, name, target):
-            continue
-        state, size = inp.obs.objects[name], np.asarray(extents(inp, name), dtype=float)
-        gap = float(np.max(np.abs(np.asarray(state.pos[:2]) - target[:2]) - size[:2] / 2))  # to its nearest face
-        what = f"{name} ({_described(size)}) lies"
-        observation = f"{what} at {_fmt(state.pos)}, {100 * max(gap, 0.0):.1f} cm from the grasp {_fmt(target)}: "
-        turn = _quarter_turn(inp, jaw, target, held)
-        if turn:
-            return Violation(
-                "fingers_clear",
-                observation + "along the open fingers' closing axis",
-                turn[:1],
-                "turn the hand a quarter turn first: " + turn[0],
-                cue=f"{what} where the open fingers come down, and not across them",
-                # later skills were written for the hand as it was: turned, the hand met the box's open lid
-                after=turn[1:],
-            )
-        if name not in strangers:
-            continue  # fixed to the table: nothing sweeps it
-        statements = sweep_statements(inp, name, held)
+    loose = [name for name, _ in _strangers(inp, held)]
+    blocking = [name for name in [*loose, *_fixed(inp)] if _in_jaw(jaw, inp, name, target)]
+    if not blocking:
+        return None
+    turn = _quarter_turn(inp, jaw, target, held)
+    name = blocking[0] if turn else next((n for n in blocking if n in loose), None)
+    if name is None:
+        return None  # only what is fixed to the table, and no turn clears it: nothing sweeps it
+    state, size = inp.obs.objects[name], np.asarray(extents(inp, name), dtype=float)
+    gap = float(np.max(np.abs(np.asarray(state.pos[:2]) - target[:2]) - size[:2] / 2))  # to its nearest face
+    what = f"{name} ({_described(size)}) lies"
+    observation = f"{what} at {_fmt(state.pos)}, {100 * max(gap, 0.0):.1f} cm from the grasp {_fmt(target)}: "
+    if turn:
         return Violation(
             "fingers_clear",
-            observation + "within the open fingers' reach",
-            statements,
-            "push it away first: " + "; then ".join(statements),
-            cue=f"{what} where the open fingers come down",
+            observation + "along the open fingers' closing axis",
+            turn[:1],
+            "turn the hand a quarter turn first: " + turn[0],
+            cue=f"{what} where the open fingers come down, and not across them",
+            # later skills were written for the hand as it was: turned, the hand met the box's open lid
+            after=turn[1:],
         )
-    return None
+    statements = sweep_statements(inp, name, held)
+    return Violation(
+        "fingers_clear",
+        observation + "within the open fingers' reach",
+        statements,
+        "push it away first: " + "; then ".join(statements),
+        cue=f"{what} where the open fingers come down",
+    )
 
 
 def _fixed(inp: CheckInput) -> list[str]:
@@ -319,12 +330,11 @@ def _quarter_turn(inp: CheckInput, jaw: Jaw, target: np.ndarray, held: set[str])
     from everything else than the jaw is now; else nothing. (Beside a box's wall, perception's noise
     leaves the turned fingers' few millimetres of room uncertain, where the wall in the jaw as it is
     is certain: farther is the test, not clear.)"""
-    along, across, reach, width = jaw
-    turn = next((p for p in inp.api.primitives if "rotate_end_effector" in p.capabilities), None)
+    turn = inp.api.providing("rotate_end_effector")
     angle = None if turn is None else turn.by_role("yaw_angle")
-    if angle is None or inp.scene.closing_axis is None or reach == width:
+    if angle is None or inp.scene.closing_axis is None or jaw.reach == jaw.width:
         return ()
-    turned: Jaw = (across, -along, reach, width)
+    turned = jaw.turned()
     if any(_in_jaw(turned, inp, name, target) for name, _ in _strangers(inp, held)):
         return ()
     if _clearance(turned, inp, target, held) <= _clearance(jaw, inp, target, held):
@@ -334,7 +344,7 @@ def _quarter_turn(inp: CheckInput, jaw: Jaw, target: np.ndarray, held: set[str])
         for n in _moved_objects(inp)
         if np.all(np.abs(inp.obs.objects[n].pos[:2] - target[:2]) <= np.asarray(extents(inp, n)[:2]) / 2)
     ]
-    if any(float(np.asarray(extents(inp, n)[:2]) @ np.abs(across)) > JAW_STROKE for n in grasped):
+    if any(float(np.asarray(extents(inp, n)[:2]) @ np.abs(jaw.across)) > JAW_STROKE for n in grasped):
         return ()
     return tuple(f"{turn.name}(env, task, {angle.name}={sign * math.pi / 2:.4f})" for sign in (1, -1))
 
@@ -347,24 +357,22 @@ def _clearance(jaw: Jaw, inp: CheckInput, target: np.ndarray, held: set[str]) ->
 
 
 def _jaw(inp: CheckInput) -> Jaw:
-    """Where the open fingers come down around a grasp's centre, on the table plane: a rectangle's two
-    unit axes and half extents (along the closing axis as the hand is turned now, and across it)."""
+    """The open fingers' rectangle, along the closing axis as the hand is turned now (a square without one)."""
     axis = inp.scene.closing_axis
     if axis is not None:
         along = (quat2mat(np.asarray(inp.obs.eef_quat, dtype=float)) @ np.asarray(axis, dtype=float))[:2]
         if np.linalg.norm(along) > 0.5:  # pointing down: the closing axis lies near the table plane
             along = along / np.linalg.norm(along)
-            return along, np.array([-along[1], along[0]]), FINGER_SPAN, FINGER_ACROSS
-    return np.array([1.0, 0.0]), np.array([0.0, 1.0]), FINGER_SPAN, FINGER_SPAN
+            return Jaw(along, np.array([-along[1], along[0]]), FINGER_SPAN, FINGER_ACROSS)
+    return Jaw(np.array([1.0, 0.0]), np.array([0.0, 1.0]), FINGER_SPAN, FINGER_SPAN)
 
 
 def _separation(jaw: Jaw, offset: np.ndarray, half: np.ndarray) -> float:
     """Metres between the jaw's rectangle and an axis-aligned box ``offset`` from its centre (negative:
     they overlap), the largest gap over the four axes that could separate them."""
-    along, across, reach, width = jaw
     gaps = []
-    for axis in (along, across, np.array([1.0, 0.0]), np.array([0.0, 1.0])):
-        jaw_radius = reach * abs(float(along @ axis)) + width * abs(float(across @ axis))
+    for axis in (jaw.along, jaw.across, np.array([1.0, 0.0]), np.array([0.0, 1.0])):
+        jaw_radius = jaw.reach * abs(float(jaw.along @ axis)) + jaw.width * abs(float(jaw.across @ axis))
         gaps.append(abs(float(offset @ axis)) - jaw_radius - float(half @ np.abs(axis)))
     return max(gaps)
 
@@ -493,7 +501,7 @@ def sweep_statements(inp: CheckInput, obstacle: str, held: set[str]) -> tuple[st
 
 def _push_calls(inp: CheckInput, start: np.ndarray, goal: np.ndarray) -> tuple[str, ...]:
     """The robot's own push primitive when it has one, else its Cartesian moves along a push's path."""
-    push = next((p for p in inp.api.primitives if "push_object" in p.capabilities), None)
+    push = inp.api.providing("push_object")
     if push is not None:
         begin, end = push.by_role("push_start"), push.by_role("push_goal")
         if begin is not None and end is not None:
