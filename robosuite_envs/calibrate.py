@@ -20,7 +20,7 @@ import numpy as np
 
 from lerobot_policy_recent.descriptions.embodiments import Embodiment, get_embodiment, resolve_model_file
 from lerobot_policy_recent.robosuite_envs.calibration import CALIBRATION_VERSION, TABLE_REACH_HEIGHT_M, Calibration
-from lerobot_policy_recent.robosuite_envs.primitives import control
+from lerobot_policy_recent.robosuite_envs.primitives import clearance, control
 from lerobot_policy_recent.robosuite_envs.primitives.session import CONTROL_FREQ, RobotSession
 
 POSE_SECONDS = 8.0  # longest the arm servos to one calibration pose; it stops earlier once it is still
@@ -70,7 +70,7 @@ def calibration_key(embodiment: Embodiment) -> str:
     digest.update(f"v{CALIBRATION_VERSION}\n".encode())
     for model in (embodiment.robot_mjcf, embodiment.gripper_mjcf):
         digest.update(resolve_model_file(model).read_bytes())
-    for procedure in (Path(__file__), Path(control.__file__)):  # how it is measured: this module, the servo
+    for procedure in (Path(__file__), Path(control.__file__), Path(clearance.__file__)):  # this module, the servo
         digest.update(procedure.read_bytes())
     return digest.hexdigest()[:16]
 
@@ -151,6 +151,7 @@ class _Probe:
         suction = "cup" in self.gripper.important_geoms
         open_time = self._actuate(-1.0)  # start open
         below = self._extent_below_site()
+        hand = self._hand_half_xy()
         opened = self.env.gripper_opening()
         if suction:
             cup = self.model.geom_name2id(self.gripper.important_geoms["cup"][0])
@@ -162,6 +163,7 @@ class _Probe:
                 "closing_axis": None,
                 "grasp_point": self._in_site(self.data.geom_xpos[cup]),
                 "below_site_m": below,
+                "hand_half_xy": hand,
                 "close_time_s": close_time,
                 "open_time_s": max(open_time, self._actuate(-1.0)),
                 "opening_open": round(opened, 4),
@@ -183,6 +185,7 @@ class _Probe:
             "closing_axis": tuple(round(float(v), 3) for v in axis / max(np.linalg.norm(axis), 1e-9)),
             "grasp_point": grasp_point,
             "below_site_m": below,
+            "hand_half_xy": hand,
             "close_time_s": close_time,
             "open_time_s": open_time,
             "opening_open": round(opened, 4),
@@ -203,14 +206,29 @@ class _Probe:
 
     def _extent_below_site(self) -> float:
         """How far the gripper's collision geometry reaches below the grip site (world z, as it points now)."""
-        lowest = np.inf
+        lowest = float(self._contact_corners()[:, 2].min())
+        return round(max(0.0, float(self.data.site_xpos[self.site][2]) - lowest), 4)
+
+    def _hand_half_xy(self) -> tuple[float, float]:
+        """Half the open gripper's extent along the grip site's x and y, over the corners of its collision
+        boxes that lie lower than ``clearance.HAND_HEIGHT`` above the grip site (pointing down, as now):
+        what can meet a box on the table as the hand passes it."""
+        corners = self._contact_corners()
+        low = corners[corners[:, 2] < self.data.site_xpos[self.site][2] + clearance.HAND_HEIGHT]
+        local = (low - self.data.site_xpos[self.site]) @ self._site_rot()
+        return tuple(round(float(v), 4) for v in np.abs(local[:, :2]).max(axis=0))
+
+    def _contact_corners(self) -> np.ndarray:
+        """World corners of the gripper's collision geoms' bounding boxes, as the gripper is posed now."""
+        signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
+        corners = []
         for name in self.gripper.contact_geoms:
             geom = self.model.geom_name2id(name)
             centre, half = self.model.geom_aabb[geom][:3], self.model.geom_aabb[geom][3:]
-            corners = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)]) * half + centre
-            world = self.data.geom_xpos[geom] + corners @ self.data.geom_xmat[geom].reshape(3, 3).T
-            lowest = min(lowest, float(world[:, 2].min()))
-        return round(max(0.0, float(self.data.site_xpos[self.site][2]) - lowest), 4)
+            corners.append(
+                self.data.geom_xpos[geom] + (signs * half + centre) @ self.data.geom_xmat[geom].reshape(3, 3).T
+            )
+        return np.concatenate(corners)
 
     def _site_rot(self) -> np.ndarray:
         return self.data.site_xmat[self.site].reshape(3, 3)

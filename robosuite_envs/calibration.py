@@ -20,7 +20,7 @@ from __future__ import annotations
 import json
 from dataclasses import asdict, dataclass
 
-CALIBRATION_VERSION = 4
+CALIBRATION_VERSION = 5
 TABLE_REACH_HEIGHT_M = 0.03  # grip site above the table top for the reach at the table: a sweep's or grasp's height
 
 
@@ -42,6 +42,9 @@ class Calibration:
     closing_axis: tuple[float, float, float] | None  # unit, grip-site frame: from one pad group to the other
     grasp_point: tuple[float, float, float]  # where closed pads (or the cup) hold, grip-site frame
     below_site_m: float  # how far the open gripper reaches below the grip site, pointing down
+    # half the open gripper's extent along the grip site's x and y axes, over its parts that a box on the
+    # table can meet (pointing down): what the motion planner sweeps past the perceived boxes
+    hand_half_xy: tuple[float, float]
     close_time_s: float
     open_time_s: float
     opening_open: float  # the gripper's opening reading fully open (finger joint travel; a cup: 0, off)
@@ -64,7 +67,7 @@ class Calibration:
         data = json.loads(text)
         for key in ("joint_limits", "unreached"):
             data[key] = tuple(tuple(v) for v in data[key])
-        for key in ("base_xyz", "grip_site_in_hand", "grasp_point"):
+        for key in ("base_xyz", "grip_site_in_hand", "grasp_point", "hand_half_xy"):
             data[key] = tuple(data[key])
         if data["closing_axis"] is not None:
             data["closing_axis"] = tuple(data["closing_axis"])
@@ -83,6 +86,8 @@ class Calibration:
             f"closing axis      {axis} (grip-site frame)",
             f"grasp point       {_vec(self.grasp_point)} m from the grip site (grip-site frame)",
             f"below grip site   {self.below_site_m * 100:.1f} cm (open, pointing down)",
+            f"hand footprint    {2 * self.hand_half_xy[0] * 100:.1f} x {2 * self.hand_half_xy[1] * 100:.1f} cm "
+            "(open, along the grip site's x and y)",
             f"close / open      {self.close_time_s:.2f} s / {self.open_time_s:.2f} s "
             f"(opening reads {self.opening_closed:.3f} closed, {self.opening_open:.3f} open)",
             f"tracking error    {self.tracking_error_m * 1000:.1f} mm steady-state (worst pose); "
@@ -104,6 +109,7 @@ class Nominal:
     opening_open: float | None = None  # unknown: an opening gripper is done once its fingers stop
     opening_closed: float | None = None
     grasp_point: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    hand_half_xy: tuple[float, float] | None = None  # unknown: the planner's nominal hand
     tracking_error_m: float = 0.0
     unreached: tuple = ()
     table_reach_m: float = float("inf")

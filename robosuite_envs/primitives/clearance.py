@@ -18,6 +18,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from robosuite.utils.transform_utils import quat2mat
 
 from lerobot_policy_recent.robosuite_envs.observation import POSITION_SIGMA, Observation
 
@@ -60,27 +61,44 @@ class Part:
         return float(self.offset[2] - self.half[2])
 
 
-HAND = Part(  # fingertips FINGER_DEPTH below the grip site, the hand and wrist HAND_HEIGHT above it
-    offset=np.array([0.0, 0.0, (HAND_HEIGHT - FINGER_DEPTH) / 2]),
-    half=np.array([HAND_RADIUS, HAND_RADIUS, (HAND_HEIGHT + FINGER_DEPTH) / 2]),
-)
+def hand(half_xy=(HAND_RADIUS, HAND_RADIUS)) -> Part:
+    """The hand's box: ``half_xy`` across the table (world x, y), fingertips FINGER_DEPTH below the grip
+    site, the hand and wrist HAND_HEIGHT above it."""
+    return Part(
+        offset=np.array([0.0, 0.0, (HAND_HEIGHT - FINGER_DEPTH) / 2]),
+        half=np.array([*half_xy, (HAND_HEIGHT + FINGER_DEPTH) / 2]),
+    )
+
+
+HAND = hand()  # a hand of unknown size: as wide as a Panda's open hand reaches
+
+
+def across_table(half_xy, eef_quat) -> tuple[float, float]:
+    """A footprint measured along the grip site's x and y, as half extents along the world's x and y
+    with the hand turned as ``eef_quat`` (xyzw) turns it (a box around the turned box)."""
+    turn = np.abs(quat2mat(np.asarray(eef_quat, dtype=float))[:2, :2])
+    return tuple(float(v) for v in turn @ np.asarray(half_xy, dtype=float))
 
 
 @dataclass(frozen=True)
 class Sweep:
-    """What a moving hand occupies: its own box, and the held object's perceived box where it carries one."""
+    """What a moving hand occupies: its own box (first), and the held object's perceived box where it carries one."""
 
     parts: tuple[Part, ...] = (HAND,)
 
     @classmethod
-    def of(cls, obs: Observation) -> Sweep:
-        """The hand as it is now, with the held object's box hanging from it as perception places it."""
+    def of(cls, obs: Observation, hand_half_xy: tuple[float, float] | None = None) -> Sweep:
+        """The hand as it is now, with the held object's box hanging from it as perception places it.
+        ``hand_half_xy``: the gripper's calibrated footprint along the grip site's x and y (None: the
+        nominal ``HAND``); a cup is narrower than a parallel jaw, whose open fingers and palm reach out
+        along its closing axis."""
+        own = HAND if hand_half_xy is None else hand(across_table(hand_half_xy, obs.eef_quat))
         held = obs.held()
         if held is None:
-            return cls()
+            return cls((own,))
         load = obs.objects[held]
         offset = np.asarray(load.pos, dtype=float) - np.asarray(obs.eef_pos, dtype=float)
-        return cls((HAND, Part(offset, np.asarray(load.size, dtype=float) / 2)))
+        return cls((own, Part(offset, np.asarray(load.size, dtype=float) / 2)))
 
     def blocks(self, box: Box, start: np.ndarray, end: np.ndarray) -> bool:
         """The grip site's segment ``start`` → ``end`` sinks the hand into ``box`` by more than
@@ -89,8 +107,8 @@ class Sweep:
         load's underside and the box's top are perceived with noise, and a load that passes 2 mm
         above a block by the numbers may be resting on it and drag it along."""
         over_solid = 2 * box.half[2] > SLIDE_DEPTH  # taller than a marking
-        for part in self.parts:
-            top = LOAD_CLEARANCE if part is not HAND and over_solid else -SLIDE_DEPTH
+        for index, part in enumerate(self.parts):
+            top = LOAD_CLEARANCE if index and over_solid else -SLIDE_DEPTH  # parts[0]: the hand
             low = box.centre - box.half - part.offset - part.half
             high = box.centre + box.half - part.offset + part.half + [0.0, 0.0, top]
             if _segment_meets(start, end, low, high):

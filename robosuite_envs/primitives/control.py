@@ -152,7 +152,7 @@ def _planned(session: RobotSession, goal: np.ndarray, timeout_s: float, final: d
     """:func:`move_to` along the planner's path over perceived boxes; held up on the way, climb once
     over what the hand or its load meets there and plan again from above it. Each leg (climb, pass,
     descent) has the move's ``timeout_s``: a detour is never cut short by a budget set for a line."""
-    sweep = clearance.Sweep.of(session.obs)
+    sweep = clearance.Sweep.of(session.obs, session.calibration.hand_half_xy)
     climbed = False
     while True:
         path = clearance.path_over(session.obs.eef_pos, goal, clearance.boxes(session.obs), sweep)
