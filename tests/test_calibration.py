@@ -45,6 +45,15 @@ def test_calibration_reads_the_arm_the_ontology_reads_and_measures_the_rest(name
     assert np.linalg.norm(measured.base_xyz[:2]) < measured.table_reach_m < measured.reach_m
 
 
+def test_the_hand_footprint_is_measured_from_the_grippers_own_geometry():
+    """The open parallel jaw reaches out along its closing axis (fingers and palm), a cup only as far
+    as its mount: the planner sweeps each as wide as it is."""
+    jaw, cup = calibration("FrankaHand"), calibration("Suction")
+    along = int(np.argmax(np.abs(jaw.closing_axis[:2])))  # the site axis the fingers close along
+    assert jaw.hand_half_xy[along] > 0.08 > jaw.hand_half_xy[1 - along]  # a Franka Hand is ~20 cm long
+    assert max(cup.hand_half_xy) < 0.04 < max(jaw.hand_half_xy)
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("name", [n for n in EMBODIMENTS if n not in ("Panda", "Jaco")])
 def test_every_embodiment_calibrates_consistently_with_the_ontology(name, ontology):

@@ -37,6 +37,23 @@ def test_a_descent_beside_a_box_keeps_its_line_going_over_would_not_avoid_it():
     assert len(path) == 1
 
 
+def test_a_hand_is_swept_as_wide_as_its_calibrated_footprint_turned_as_the_hand_is():
+    """A block 6 cm beside the line is in the nominal 7 cm hand's way, not in a 3.5 cm cup's; a jaw
+    10 cm long along its closing axis meets it only while that axis lies across the line."""
+    beside = clearance.Box("block", np.array([0.0, 0.06, 0.82]), np.array([0.02, 0.02, 0.02]))
+    line = np.array([-0.2, 0.0, 0.83]), np.array([0.2, 0.0, 0.83])
+    home, quarter = np.array([0.0, 0.0, 0.0, 1.0]), np.array([0.0, 0.0, np.sin(np.pi / 4), np.cos(np.pi / 4)])
+
+    def sweep(half_xy, quat) -> clearance.Sweep:
+        return clearance.Sweep.of(_carrying(line[0], 0.0, quat=quat, holding=False), half_xy)
+
+    assert sweep(None, home).blocks(beside, *line)  # nominal
+    assert not sweep((0.035, 0.035), home).blocks(beside, *line)  # a cup
+    assert sweep((0.03, 0.1), home).blocks(beside, *line)  # a jaw closing across the line
+    assert not sweep((0.03, 0.1), quarter).blocks(beside, *line)  # turned a quarter: along it
+    assert clearance.across_table((0.03, 0.1), quarter) == pytest.approx((0.1, 0.03))
+
+
 def test_a_held_load_is_swept_with_the_hand():
     """A block hanging 4 cm below the grip site clears the slab only where the block's bottom does."""
     eef = np.array([-0.2, 0.0, 0.9])
@@ -60,14 +77,16 @@ def test_a_load_carried_a_hair_above_a_block_goes_over_it_but_slides_over_a_mark
     assert len(clearance.path_over(eef, [0.2, 0.0, 0.9], [marking], sweep)) == 1
 
 
-def _carrying(eef: np.ndarray, hanging: float) -> Observation:
-    """The hand at ``eef`` holding a 5 cm block whose centre hangs ``hanging`` below the grip site."""
+def _carrying(eef: np.ndarray, hanging: float, *, quat=(0.0, 0.0, 0.0, 1.0), holding: bool = True) -> Observation:
+    """The hand at ``eef`` (turned as ``quat``, xyzw) holding a 5 cm block whose centre hangs
+    ``hanging`` below the grip site; with ``holding`` False, the hand is empty and the block far off."""
+    load = eef - [0.0, 0.0, hanging] if holding else np.array([0.3, 0.3, 0.82])
     return Observation(
         eef_pos=eef,
-        eef_quat=np.array([0.0, 0.0, 0.0, 1.0]),
+        eef_quat=np.asarray(quat, dtype=float),
         gripper_opening=0.0,
-        objects={"load": ObjectState(eef - [0.0, 0.0, hanging], np.zeros(4), np.array([0.05, 0.05, 0.05]))},
-        object_detected=True,
+        objects={"load": ObjectState(load, np.zeros(4), np.array([0.05, 0.05, 0.05]))},
+        object_detected=holding,
     )
 
 
