@@ -30,6 +30,10 @@ def test_a_clear_line_the_goals_own_box_and_what_the_hand_drags_are_no_obstacles
     assert len(clearance.path_over([-0.2, 0.0, 0.95], [0.2, 0.0, 0.95], [SLAB], sweep)) == 1  # high above it
     assert len(clearance.path_over([-0.2, 0.0, 0.95], [0.0, 0.0, 0.84], [SLAB], sweep)) == 1  # a descent into it
     assert len(clearance.path_over([-0.06, 0.0, 0.84], [0.2, 0.0, 0.84], [SLAB], sweep)) == 1  # under the hand already
+    cup = clearance.Sweep.of(_carrying(np.array([-0.09, 0.0, 0.84]), 0.0, holding=False), (0.035, 0.035))
+    push = clearance.path_over([-0.09, 0.0, 0.84], [0.2, 0.0, 0.84], [SLAB], cup)  # a cup 5 mm behind it: a push
+    assert len(push) == 1
+    assert len(clearance.path_over([-0.12, 0.0, 0.84], [0.2, 0.0, 0.84], [SLAB], cup)) == 3  # 3.5 cm short: in the way
 
 
 def test_a_descent_beside_a_box_keeps_its_line_going_over_would_not_avoid_it():

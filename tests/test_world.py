@@ -369,3 +369,30 @@ def test_a_release_aimed_below_where_the_load_comes_to_rest_sets_it_down_instead
         assert session.obs.held() is None and abs(placed.pos[2] - block[2]) < 0.005  # on the table, 10 cm over
     finally:
         env.close()
+
+
+def test_a_free_cup_moves_along_its_line_so_a_sweep_pushes_what_lies_on_it():
+    """The cup's move, sealed on nothing and pressed on nothing, goes straight from where it is to its goal,
+    as the other end-effector APIs' moves go: closing each axis on its own, the cup ran 45 degrees until
+    one axis was done, sideswiped the block a sweep was to push, and left it behind."""
+    from lerobot_policy_recent.robosuite_envs.observation import Observation
+    from lerobot_policy_recent.robosuite_envs.primitives import suction
+    from lerobot_policy_recent.robosuite_envs.primitives.session import RobotSession, TaskContext
+
+    env = RecentEnv(task="end_effector/arrange_row", robot="Suction", render_mode="none")
+    names = env.spec_task.object_names()
+    raw, _ = env.reset(seed=0)
+    session = RobotSession("Suction", Observation.decode(raw["agent_pos"], raw["environment_state"], names))
+    try:
+        start = session.obs.eef_pos.copy()
+        goal = start + np.array([0.2, 0.06, -0.05])
+        direction = (goal - start) / np.linalg.norm(goal - start)
+        off_line = []
+        for action in suction.move_to_position(session, TaskContext(session), goal):
+            observed, *_ = env.step(action)
+            session.update(Observation.decode(observed["agent_pos"], observed["environment_state"], names))
+            along = session.obs.eef_pos - start
+            off_line.append(float(np.linalg.norm(along - (along @ direction) * direction)))
+        assert np.linalg.norm(session.obs.eef_pos - goal) < 0.02 and max(off_line) < 0.01
+    finally:
+        env.close()

@@ -4,13 +4,14 @@ A move's straight line may run the hand, or what it carries, through an object o
 slab that landed mid-task, a bin's wall, a block beside the one to grasp). The planner sweeps the
 hand's lowest parts (fingertips, or the held object's box) along the line against every perceived
 box, and where one is in the way it lifts the path over it: up from the start, across above the
-highest box crossed, down onto the goal. It plans from perception alone (boxes and the held
-object's size, never the simulator's geometry), so every embodiment, bundled or added by data,
-gets it through the controllers.
+highest box crossed, down onto the goal. It plans from perception (boxes and the held object's
+size, never the simulator's state) and the hand's own footprint, which calibration measures from
+the gripper's model, so every embodiment, bundled or added by data, gets it through the controllers.
 
 What the move acts on is no obstacle: the box the goal lies in (the cube a grasp descends into, the
-button a press goes onto, the bin a release lowers into), and whatever already lies under the hand
-or its load where the move starts (a block the rake drags, an object a tool pushes along).
+button a press goes onto, the bin a release lowers into), and whatever the hand or its load already
+lies against where the move starts (a block the rake drags, an object a tool pushes along: a cup put
+down 5 mm behind the block it is to sweep).
 """
 
 from __future__ import annotations
@@ -115,20 +116,9 @@ class Sweep:
                 return True
         return False
 
-    def covers(self, box: Box, point: np.ndarray) -> bool:
-        """With the grip site at ``point``, the hand or its load reaches down beside or onto ``box``
-        (below its top): the box moves with the hand (dragged, pushed), or the hand is leaving it."""
-        point = np.asarray(point, dtype=float)
-        for part in self.parts:
-            centre = point + part.offset
-            beside = np.all(np.abs(centre[:2] - box.centre[:2]) <= box.half[:2] + part.half[:2])
-            if beside and centre[2] - part.half[2] < box.top and centre[2] + part.half[2] > box.centre[2] - box.half[2]:
-                return True
-        return False
-
     def against(self, box: Box, point: np.ndarray) -> bool:
         """With the grip site at ``point``, the hand or its load is on or against ``box`` (within
-        ``CLEAR_MARGIN`` of it): what may have stopped a move there."""
+        ``CLEAR_MARGIN`` of it): what may have stopped a move there, or what a move from there acts on."""
         point = np.asarray(point, dtype=float)
         return any(
             np.all(np.abs(point + part.offset - box.centre) <= box.half + part.half + CLEAR_MARGIN)
@@ -153,14 +143,15 @@ def boxes(obs: Observation) -> list[Box]:
 def path_over(start, goal, obstacles: list[Box], sweep: Sweep) -> list[np.ndarray]:
     """Waypoints from ``start`` to ``goal`` (the last is ``goal``) that keep the swept hand out of
     every box in ``obstacles``: the straight line where it is clear; else up, across above the
-    boxes in the way, and down. Boxes the goal lies in, or that the hand covers at the start, are
+    boxes in the way, and down. Boxes the goal lies in, or that the hand or its load is against at
+    the start (within ``CLEAR_MARGIN``, closer than the planner ever brings it to an obstacle), are
     what the move acts on and are passed through. Where going over does not help either (the
     descent itself meets a box beside the goal) the straight line is kept: nothing is made worse."""
     start, goal = np.asarray(start, dtype=float), np.asarray(goal, dtype=float)
     in_the_way = [
         box
         for box in obstacles
-        if not box.contains(goal, GOAL_MARGIN) and not sweep.covers(box, start) and sweep.blocks(box, start, goal)
+        if not box.contains(goal, GOAL_MARGIN) and not sweep.against(box, start) and sweep.blocks(box, start, goal)
     ]
     if not in_the_way:
         return [goal]

@@ -80,24 +80,26 @@ def move_to(
     not where it stops trying: the move ends within ``POS_TOL``, or within ``tol`` once the grip
     site no longer moves (a press that returned on entering ``tol`` stopped 2 cm above the button).
     ``tol`` defaults to the arm's calibrated ``settle_tol_m`` when settling, else ``POS_TOL``.
-    ``straight``: follow the line from where the move starts (a push slides an object along it);
-    otherwise each axis closes its own error, and a diagonal move bends.
+    ``straight``: follow the line from where the move (or each leg of a planned one) starts (a push
+    slides an object along it); otherwise each axis closes its own error, and a diagonal move bends.
     ``set_down``: lowering a held object, which may reach the surface before the grip site reaches
     ``target`` (a target computed from a noisy read of the object's height): the move ends once
     the grip site has stopped just above it with the load in hand (:func:`load_rests`).
-    ``plan``: a move that is not ``straight`` goes over the perceived boxes its line would run the
+    ``plan``: the move goes over the perceived boxes its line would run the
     hand or its load through (:mod:`.clearance`), and once held up on the way, it climbs over what
     stopped it and plans again from there before it fails. A descent that comes down on the object
     its goal lies in ends where the hand meets it (:func:`landed`): a goal read with noise may lie
     inside the object, and what the step was for is checked by its effect, not by millimetres.
+    Without ``plan`` the line is kept whatever lies on it: a push's slide, and the Franka Hand's and
+    the 2F-85's ``move_to_position``, whose line may push something along.
     """
     goal = as_position(target, "target position")
     if tol is None:
         tol = session.calibration.settle_tol_m if settle else POS_TOL
     if goal[2] < TABLE_CLEARANCE:
         raise PrimitiveFailure("out_of_workspace", f"target z={goal[2]:.3f} m is below the table surface")
-    if plan and not straight:
-        final = dict(tol=tol, settle=settle, set_down=set_down, stop_on_contact=stop_on_contact)
+    if plan:
+        final = dict(tol=tol, settle=settle, set_down=set_down, stop_on_contact=stop_on_contact, straight=straight)
         yield from _planned(session, goal, timeout_s, final)
         return
     max_steps = max(1, int(timeout_s * CONTROL_FREQ))
@@ -158,7 +160,9 @@ def _planned(session: RobotSession, goal: np.ndarray, timeout_s: float, final: d
         path = clearance.path_over(session.obs.eef_pos, goal, clearance.boxes(session.obs), sweep)
         try:
             for via in path[:-1]:
-                yield from move_to(session, via, timeout_s=timeout_s, tol=VIA_TOL, plan=False)
+                yield from move_to(
+                    session, via, timeout_s=timeout_s, tol=VIA_TOL, plan=False, straight=final["straight"]
+                )
             yield from move_to(session, goal, timeout_s=timeout_s, plan=False, **final)
             return
         except PrimitiveFailure as failure:
@@ -359,7 +363,7 @@ def push_to(session: RobotSession, start: Sequence[float], goal: Sequence[float]
     yield from actuate_gripper(session, 1.0, duration_s=0.2, max_duration_s=1.0)
     yield from move_to(session, begin + np.array([0.0, 0.0, APPROACH_HEIGHT]), timeout_s=timeout_s, settle=True)
     yield from move_to(session, begin, timeout_s=timeout_s / 2, settle=True)  # a push needs contact, not mm
-    yield from move_to(session, end, timeout_s=timeout_s, tol=0.015, straight=True)
+    yield from move_to(session, end, timeout_s=timeout_s, tol=0.015, straight=True, plan=False)
     yield from move_to(session, end + np.array([0.0, 0.0, APPROACH_HEIGHT]), timeout_s=timeout_s / 2, tol=0.02)
 
 

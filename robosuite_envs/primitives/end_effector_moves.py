@@ -25,7 +25,7 @@ def move_to_position(
     """Move the end effector to ``pos`` along a straight line, pointing ``pointing_to`` (only 'down' is
     supported): a move that pushes something slides it along that line."""
     check_pointing(pointing_to)
-    yield from control.move_to(env, pos, tol=DRAG_TOL, settle=True, straight=True)
+    yield from control.move_to(env, pos, tol=DRAG_TOL, settle=True, straight=True, plan=False)
 
 
 def move_gripper_to(env: RobotSession, task: TaskContext, obj_name: str, pointing_to: str = "down") -> control.Steps:
