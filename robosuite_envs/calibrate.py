@@ -70,7 +70,8 @@ def calibration_key(embodiment: Embodiment) -> str:
     digest.update(f"v{CALIBRATION_VERSION}\n".encode())
     for model in (embodiment.robot_mjcf, embodiment.gripper_mjcf):
         digest.update(resolve_model_file(model).read_bytes())
-    for procedure in (Path(__file__), Path(control.__file__), Path(clearance.__file__)):  # this module, the servo
+    # how it is measured: this module, the servo, and the planner (the hand height a footprint spans)
+    for procedure in (Path(__file__), Path(control.__file__), Path(clearance.__file__)):
         digest.update(procedure.read_bytes())
     return digest.hexdigest()[:16]
 

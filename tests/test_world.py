@@ -340,13 +340,10 @@ def test_every_embodiment_builds_a_suite_scene_and_steps(robot):
     env.close()
 
 
-def test_a_release_aimed_below_where_the_load_comes_to_rest_sets_it_down_instead_of_timing_out():
-    """A release height computed from a noisy read (sigma 4 mm) can lie under where the held block
-    comes to rest on the table: the cup cannot lower it further. The lowering ends once the hand has
-    stalled just above the target with the load in hand, and the block is let go (it timed out 1.1 cm
-    short in arrange_row on Suction, seed 123)."""
+def _suction_on_arrange_row():
+    """The Suction env on ``arrange_row`` (seed 0), a session that follows it, and ``run``, which
+    steps a primitive's actions through the env."""
     from lerobot_policy_recent.robosuite_envs.observation import Observation
-    from lerobot_policy_recent.robosuite_envs.primitives import control
     from lerobot_policy_recent.robosuite_envs.primitives.session import RobotSession
 
     env = RecentEnv(task="end_effector/arrange_row", robot="Suction", render_mode="none")
@@ -354,11 +351,23 @@ def test_a_release_aimed_below_where_the_load_comes_to_rest_sets_it_down_instead
     raw, _ = env.reset(seed=0)
     session = RobotSession("Suction", Observation.decode(raw["agent_pos"], raw["environment_state"], names))
 
-    def run(steps) -> None:
+    def run(steps, each=lambda: None) -> None:
         for action in steps:
             observed, *_ = env.step(action)
             session.update(Observation.decode(observed["agent_pos"], observed["environment_state"], names))
+            each()
 
+    return env, session, run
+
+
+def test_a_release_aimed_below_where_the_load_comes_to_rest_sets_it_down_instead_of_timing_out():
+    """A release height computed from a noisy read (sigma 4 mm) can lie under where the held block
+    comes to rest on the table: the cup cannot lower it further. The lowering ends once the hand has
+    stalled just above the target with the load in hand, and the block is let go (it timed out 1.1 cm
+    short in arrange_row on Suction, seed 123)."""
+    from lerobot_policy_recent.robosuite_envs.primitives import control
+
+    env, session, run = _suction_on_arrange_row()
     try:
         block = session.obs.objects["red"].pos.copy()
         run(control.suction_grasp_at(session, block))
@@ -375,24 +384,21 @@ def test_a_free_cup_moves_along_its_line_so_a_sweep_pushes_what_lies_on_it():
     """The cup's move, sealed on nothing and pressed on nothing, goes straight from where it is to its goal,
     as the other end-effector APIs' moves go: closing each axis on its own, the cup ran 45 degrees until
     one axis was done, sideswiped the block a sweep was to push, and left it behind."""
-    from lerobot_policy_recent.robosuite_envs.observation import Observation
     from lerobot_policy_recent.robosuite_envs.primitives import suction
-    from lerobot_policy_recent.robosuite_envs.primitives.session import RobotSession, TaskContext
+    from lerobot_policy_recent.robosuite_envs.primitives.session import TaskContext
 
-    env = RecentEnv(task="end_effector/arrange_row", robot="Suction", render_mode="none")
-    names = env.spec_task.object_names()
-    raw, _ = env.reset(seed=0)
-    session = RobotSession("Suction", Observation.decode(raw["agent_pos"], raw["environment_state"], names))
+    env, session, run = _suction_on_arrange_row()
     try:
         start = session.obs.eef_pos.copy()
         goal = start + np.array([0.2, 0.06, -0.05])
         direction = (goal - start) / np.linalg.norm(goal - start)
         off_line = []
-        for action in suction.move_to_position(session, TaskContext(session), goal):
-            observed, *_ = env.step(action)
-            session.update(Observation.decode(observed["agent_pos"], observed["environment_state"], names))
+
+        def measure() -> None:
             along = session.obs.eef_pos - start
             off_line.append(float(np.linalg.norm(along - (along @ direction) * direction)))
+
+        run(suction.move_to_position(session, TaskContext(session), goal), measure)
         assert np.linalg.norm(session.obs.eef_pos - goal) < 0.02 and max(off_line) < 0.01
     finally:
         env.close()
