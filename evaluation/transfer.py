@@ -27,6 +27,7 @@ from pathlib import Path
 from lerobot_policy_recent.ontology.skill_code import object_of_point, position_names
 from lerobot_policy_recent.recent_plugin.extras import pyplot
 from lerobot_policy_recent.recent_plugin.grounding.grounder import GroundedSkill
+from lerobot_policy_recent.recent_plugin.refactoring.substitution import has_placeholders, render_substitute_call
 
 GROUNDINGS = ("source", "ontology", "lm", "refused", "invalid")
 SYMBOLS = {"source": "·", "ontology": "O", "lm": "L", "refused": "–", "invalid": "✗"}
@@ -53,11 +54,12 @@ class Execution:
 
 @dataclass
 class Decision:
-    """One argument the ontology left to the LM, scored against what the code implies: a point
-    where the original call named the object must be that object's (``Conflict.designated``)."""
+    """One argument the LM wrote where the ontology's rendering gives the answer the code implies
+    (the object a point stands for, a name, a converted value): the paper's method asks the LM for
+    every conflicting span, the product's fast path only for what no rendering decides."""
 
-    role: str  # the open parameter's role: the decision's type
-    expected: str  # the object the original call named
+    role: str  # the substitute parameter's role: the decision's type
+    expected: str  # the rendering's answer: the object its point is placed by, else its expression
     attempts: int  # the LM's answers for its span
     right_first: bool  # the first answer decided it as the code implies
     right: bool  # the accepted answer did (False where none was accepted)
@@ -100,38 +102,44 @@ def classify(grounded: GroundedSkill, source: str) -> Cell:
 
 
 def scored_decisions(grounded: GroundedSkill) -> list[Decision]:
-    """Each designated point the LM was asked for, its first and its accepted answer scored."""
+    """Each argument of a span the LM answered whose rendering is complete (no ``<type>`` left), its
+    first and its accepted answer scored against that rendering, argument by argument."""
     found = []
     for conflict in grounded.diagnosis.conflicts:
         original = conflict.span.text(grounded.original)
-        calls = [c for c in grounded.calls if c.original == original and not c.rendered and not c.decided]
-        if not calls:
+        calls = [c for c in grounded.calls if c.kind == "ground" and c.original == original and not c.rendered]
+        rendering = render_substitute_call(original, conflict) if conflict.substitute is not None else None
+        if not calls or not rendering or has_placeholders(rendering):
             continue
-        before, after = grounded.original[: conflict.span.start], grounded.original[conflict.span.end :]
+        around = (grounded.original[: conflict.span.start], grounded.original[conflict.span.end :])
+        expected = _arguments(around, rendering, conflict.substitute.name)
         accepted = next((c for c in calls if c.accepted), None)
-        for param, name in conflict.designated:
-            first = _points_at(before + calls[0].text + after, calls[0].text, param) == name
-            right = accepted is not None and _points_at(before + accepted.text + after, accepted.text, param) == name
-            found.append(Decision(conflict.substitute.parameter(param).role, name, len(calls), first, right))
+        first = _arguments(around, calls[0].text, conflict.substitute.name)
+        last = _arguments(around, accepted.text, conflict.substitute.name) if accepted is not None else {}
+        for name, answer in expected.items():
+            role = conflict.substitute.parameter(name).role
+            found.append(Decision(role, answer, len(calls), first.get(name) == answer, last.get(name) == answer))
     return found
 
 
-def _points_at(code: str, text: str, param: str) -> str | None:
-    """The object the ``param=`` argument in ``text`` is the point of, read in ``code`` (None: none, or no parse)."""
+def _arguments(around: tuple[str, str], text: str, callee: str) -> dict[str, str]:
+    """What each keyword argument of the ``callee(...)`` call in ``text`` means, read with ``text`` in
+    its place in the skill: the object a point is placed by, else the expression (empty: no parse)."""
     try:
-        names = position_names(code)
-        calls = [n for n in ast.walk(ast.parse(textwrap.dedent(text))) if isinstance(n, ast.Call)]
+        names = position_names(around[0] + text + around[1])
+        tree = ast.parse(textwrap.dedent(text))
     except (SyntaxError, ValueError):  # SkillCodeError: the answer left the function unparseable
-        return None
-    for call in calls:
-        for keyword in call.keywords:
-            if keyword.arg == param:
-                return object_of_point(ast.unparse(keyword.value), names)
-    return None
+        return {}
+    meanings = {}
+    for call in (n for n in ast.walk(tree) if isinstance(n, ast.Call) and ast.unparse(n.func) == callee):
+        for keyword in (k for k in call.keywords if k.arg):
+            value = ast.unparse(keyword.value)
+            meanings[keyword.arg] = object_of_point(value, names) or value
+    return meanings
 
 
 def decision_lines(cells: list[Cell]) -> list[str]:
-    """LM decision accuracy per decision type (the open parameter's role), over every cell."""
+    """LM decision accuracy per decision type (the argument's role), over every cell."""
     by_role: dict[str, list[Decision]] = {}
     for cell in cells:
         for decision in cell.decisions:

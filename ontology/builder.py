@@ -354,15 +354,19 @@ def _path_tracers(apis: dict[str, ApiSpec], sources: set[str]) -> list[tuple[str
     out = []
     for emb in sorted(sources & apis.keys()):
         for prim in apis[emb].primitives:
-            if not prim.path:
-                continue
             for target, api in apis.items():
                 if target == emb or any(p.effects == prim.effects for p in api.primitives):
                     continue
-                if not all(api.actuator(step.effect) for step in prim.path if step.actuation):
-                    continue  # it can move along the path but not close (or let go) where the path does
-                out += [(emb, prim, move) for move in api.point_moves()]
+                out += [(emb, prim, move) for move in tracing_moves(api, prim)]
     return out
+
+
+def tracing_moves(api: ApiSpec, prim: PrimitiveSpec) -> list[PrimitiveSpec]:
+    """The moves of ``api`` that can trace ``prim``'s end-effector path: ``prim`` declares one, and
+    ``api`` can close (or let go) where the path does, not only move along it."""
+    if not prim.path or not all(api.actuator(step.effect) for step in prim.path if step.actuation):
+        return []
+    return list(api.point_moves())
 
 
 def _literal(value: str | int | float | bool) -> ox.Literal:

@@ -11,7 +11,7 @@ import re
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 
-from lerobot_policy_recent.ontology.builder import Ontology
+from lerobot_policy_recent.ontology.builder import Ontology, tracing_moves
 from lerobot_policy_recent.ontology.conversions import (
     NAME_LOOKUP,
     OBJECT_NAME,
@@ -28,7 +28,15 @@ from lerobot_policy_recent.ontology.skill_code import (
     position_bindings,
     position_names,
 )
-from lerobot_policy_recent.ontology.specs import NAMED_BY_POINT, PATH_ROLE, ApiSpec, ParameterSpec, PrimitiveSpec
+from lerobot_policy_recent.ontology.specs import (
+    HOLDING_ROLES,
+    NAMED_BY_POINT,
+    PATH_ROLE,
+    RELEASING_EFFECTS,
+    ApiSpec,
+    ParameterSpec,
+    PrimitiveSpec,
+)
 
 SPAN_TYPES = ("api_substitution", "parameter_binding", "interface_rewiring", "preparatory_step", "path_tracing")
 
@@ -85,10 +93,6 @@ class Conflict:
     preparatory_arguments: tuple[tuple[ParameterMapping, ...], ...] = ()
     path: tuple[PathStep, ...] = ()  # path tracing: one call of the substitute (a move) per step
     reason: str = ""
-    # (unfilled parameter, the object's name expression): a point the LM writes whose object the
-    # original call named (a Franka Hand place(obj_name=base) onto a place that takes a point: the
-    # point is base's). Validation holds the LM's point to that object.
-    designated: tuple[tuple[str, str], ...] = ()
     # the call has no counterpart to make and is dropped (rendered as ``pass``): a hand closed only to
     # push with, on an end effector that takes no shape (see :func:`_shaping_only`)
     omitted: bool = False
@@ -222,16 +226,15 @@ def _conflict(
                 "the call is dropped"
             ),
         )
+    by_name = candidates and not any(c.by_role(RELEASE_POINT) for c in candidates)  # a place that takes no point
+    if by_name and (back := _put_back(onto.api(source), original, site, sites, names)):
+        return _put_back_conflict(onto, site, original, robot, back)
     tracers = onto.path_tracers(source, site.name, robot) if not candidates else []
     if tracers:
         return _path_conflict(onto, site, original, tracers[0], robot)
     if not candidates:
-        return Conflict(
-            span=site.span,
-            span_type="api_substitution",
-            original=site.name,
-            substitute=None,
-            reason=f"{robot} has no primitive with the effects of {site.name} ({', '.join(sorted(original.effects))})",
+        return _refused(
+            site, f"{robot} has no primitive with the effects of {site.name} ({', '.join(sorted(original.effects))})"
         )
     substitute = min(candidates, key=lambda c: (len(c.preconditions - original.preconditions), c.name))
     given = dict(site.arguments)
@@ -244,6 +247,9 @@ def _conflict(
             values, converted = _value_map(param.choices, target.choices), _converted(param, target, given, names)
             mapping.append(ParameterMapping(param.name, target.name, param.role, values, converted))
     mapping += _also_named(original, substitute, mapping, given, names)
+    located = _located(original, substitute, mapping, given)
+    mapping += located
+    dropped = [name for name in dropped if name not in {m.source for m in located}]
     preparatory, arguments = _preparatory_steps(onto, original, substitute, robot, dropped, given, names)
     taken = {m.source for args in arguments for m in args}
     dropped = [name for name in dropped if name not in taken]
@@ -270,7 +276,6 @@ def _conflict(
         mapping=tuple(mapping),
         dropped=tuple(dropped),
         unfilled=unfilled,
-        designated=_designated(original, substitute, unfilled, given),
         preparatory=preparatory,
         preparatory_arguments=arguments if any(arguments) else (),
     )
@@ -439,6 +444,49 @@ def _converted(
     return converted
 
 
+RELEASE_POINT = "release_target"  # the role of the point a place lets go at
+
+
+def _refused(site: CallSite, reason: str) -> Conflict:
+    """A call this robot cannot make in any form: no substitute, no path to trace (named before anything runs)."""
+    return Conflict(span=site.span, span_type="api_substitution", original=site.name, substitute=None, reason=reason)
+
+
+def _put_back_conflict(onto: Ontology, site: CallSite, original: PrimitiveSpec, robot: str, back: str) -> Conflict:
+    """A release at the held object's own earlier point names no receptacle for a place by name:
+    the place's path traced with the robot's moves and its opening, or, with no move to trace it,
+    refused by name."""
+    why = f"{site.name} puts {back} back at its own earlier point, where no object is to put it on by name"
+    moves = tracing_moves(onto.api(robot), original)
+    if not moves:
+        return _refused(site, f"{why}; {robot} places only onto a named object and has no move to trace the place with")
+    traced = _path_conflict(onto, site, original, moves[0], robot)
+    return replace(traced, reason=f"{why}; trace its path with {moves[0].name}")
+
+
+def _put_back(
+    source_api: ApiSpec, original: PrimitiveSpec, site: CallSite, sites: Sequence[CallSite], names: PositionNames
+) -> str | None:
+    """The object the hand holds at ``site`` where the call's release point is placed by that
+    object's own position, read before it was picked up (a rake put back where it stood); None
+    otherwise. Such a point names no receptacle: a place by name has nothing to take."""
+    point = original.by_role(RELEASE_POINT)
+    if point is None or point.type != "position":
+        return None
+    held = None
+    for earlier in sites:
+        if earlier.span.start >= site.span.start:
+            break
+        spec, given = source_api.get(earlier.name), dict(earlier.arguments)
+        for param in spec.parameters if spec is not None else ():
+            if param.role in HOLDING_ROLES and param.name in given:
+                held = given[param.name] if param.type == OBJECT_NAME else names.of(given[param.name])
+        if spec is not None and spec.effects & RELEASING_EFFECTS:
+            held = None
+    named = names.of(dict(site.arguments).get(point.name))
+    return named if named is not None and named == held else None
+
+
 def _named_by_point(
     param: ParameterSpec, substitute: PrimitiveSpec, given: dict[str, str], names: PositionNames
 ) -> ParameterSpec | None:
@@ -452,18 +500,23 @@ def _named_by_point(
     return named if names.of(given.get(param.name)) else None
 
 
-def _designated(
-    original: PrimitiveSpec, substitute: PrimitiveSpec, unfilled: tuple[str, ...], given: dict[str, str]
-) -> tuple[tuple[str, str], ...]:
-    """For each unfilled point of a role :data:`NAMED_BY_POINT` pairs with a name role, the object
-    the original call names in that role (the way back from a name to a point)."""
+def _located(
+    original: PrimitiveSpec, substitute: PrimitiveSpec, mapping: list[ParameterMapping], given: dict[str, str]
+) -> list[ParameterMapping]:
+    """The way back from a name to a point: a substitute's point of a role :data:`NAMED_BY_POINT`
+    pairs with a name role, which the original call gives by name (a Franka Hand ``place(obj_name=base)``
+    onto a place at a point), is that object's position, converted as the point is taken. A release
+    point inside a perceived object puts the load onto it (the shared controllers'
+    ``release_at``), so the receptacle's own position is where to let go, however tall it is."""
+    mapped = {m.target for m in mapping}
     found = []
-    for name in unfilled:
-        param = substitute.parameter(name)  # None: an argument of a preparatory call, not the substitute's
-        named = original.by_role(NAMED_BY_POINT.get(param.role, "")) if param and param.type in POINTS else None
-        if named is not None and named.type == OBJECT_NAME and named.name in given:
-            found.append((name, given[named.name]))
-    return tuple(found)
+    for param in substitute.parameters:
+        named = original.by_role(NAMED_BY_POINT.get(param.role, "")) if param.type in POINTS else None
+        if param.name in mapped or named is None or named.type != OBJECT_NAME or named.name not in given:
+            continue
+        found.append(ParameterMapping(named.name, param.name, param.role, (), conversion(named, param)))
+        mapped.add(param.name)
+    return found
 
 
 def _also_named(

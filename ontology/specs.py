@@ -27,7 +27,8 @@ PARAMETER_ROLES = frozenset(
 ROLE_MEANINGS = {
     "grasp_target": "what the hand grasps (or where)",
     "grasp_object_name": "the object the hand grasps",
-    "release_target": "where the hand puts down the object it holds (the point it lowers it to)",
+    "release_target": "where the hand puts down the object it holds (the point it lowers it to; "
+    "a point inside an object puts it onto that object)",
     "release_receptacle": "what the held object is put on or into",
     "motion_target": "where the hand moves to",
     "approach_object_name": "what the hand moves over (with the object it holds)",
@@ -40,6 +41,11 @@ ROLE_MEANINGS = {
 # the second: a position-based place's drop point above the bin names the bin a name-based place takes;
 # the point a pick grasps at names the object a pick that takes both (Sawyer's) is told to expect.
 NAMED_BY_POINT = {"release_target": "release_receptacle", "grasp_target": "grasp_object_name"}
+# what a call holds from then on (by name, or the object its point names), what receives a held object,
+# and the effects that end a hold: which object the hand holds at each call, read along the skill
+HOLDING_ROLES = frozenset({"grasp_target", "grasp_object_name", "handle_target"})
+RECEIVING_ROLES = frozenset({"release_receptacle", "approach_object_name"})
+RELEASING_EFFECTS = frozenset({"object_released", "end_effector_free"})
 # what the vectors of a controller mean (ontology/conversions.py renders between them): lengths in
 # m, cm or mm; an axis-angle rotation vector in rad; Euler angles in deg or rad about a named axis
 # sequence (scipy's: "ZYX" intrinsic, "xyz" extrinsic); a pose is URScript's [x, y, z, rx, ry, rz]

@@ -85,8 +85,8 @@ def test_the_2f85_takes_the_franka_hands_calls_by_name_as_renames(ontology, rule
 
 
 def test_a_name_becomes_a_position_by_the_task_query_in_the_targets_units_and_frame(ontology):
-    """A name determines where the object is; a receptacle's name does not determine where a
-    position API lets go over it: that is left for the LM, with the facts."""
+    """A name determines where the object is, and a receptacle's name where a position API lets go:
+    at the receptacle's own position, which the controllers read as a release onto it."""
     fill = load_skill("fill_box")
     pick = _conflict(ontology, fill, "UR5e", "pick")
     assert pick.span_type == "parameter_binding" and pick.mapping[0].conversion.apply("obj") == (
@@ -96,7 +96,9 @@ def test_a_name_becomes_a_position_by_the_task_query_in_the_targets_units_and_fr
     assert krl.span_type == "path_tracing" and krl.path[1].render() == "task.get_object_position(obj_name) + 0.1z"
     assert krl.path[1].conversion.template == "[1000 * v for v in {}]"
     place = _conflict(ontology, fill, "UR5e", "place")
-    assert place.span_type == "interface_rewiring" and place.unfilled == ("place_pos",)
+    assert place.span_type == "parameter_binding" and not place.unfilled
+    (receptacle,) = (m for m in place.mapping if m.target == "place_pos")
+    assert receptacle.source == "obj_name" and receptacle.conversion.apply("box") == "task.get_object_position(box)"
 
 
 def test_a_panda_call_on_the_franka_hands_api_of_the_same_name_is_a_conflict(ontology, put_in_bin):
@@ -173,3 +175,20 @@ def test_a_franka_hand_skill_grounded_by_the_ontology_alone_fills_the_box(panda_
     assert result.success, result.failures
     (fill,) = result.grounding.skills
     assert fill.valid and fill.generated_tokens == 0
+
+
+@pytest.mark.parametrize(
+    ("robot", "opening"),
+    [("Robotiq85", "open_robotiq85"), ("Suction", "deactivate_vacuum"), ("FrankaHand", "open_gripper")],
+)
+def test_a_tool_put_back_where_it_stood_is_traced_with_the_hands_moves(ontology, rule_infiller, robot, opening):
+    """drag_with_tool's last place lets go of the rake at the rake's own earlier point: no object is
+    there for a place by name (before, the name-based place was told to put the rake on itself, and
+    no grounding validated). The place's path is traced with the hand's moves and its opening."""
+    skill = load_skill("drag_with_tool")
+    place = diagnose(ontology, skill.name, skill.code, robot).conflicts[-1]
+    assert place.span_type == "path_tracing" and "puts tool back at its own earlier point" in place.reason
+    grounded = ground_skill(skill, ontology.target(robot), ontology, rule_infiller)
+    assert grounded.valid, grounded.verdict
+    back = "move_to_position(env, task, pos=[tool_pos[0], tool_pos[1], grip_z + 0.004 + 0.05])"
+    assert f"    {opening}(env, task)\n    {back}\n" in grounded.code

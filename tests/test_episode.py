@@ -39,23 +39,6 @@ def test_grounded_episode_on_sawyer_with_the_real_lm(ontology, llama_infiller):
     assert not other.grounding.cached and other.success, other.failures
 
 
-def test_the_real_lm_writes_the_drop_points_a_name_based_place_leaves_open(ontology, llama_infiller):
-    """What the ontology cannot decide, the 1.5B does: where a Franka Hand place(obj_name=base) puts
-    the block on a robot that places at a point. The hint states what the point is and which object
-    the original named; validation holds the point to that object."""
-    from lerobot_policy_recent.ontology.skill_code import object_of_point, position_names
-    from lerobot_policy_recent.recent_plugin.grounding.grounder import ground_skill
-    from lerobot_policy_recent.recent_plugin.infillers.fast_path import FastPathInfiller
-    from lerobot_policy_recent.skills.repository import load_skill
-
-    tower = ground_skill(load_skill("stack_tower"), ontology.target("UR5e"), ontology, FastPathInfiller(llama_infiller))
-    assert tower.valid, tower.verdict
-    assert [c.rendered for c in tower.calls if c.accepted].count(False) == 2  # the two drop points
-    names = position_names(tower.code)
-    points = [line.split("place_pos=", 1)[1][:-1] for line in tower.code.splitlines() if "place_pos=" in line]
-    assert [object_of_point(p, names) for p in points] == ["base", "middle"]
-
-
 def test_suction_gripper_really_holds_and_releases(ontology):
     """The vacuum cup lifts the cube by contact + adhesion and drops it into the bin when switched off.
 

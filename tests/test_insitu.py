@@ -670,6 +670,33 @@ def test_a_place_is_checked_where_the_object_came_to_rest():
     assert fell is not None and fell.observation.startswith("blue rests at") and "from red at" in fell.observation
 
 
+def test_a_release_point_inside_an_object_is_checked_as_a_place_onto_it():
+    """UR5e's release point at green's own position (a Franka Hand place(obj_name=green), grounded):
+    the controllers put red onto green, so red resting on green's top is placed, 5 cm above the
+    point; red beside green is not, and is named against green."""
+    scene = SceneFacts(frozenset({"red", "green"}), {"red": BLOCK, "green": BLOCK})
+    release = UR5E.get("ur5_release_at").parameters
+    green = [0.1, 0.0, 0.825]
+
+    def sized(pos):
+        return ObjectState(np.array(pos, dtype=float), np.array([0, 0, 0, 1.0]), size=np.array(BLOCK))
+
+    objects = {"green": sized(green), "red": sized([0.1, 0.0, 0.93])}
+    before = Observation(np.array([0.1, 0.0, 0.95]), np.array([0, 0, 0, 1.0]), 0.0, objects, object_detected=True)
+    assert before.held() == "red"
+
+    def after(red):
+        now = observed(green=green, red=red)
+        inp = CheckInput(
+            now, {"place_pos": green}, release, frozenset({"red", "green"}), {}, scene, UR5E, before=before
+        )
+        return placed_at_target(inp)
+
+    assert after([0.102, 0.003, 0.875]) is None  # on green
+    beside = after([0.1, 0.09, 0.826])
+    assert beside is not None and beside.regrasp and "from green at" in beside.observation
+
+
 def test_a_block_a_later_carry_pushed_off_its_slot_is_not_counted_as_placed():
     """``arrange_in_row`` declares where on the row each block goes (its slot, ``at``). A block a later
     carry dragged 4 cm along the row is still over the row's box, but no longer on its slot: the

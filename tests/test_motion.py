@@ -182,3 +182,36 @@ def test_a_press_aimed_inside_the_button_ends_where_the_fingertips_meet_it_press
     arm.run(control.move_to(arm.session, button - [0.0, 0.0, 0.01], timeout_s=3.0, settle=True))
     assert arm.session.obs.objects["button"].state == 1.0
     assert arm.session.obs.eef_pos[2] > button[2] - 0.01 + control.POS_TOL  # it stopped on the cap, short of the goal
+
+
+@pytest.mark.slow
+def test_a_release_point_inside_a_block_puts_the_load_onto_it():
+    """The block's own position as the release point (what a Franka Hand place by name gives a
+    position API): the cube comes down on the block from above its perceived top and rests on it,
+    let go. Before, the lowered cube stopped on the block 5 cm above the point: a blocked move."""
+    arm = _Arm("kinematic/stack_cube")
+    try:
+        cube, block = arm.position("cube"), arm.position("block")
+        arm.run(control.actuate_gripper(arm.session, -1.0))
+        arm.run(control.grasp_at(arm.session, cube))
+        assert arm.session.obs.held() == "cube"
+        arm.run(control.release_at(arm.session, block))
+        assert arm.session.obs.held() is None
+        rest, sizes = arm.position("cube"), {n: arm.session.obs.objects[n].size for n in ("cube", "block")}
+        assert np.linalg.norm(rest[:2] - block[:2]) < 0.015
+        assert rest[2] == pytest.approx(block[2] + (sizes["block"][2] + sizes["cube"][2]) / 2, abs=0.01)
+    finally:
+        arm.env.close()
+
+
+def test_a_release_point_stands_for_the_object_whose_own_position_it_is():
+    """An object's own perceived position (within perception's noise) stands for the object; a
+    point computed inside its box (a corner of a bin's floor) does not, nor does a point above it,
+    and the held load is never what it is put onto."""
+    obs = _observation({"bin": [0.0, 0.0, 0.85], "cube": [0.0, 0.0, 0.83], "block": [0.2, 0.0, 0.83]})
+    assert clearance.object_at(obs, [0.0, 0.0, 0.846]).name == "bin"  # the nearer of two
+    assert clearance.object_at(obs, [0.208, 0.007, 0.824]).name == "block"  # a track against a noisy frame
+    assert clearance.object_at(obs, [0.045, 0.045, 0.835]) is None  # a corner of the bin's floor, not its position
+    assert clearance.object_at(obs, [0.2, 0.0, 0.95]) is None
+    held = _carrying(np.array([0.2, 0.0, 0.86]), 0.03)
+    assert clearance.object_at(held, held.objects[held.held()].pos) is None

@@ -439,3 +439,50 @@ def test_a_condition_checked_as_an_effect_names_its_check_observation_and_messag
     bad.write_text(text)
     with pytest.raises(SpecError, match=r"conditions\.object_at_target\.as_effect\.message: missing required field"):
         load_conditions(bad)
+
+
+TONGS_SPEC = """
+embodiment: Tongs
+module: not.needed.for.diagnosis
+primitives:
+  - name: tongs_take
+    description: take a named object
+    parameters:
+      - {name: obj, type: object_name, role: grasp_target, required: true}
+    capabilities: [grasp_object]
+    preconditions: [end_effector_free, object_at_target, target_reachable]
+    effects: [object_grasped, object_lifted, end_effector_engaged]
+  - name: tongs_put
+    description: put the held object onto a named one
+    parameters:
+      - {name: onto, type: object_name, role: release_receptacle, required: true}
+    capabilities: [place_object]
+    preconditions: [object_grasped, target_reachable]
+    effects: [object_at_target, end_effector_free, object_released]
+  - name: tongs_open
+    description: open
+    parameters: []
+    capabilities: [open_fingers]
+    preconditions: []
+    effects: [end_effector_free, object_released]
+"""
+
+
+def test_a_tool_put_back_onto_a_robot_that_places_only_by_name_and_cannot_move_to_a_point_is_refused(tmp_path):
+    """drag_with_tool puts the rake back at its own earlier point: no object there to name, and
+    no move of this robot can trace the place's path, so the call is refused with that reason."""
+    from lerobot_policy_recent.skills.repository import load_skill
+
+    spec = tmp_path / "tongs.yaml"
+    spec.write_text(TONGS_SPEC)
+    tongs = EmbodimentSource(
+        "Tongs", spec, "models/assets/robots/iiwa/robot.xml", "models/assets/grippers/rethink_gripper.xml"
+    )
+    onto = build_ontology([*default_embodiment_sources(), tongs])
+    skill = load_skill("drag_with_tool")
+    place = diagnose(onto, skill.name, skill.code, "Tongs").conflicts[-1]
+    assert place.original == "place" and place.substitute is None and not place.path
+    assert place.reason.startswith(
+        "place puts tool back at its own earlier point, where no object is to put it on by name"
+    )
+    assert "Tongs places only onto a named object and has no move to trace the place with" in place.reason

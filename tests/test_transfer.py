@@ -131,25 +131,39 @@ def test_the_command_executes_a_cell_on_ray_and_resumes(tmp_path):
     assert json.loads((tmp_path / "transfer.json").read_text())["cells"][0]["execution"] == cell["execution"]
 
 
-def test_each_decision_the_lm_makes_is_scored_against_the_object_the_code_named(ontology):
-    """A Franka Hand place(obj_name=base) onto UR5e's release point: the LM's point must be base's.
-    The first answer for base's place was a constant (wrong, rejected), the second right."""
-    from doubles import ScriptedInfiller
-
-    from lerobot_policy_recent.evaluation.transfer import classify
+def test_each_argument_the_lm_writes_is_scored_against_the_ontologys_rendering(ontology):
+    """The paper's method asks the LM for every conflicting span: a Franka Hand stack_tower onto UR5e.
+    Its first answer for the upper place puts the load on base instead of middle (rejected: the
+    ontology named middle's position), its second is right; every other argument is copied right."""
     from lerobot_policy_recent.recent_plugin.grounding.grounder import ground_skill
-    from lerobot_policy_recent.recent_plugin.infillers.fast_path import FastPathInfiller
+    from lerobot_policy_recent.recent_plugin.infillers.base import Completion
     from lerobot_policy_recent.skills.repository import load_skill
 
-    place = "ur5_release_at(env, task, place_pos={})"
-    answers = ["task.get_object_position(middle)", "[0.5, 0, 0]", "task.get_object_position(base)"]
-    lm = FastPathInfiller(ScriptedInfiller([place.format(a) for a in answers]))
-    cell = classify(ground_skill(load_skill("stack_tower"), ontology.target("UR5e"), ontology, lm), "FrankaHand")
-    assert cell.grounding == "lm"
-    assert [(d.role, d.expected, d.attempts, d.right_first, d.right) for d in cell.decisions] == [
-        ("release_target", "base", 2, False, True),
-        ("release_target", "middle", 1, True, True),
+    class Copying:
+        """Writes the ontology's call, except the queued wrong answers for a place."""
+
+        name, model = "copying", "fixed"
+
+        def __init__(self, wrong: list[str]):
+            self.wrong = wrong
+
+        def infill(self, unit):
+            call = unit.hints.substitute_call
+            text = self.wrong.pop(0) if self.wrong and call.startswith("ur5_release_at") else call
+            return Completion(text, generated_tokens=7, seconds=0.01)
+
+        def count_tokens(self, text):
+            return 100
+
+    wrong = ["ur5_release_at(env, task, place_pos=task.get_object_position(base))"]
+    cell = classify(
+        ground_skill(load_skill("stack_tower"), ontology.target("UR5e"), ontology, Copying(wrong)), "FrankaHand"
+    )
+    places = [
+        (d.role, d.expected, d.attempts, d.right_first, d.right) for d in cell.decisions if d.role == "release_target"
     ]
+    assert places == [("release_target", "base", 1, True, True), ("release_target", "middle", 2, False, True)]
+    assert all(d.right for d in cell.decisions) and len(cell.decisions) > len(places)
     assert "| release_target | 2 | 1 (50 %) | 2 (100 %) |" in render_table([cell])
 
 

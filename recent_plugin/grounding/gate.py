@@ -31,7 +31,14 @@ from dataclasses import dataclass
 
 from lerobot_policy_recent.ontology.conversions import OBJECT_NAME
 from lerobot_policy_recent.ontology.skill_code import name_variables, variable_kinds
-from lerobot_policy_recent.ontology.specs import ROLE_MEANINGS, ApiSpec, ParameterSpec
+from lerobot_policy_recent.ontology.specs import (
+    HOLDING_ROLES,
+    RECEIVING_ROLES,
+    RELEASING_EFFECTS,
+    ROLE_MEANINGS,
+    ApiSpec,
+    ParameterSpec,
+)
 from lerobot_policy_recent.recent_plugin.failures import FailureCategory
 from lerobot_policy_recent.recent_plugin.sandbox import MAX_NESTED_ITERATIONS, format_problem
 from lerobot_policy_recent.robosuite_envs.primitives.frames import SKILL_HELPERS
@@ -167,9 +174,6 @@ def _is_docstring(node: ast.stmt) -> bool:
 
 
 # Roles of name-taking parameters that name what the hand will hold, and what it puts that on or into.
-HOLDING_ROLES = frozenset({"grasp_target", "grasp_object_name", "handle_target"})
-RECEIVING_ROLES = frozenset({"release_receptacle", "approach_object_name"})
-RELEASING_EFFECTS = frozenset({"object_released", "end_effector_free"})
 
 
 class _Checker(ast.NodeVisitor):

@@ -18,7 +18,7 @@ from dataclasses import dataclass, field, replace
 from lerobot_policy_recent.logs.events import Event, PatchApplied, SkillDiagnosed, ValidationVerdict
 from lerobot_policy_recent.ontology.builder import Ontology
 from lerobot_policy_recent.ontology.diagnosis import OMITTED, Conflict, Diagnosis, Warning, diagnose
-from lerobot_policy_recent.ontology.skill_code import CodeSpan, object_of_point, position_names
+from lerobot_policy_recent.ontology.skill_code import CodeSpan
 from lerobot_policy_recent.ontology.target import Target
 from lerobot_policy_recent.recent_plugin.failures import FailureCategory
 from lerobot_policy_recent.recent_plugin.grounding.attempts import (
@@ -273,31 +273,7 @@ def _check_span(text: str, unit: RefactoringUnit) -> Verdict | None:
             FailureCategory.NON_EXECUTABLE,
             f"the span adds `{ast.unparse(statements[asked])}` after the {asked} statement(s) it was asked for",
         )
-    return changed_argument(statements, unit.hints.substitute_call) or _off_designated(text, statements, unit)
-
-
-def _off_designated(text: str, statements: list[ast.stmt], unit: RefactoringUnit) -> Verdict | None:
-    """A point the LM wrote where the original call named the object (a place on ``base``) must be
-    that object's: placed by its position alone (``task.get_object_position(base)``, plus numbers)."""
-    if not unit.hints.designated:
-        return None
-    code = unit.prefix + unit.indent + text + unit.suffix
-    try:
-        names = position_names(code)
-    except (SyntaxError, ValueError):  # a function that does not parse is reported by whole-program validation
-        return None
-    calls = [call for (callee, _), call in _ordered_calls(statements).items() if callee == unit.substitute]
-    given = {k.arg: k.value for call in calls for k in call.keywords if k.arg}
-    for param, name in unit.hints.designated:
-        value = given.get(param)
-        if value is None or object_of_point(ast.unparse(value), names) == name:
-            continue
-        return Verdict.reject(
-            FailureCategory.HALLUCINATED_KWARG,
-            f"{param}={ast.unparse(value)}: the original call named {name} for it, but that point is not "
-            f"{name}'s (write it from task.get_object_position({name}))",
-        )
-    return None
+    return changed_argument(statements, unit.hints.substitute_call)
 
 
 def _statement_count(code: str | None) -> int:

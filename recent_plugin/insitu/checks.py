@@ -23,7 +23,7 @@ from robosuite.utils.transform_utils import quat2mat
 
 from lerobot_policy_recent.ontology.specs import PATH_ROLE, WORLD_FRAME, ApiSpec, ParameterSpec, Waypoint
 from lerobot_policy_recent.robosuite_envs.observation import POSITION_SIGMA, Observation
-from lerobot_policy_recent.robosuite_envs.primitives.clearance import FINGER_DEPTH
+from lerobot_policy_recent.robosuite_envs.primitives.clearance import FINGER_DEPTH, object_at
 from lerobot_policy_recent.robosuite_envs.primitives.frames import WORLD_AT_ORIGIN, Frame, argument_for, world_point
 from lerobot_policy_recent.skills.repository import Placement, StateEffect
 
@@ -596,13 +596,18 @@ def pushed_to_goal(inp: CheckInput) -> Violation | None:
 def placed_at_target(inp: CheckInput) -> Violation | None:
     """After a place: an object the skill names, out of the hand, rests where it was put: within
     ``PLACE_TOLERANCE`` of the release point and at its height, or on or in the receptacle's box
-    (a place by name). One that slid off, or fell beside, is grasped again and put there again.
-    What the target stands on (the tower's base under the block it is put on) is not a candidate."""
+    (a place by name, or a release point that was an object's own position before the call: the
+    controllers put the load onto it). One that slid off, or fell beside, is grasped again and put
+    there again. What the target stands on (the tower's base under the block it is put on) is not
+    a candidate."""
     point = _by_role(inp, "release_target")
     receptacle = next(
         (str(inp.arguments[p.name]) for p in inp.params if p.role == "release_receptacle" and p.name in inp.arguments),
         None,
     )
+    if receptacle is None and point is not None and inp.before is not None:
+        onto = object_at(inp.before, point)
+        receptacle = None if onto is None else onto.name
     if receptacle is not None:
         support = inp.obs.objects.get(receptacle)
         if support is None:

@@ -1,9 +1,8 @@
 """What a hint says about an argument the ontology leaves open: facts, not the answer.
 
-For each such argument: what its role means, what the original call named for it, and what is in
-scope to write it from (the object names the function holds and the positions it read, each with
-where it came from). The LM decides; validation then holds a point the original call named an
-object for to that object (``grounding/grounder.py``).
+For each such argument: what its role means, and what is in scope to write it from (the object
+names the function holds and the positions it read, each with where it came from). The LM decides;
+validation then holds the answer to the argument's role (``grounding/grounder.py``).
 """
 
 from __future__ import annotations
@@ -13,7 +12,7 @@ import ast
 from lerobot_policy_recent.ontology.conversions import POINTS
 from lerobot_policy_recent.ontology.diagnosis import Conflict
 from lerobot_policy_recent.ontology.skill_code import enclosing_function, position_names
-from lerobot_policy_recent.ontology.specs import NAMED_BY_POINT, ROLE_MEANINGS
+from lerobot_policy_recent.ontology.specs import ROLE_MEANINGS
 
 POSITION_QUERY = "task.get_object_position(name) reads a named object's position [x, y, z] (m, world frame)"
 
@@ -22,7 +21,6 @@ def decision_facts(code: str, conflict: Conflict) -> tuple[str, ...]:
     """The hint lines for ``conflict``'s unfilled arguments (none where nothing is left open)."""
     if not conflict.unfilled or conflict.substitute is None:
         return ()
-    designated = dict(conflict.designated)
     lines, points = [], False
     for name in dict.fromkeys(conflict.unfilled):
         param = conflict.substitute.parameter(name)
@@ -33,9 +31,6 @@ def decision_facts(code: str, conflict: Conflict) -> tuple[str, ...]:
         if meaning is None:
             continue
         lines.append(f"{name} is {meaning}")
-        if name in designated:  # what the original call said in the role this point stands for
-            said = ROLE_MEANINGS.get(NAMED_BY_POINT.get(param.role, ""), "the object it names")
-            lines.append(f"In the original call, {designated[name]} is {said}")
     scope = in_scope(code, conflict.span.start)
     if scope:
         lines.append("In scope: " + "; ".join(scope))

@@ -11,7 +11,6 @@ import json
 import re
 from dataclasses import dataclass
 
-from lerobot_policy_recent.ontology.conversions import NAME_LOOKUP
 from lerobot_policy_recent.ontology.diagnosis import SPAN_TYPES, ParameterMapping
 from lerobot_policy_recent.ontology.skill_code import name_variables, variable_kinds
 from lerobot_policy_recent.recent_plugin.refactoring.substitution import PLACEHOLDER, has_placeholders
@@ -94,7 +93,7 @@ def decided_by_rule(unit: RefactoringUnit) -> bool:
     )
 
 
-def call_grammar(call: str, names: tuple[str, ...] = (), designated: tuple[tuple[str, str], ...] = ()) -> str:
+def call_grammar(call: str, names: tuple[str, ...] = ()) -> str:
     """GBNF holding a retry to the ontology's call: its text verbatim, each ``<type>`` placeholder free.
 
     A first attempt is free FIM. After a rejection, a small model tends to copy the same
@@ -104,21 +103,14 @@ def call_grammar(call: str, names: tuple[str, ...] = (), designated: tuple[tuple
     the 1.5B named a push primitive the robot lacks on all three attempts of a new arm's sweep.
     An ``<object_name>`` is one of the skill's ``names`` (variables holding an object name) or a
     quoted name: left free, the 1.5B wrote the object's position variable there on every retry.
-    A point whose object the original call named (``designated``) is that object's position: the
-    one candidate its role admits (left free, the 1.5B wrote ``place_pos=base``, a name, on every retry).
     """
     parts, holes = PLACEHOLDER.split(call), PLACEHOLDER.findall(call)
-    points = dict(designated)
     items = []
     for i, part in enumerate(parts):
         if part:
             items.append(json.dumps(part, ensure_ascii=False))
         if i < len(parts) - 1:
-            keyword = re.search(r"(\w+)=$", part)
-            if keyword and keyword.group(1) in points:
-                items.append(json.dumps(NAME_LOOKUP.format(points[keyword.group(1)])))
-            else:
-                items.append("name" if holes[i] == "<object_name>" and names else "expr")
+            items.append("name" if holes[i] == "<object_name>" and names else "expr")
     rules = [f'root ::= {" ".join(items)} "\\n"', "expr ::= [^\\n]+"]
     if names:
         rules.append("name ::= " + " | ".join(json.dumps(n) for n in names) + ' | "\\"" [a-zA-Z0-9_]+ "\\""')
@@ -238,7 +230,7 @@ def build_prompt(unit: RefactoringUnit, span_tokens: int, window: str = "functio
     forced = None
     draft = call and at_indent(call, unit.indent)[len(unit.indent) :]  # its later lines at the body's indentation
     if unit.hints.attempt > 0 and call and unit.style is None:
-        grammar = call_grammar(call, unit_name_variables(unit), unit.hints.designated)  # a retry held to the call
+        grammar = call_grammar(call, unit_name_variables(unit))  # a retry held to the call
         forced = None if has_placeholders(call) else call + "\n"
         draft = call  # the grammar holds the retry to the call's own lines
     elif call and unit.style is None and unit.span_type not in RUNTIME_SPAN_TYPES and has_placeholders(call):

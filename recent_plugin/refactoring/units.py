@@ -34,7 +34,6 @@ class Hints:
     attempt: int = 0
     observation: str | None = None  # in-situ: what the run-time check saw
     facts: tuple[str, ...] = ()  # what an undetermined conversion's value is (units, frame), not a call to copy
-    designated: tuple[tuple[str, str], ...] = ()  # (open point, the object the original call named for it)
 
     @property
     def robot(self) -> str:
@@ -88,7 +87,6 @@ def unit_from_conflict(
         feedback=feedback,
         attempt=attempt,
         facts=undetermined_facts(conflict) + decision_facts(code, conflict),
-        designated=conflict.designated,
     )
     return cut_unit(code, start, end, conflict.span_type, hints, substitute=sub.name if sub else None)
 

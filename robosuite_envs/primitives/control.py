@@ -452,8 +452,16 @@ def hold_until_still(session: RobotSession, hold: np.ndarray, *, max_duration_s:
 
 
 def release_at(session: RobotSession, position: Sequence[float], *, timeout_s: float = 10.0) -> Steps:
-    """Carry the held object above ``position`` (where the grip site goes), lower to it, open, and retreat upwards."""
+    """Carry the held object above ``position`` (where the grip site goes), lower to it, open, and retreat upwards.
+
+    A ``position`` that is a perceived object's own (a block's, a box's: :func:`clearance.object_at`)
+    stands for that object, not for a height to stop at: the load is put onto it
+    (:func:`release_onto`), as a place by name does. That is the point a name-based place's
+    receptacle gives a position API, ``task.get_object_position(box)``."""
     target = as_position(position, "release position")
+    if clearance.object_at(session.obs, target) is not None:
+        yield from release_onto(session, target, timeout_s=timeout_s)
+        return
     above = target + np.array([0.0, 0.0, APPROACH_HEIGHT / 2])
     lift = np.array([session.obs.eef_pos[0], session.obs.eef_pos[1], max(session.obs.eef_pos[2], above[2])])
     yield from move_to(session, lift, timeout_s=timeout_s / 2, tol=0.02)
