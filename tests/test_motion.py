@@ -209,9 +209,11 @@ def test_a_release_point_stands_for_the_object_whose_own_position_it_is():
     point computed inside its box (a corner of a bin's floor) does not, nor does a point above it,
     and the held load is never what it is put onto."""
     obs = _observation({"bin": [0.0, 0.0, 0.85], "cube": [0.0, 0.0, 0.83], "block": [0.2, 0.0, 0.83]})
-    assert clearance.object_at(obs, [0.0, 0.0, 0.846]).name == "bin"  # the nearer of two
-    assert clearance.object_at(obs, [0.208, 0.007, 0.824]).name == "block"  # a track against a noisy frame
-    assert clearance.object_at(obs, [0.045, 0.045, 0.835]) is None  # a corner of the bin's floor, not its position
-    assert clearance.object_at(obs, [0.2, 0.0, 0.95]) is None
+    seen = clearance.boxes(obs)
+    assert clearance.object_at(seen, [0.0, 0.0, 0.846]).name == "bin"  # the nearer of two
+    assert clearance.object_at(seen, [0.208, 0.007, 0.824]).name == "block"  # a track against a noisy frame
+    assert clearance.object_at(seen, [0.208, 0.007, 0.824], clearance.GOAL_MARGIN) is None  # against a track
+    assert clearance.object_at(seen, [0.045, 0.045, 0.835]) is None  # a corner of a bin's floor
+    assert clearance.object_at(seen, [0.2, 0.0, 0.95]) is None
     held = _carrying(np.array([0.2, 0.0, 0.86]), 0.03)
-    assert clearance.object_at(held, held.objects[held.held()].pos) is None
+    assert clearance.object_at(clearance.boxes(held), held.objects[held.held()].pos) is None

@@ -23,7 +23,7 @@ from robosuite.utils.transform_utils import quat2mat
 
 from lerobot_policy_recent.ontology.specs import PATH_ROLE, WORLD_FRAME, ApiSpec, ParameterSpec, Waypoint
 from lerobot_policy_recent.robosuite_envs.observation import POSITION_SIGMA, Observation
-from lerobot_policy_recent.robosuite_envs.primitives.clearance import FINGER_DEPTH, object_at
+from lerobot_policy_recent.robosuite_envs.primitives.clearance import FINGER_DEPTH, boxes, object_at
 from lerobot_policy_recent.robosuite_envs.primitives.frames import WORLD_AT_ORIGIN, Frame, argument_for, world_point
 from lerobot_policy_recent.skills.repository import Placement, StateEffect
 
@@ -606,7 +606,7 @@ def placed_at_target(inp: CheckInput) -> Violation | None:
         None,
     )
     if receptacle is None and point is not None and inp.before is not None:
-        onto = object_at(inp.before, point)
+        onto = object_at(boxes(inp.before), point)  # one frame's read: its noise, SAME_POINT
         receptacle = None if onto is None else onto.name
     if receptacle is not None:
         support = inp.obs.objects.get(receptacle)

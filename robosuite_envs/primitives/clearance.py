@@ -31,8 +31,8 @@ GOAL_MARGIN = 0.01  # metres beyond a box within which a goal counts as the box'
 SLIDE_DEPTH = 0.01  # metres below a box's top the hand's lowest point may pass before the box is in the way
 CLIMB_SPARE = 0.005  # metres a climb over a box that stopped the hand adds above the clearance
 LOAD_CLEARANCE = 2.5 * POSITION_SIGMA  # metres a carried load's underside passes above a box's perceived top
-# metres within which a point is an object's own position: a track's estimate against one frame's read,
-# three sigmas of perception's noise on each axis (a point a skill computes off it lies farther)
+# metres within which a point read from one frame is an object's own position: three sigmas of
+# perception's noise on each axis (a point a skill computes off the position lies farther)
 SAME_POINT = 0.02
 
 
@@ -143,13 +143,14 @@ def boxes(obs: Observation) -> list[Box]:
     ]
 
 
-def object_at(obs: Observation, point) -> Box | None:
-    """The perceived object whose own position ``point`` is, within ``SAME_POINT`` (perception's
-    noise; the held one aside, the nearest where several are): a point that stands for the object
-    itself, as a place by name's receptacle does (``task.get_object_position(box)``), not a point
-    computed for the grip site (a corner of the bin's floor). None where it is no object's."""
+def object_at(perceived: list[Box], point, margin: float = SAME_POINT) -> Box | None:
+    """The box of ``perceived`` whose object's own position ``point`` is, within ``margin`` (the
+    noise of what the centres are: one frame's read, or a track's; the nearest where several are):
+    a point that stands for the object itself, as a place by name's receptacle does
+    (``task.get_object_position(box)``), not a point computed for the grip site (a corner of the
+    bin's floor, a drop point above the plate). None where it is no object's."""
     point = np.asarray(point, dtype=float)
-    near = [box for box in boxes(obs) if float(np.linalg.norm(box.centre - point)) <= SAME_POINT]
+    near = [box for box in perceived if float(np.linalg.norm(box.centre - point)) <= margin]
     return min(near, key=lambda box: float(np.linalg.norm(box.centre - point)), default=None)
 
 

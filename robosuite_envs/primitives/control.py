@@ -11,6 +11,7 @@ from lerobot_policy_recent.robosuite_envs import runtime  # noqa: F401  (headles
 # isort: split
 from collections import deque
 from collections.abc import Generator, Sequence
+from dataclasses import replace
 
 import numpy as np
 from robosuite.utils.transform_utils import mat2quat, quat2axisangle, quat2mat, quat_multiply
@@ -454,12 +455,13 @@ def hold_until_still(session: RobotSession, hold: np.ndarray, *, max_duration_s:
 def release_at(session: RobotSession, position: Sequence[float], *, timeout_s: float = 10.0) -> Steps:
     """Carry the held object above ``position`` (where the grip site goes), lower to it, open, and retreat upwards.
 
-    A ``position`` that is a perceived object's own (a block's, a box's: :func:`clearance.object_at`)
-    stands for that object, not for a height to stop at: the load is put onto it
-    (:func:`release_onto`), as a place by name does. That is the point a name-based place's
-    receptacle gives a position API, ``task.get_object_position(box)``."""
+    A ``position`` that is a perceived object's own (a block's, a box's: the object's track, as
+    ``task.get_object_position`` reads it, within ``GOAL_MARGIN``) stands for that object, not for
+    a height to stop at: the load is put onto it (:func:`release_onto`), as a place by name does.
+    That is the point a name-based place's receptacle gives a position API."""
     target = as_position(position, "release position")
-    if clearance.object_at(session.obs, target) is not None:
+    tracked = [replace(box, centre=session.tracked_position(box.name)) for box in clearance.boxes(session.obs)]
+    if clearance.object_at(tracked, target, clearance.GOAL_MARGIN) is not None:
         yield from release_onto(session, target, timeout_s=timeout_s)
         return
     above = target + np.array([0.0, 0.0, APPROACH_HEIGHT / 2])
