@@ -59,7 +59,7 @@ class Decision:
     every conflicting span, the product's fast path only for what no rendering decides."""
 
     role: str  # the substitute parameter's role: the decision's type
-    expected: str  # the rendering's answer: the object its point is placed by, else its expression
+    expected: str  # the rendering's answer: an object's position as such, else its expression
     attempts: int  # the LM's answers for its span
     right_first: bool  # the first answer decided it as the code implies
     right: bool  # the accepted answer did (False where none was accepted)
@@ -116,25 +116,34 @@ def scored_decisions(grounded: GroundedSkill) -> list[Decision]:
         accepted = next((c for c in calls if c.accepted), None)
         first = _arguments(around, calls[0].text, conflict.substitute.name)
         last = _arguments(around, accepted.text, conflict.substitute.name) if accepted is not None else {}
-        for name, answer in expected.items():
-            role = conflict.substitute.parameter(name).role
-            found.append(Decision(role, answer, len(calls), first.get(name) == answer, last.get(name) == answer))
+        for key, answer in expected.items():
+            role = conflict.substitute.parameter(key[1]).role
+            found.append(Decision(role, answer, len(calls), first.get(key) == answer, last.get(key) == answer))
     return found
 
 
-def _arguments(around: tuple[str, str], text: str, callee: str) -> dict[str, str]:
-    """What each keyword argument of the ``callee(...)`` call in ``text`` means, read with ``text`` in
-    its place in the skill: the object a point is placed by, else the expression (empty: no parse)."""
+def _arguments(around: tuple[str, str], text: str, callee: str) -> dict[tuple[int, str], str]:
+    """What each keyword argument of each ``callee(...)`` call in ``text`` says, by the call's place
+    among them (a traced span makes several), read with ``text`` in its place in the skill: an
+    object's position as such (``obj_pos`` read from ``obj``, or ``task.get_object_position(obj)``),
+    else the expression itself, offsets and all (empty: no parse)."""
+    lines = text.splitlines()
+    flat = "\n".join([*lines[:1], *textwrap.dedent("\n".join(lines[1:])).splitlines()])  # later lines: indented
     try:
         names = position_names(around[0] + text + around[1])
-        tree = ast.parse(textwrap.dedent(text))
+        tree = ast.parse(flat)
     except (SyntaxError, ValueError):  # SkillCodeError: the answer left the function unparseable
         return {}
+    calls = sorted(
+        (n for n in ast.walk(tree) if isinstance(n, ast.Call) and ast.unparse(n.func) == callee),
+        key=lambda n: (n.lineno, n.col_offset),
+    )
     meanings = {}
-    for call in (n for n in ast.walk(tree) if isinstance(n, ast.Call) and ast.unparse(n.func) == callee):
+    for index, call in enumerate(calls):
         for keyword in (k for k in call.keywords if k.arg):
             value = ast.unparse(keyword.value)
-            meanings[keyword.arg] = object_of_point(value, names) or value
+            bare = isinstance(keyword.value, ast.Name | ast.Call) and object_of_point(value, names)
+            meanings[index, keyword.arg] = f"the position of {bare}" if bare else value
     return meanings
 
 

@@ -45,3 +45,15 @@ def sweep_unit(code: str, before: str, target, sweep: str, observation: str, att
         attempt=attempt,
     )
     return cut_unit(code, start, start, "in_situ_revision", hints)
+
+
+def library_with(tmp_path, name: str, code: str) -> str:
+    """A copy of the bundled library where skill ``name`` runs ``code`` (same metadata, same effects)."""
+    import shutil
+
+    from lerobot_policy_recent.skills.records import LIBRARY
+
+    library = tmp_path / "library"
+    shutil.copytree(LIBRARY, library)
+    (library / f"{name}.py").write_text(code)
+    return str(library)

@@ -7,7 +7,7 @@ real 1.5B writes a cap program in the slow test at the end.
 from __future__ import annotations
 
 import pytest
-from doubles import ScriptedInfiller
+from doubles import ScriptedInfiller, library_with
 
 from lerobot_policy_recent.evaluation.baselines.program_prompt import PROGRAM, STATEMENT
 from lerobot_policy_recent.recent_plugin.agent import RecentAgent
@@ -29,11 +29,14 @@ UR5E_BODY = """obj_pos = task.get_object_position(obj)
 PANDA_LINE = "open_gripper(env, task)"  # what a small model copies from the example
 
 
-def _agent(ontology, method: str, texts: list[str]) -> tuple[RecentAgent, ScriptedInfiller]:
+def _agent(ontology, method: str, texts: list[str], library: str | None = None) -> tuple[RecentAgent, ScriptedInfiller]:
+    """``method`` with ``texts`` for its LM; ``library``: a skill library of the test's (never validated)."""
     infiller = ScriptedInfiller(texts)
-    return RecentAgent(
-        RecentSettings(infiller=RuleConfig(), method=method_named(method)), ontology=ontology, infiller=infiller
-    ), infiller
+    chosen = method_named(method)
+    if library is not None:
+        chosen.offline_validation = False  # RECENT's own: a library of the test's was never validated
+    settings = RecentSettings(infiller=RuleConfig(), method=chosen, skill_library=library)
+    return RecentAgent(settings, ontology=ontology, infiller=infiller), infiller
 
 
 def test_cap_prompt_shows_api_example_and_task_but_not_the_scene(ontology):
@@ -194,23 +197,35 @@ HOSTILE_OUTPUT = [  # what an LM must never get to run, whichever method asked i
 ]
 
 
+# the fast path renders every span of the bundled skills: a pick at a point no one object places
+# leaves Sawyer's object name to the LM
+PICK_BETWEEN = '''def put_in_bin(env, task, obj="cube", receptacle="bin"):
+    """Pick halfway between the cube and the bin, and drop it into the bin."""
+    obj_pos = task.get_object_position(obj)
+    bin_pos = task.get_object_position(receptacle)
+    open_gripper(env, task)
+    pick(env, task, target_pos=[(obj_pos[0] + bin_pos[0]) / 2, (obj_pos[1] + bin_pos[1]) / 2, obj_pos[2]], approach_axis="z")
+    place(env, task, target_pos=[bin_pos[0], bin_pos[1], bin_pos[2] + 0.1], approach_axis="z")
+'''
+
+
 @pytest.mark.parametrize(
-    ("method", "task"),
+    ("method", "robot"),
     [
-        ("recent", "cube_in_bin"),
-        # on cube_in_bin the fast path renders every span; a Franka Hand place by name leaves the point open
-        ("recent+fast-path", "end_effector/build_tower"),
-        ("recent-full-regen", "cube_in_bin"),
-        ("cap", "cube_in_bin"),
-        ("repair", "cube_in_bin"),
-        ("agentless", "cube_in_bin"),
+        ("recent", "UR5e"),
+        ("recent+fast-path", "Sawyer"),
+        ("recent-full-regen", "UR5e"),
+        ("cap", "UR5e"),
+        ("repair", "UR5e"),
+        ("agentless", "UR5e"),
     ],
 )
-def test_the_security_gate_blocks_hostile_output_for_every_method(ontology, tmp_path, method, task):
+def test_the_security_gate_blocks_hostile_output_for_every_method(ontology, tmp_path, method, robot):
     marker = tmp_path / "pwned"
     texts = [t.format(path=str(marker)) for t in HOSTILE_OUTPUT] * 20
-    agent, infiller = _agent(ontology, method, texts)
-    result = run_episode(agent, task, "UR5e", seed=0, max_steps=40)
+    library = library_with(tmp_path, "put_in_bin", PICK_BETWEEN) if method == "recent+fast-path" else None
+    agent, infiller = _agent(ontology, method, texts, library)
+    result = run_episode(agent, "cube_in_bin", robot, seed=0, max_steps=40)
     assert infiller.units, "the method never asked the LM"
     assert not marker.exists()  # nothing hostile ran
     assert not result.success and all(c.category != "crash" for c in result.failures)
@@ -256,12 +271,12 @@ def _recorded_completions(ontology, method: str) -> list[str]:
 
 @pytest.mark.parametrize(
     ("robot", "task", "succeeds"),
-    [("UR5e", "cube_in_bin", True), ("Sawyer", "cube_in_bin", True), ("UR5e", "end_effector/build_tower", False)],
+    [("UR5e", "cube_in_bin", True), ("Sawyer", "cube_in_bin", True), ("IIWAKRL", "end_effector/build_tower", False)],
 )
 def test_oracle_rule_is_the_ontology_alone_and_never_asks_the_lm(ontology, robot, task, succeeds):
     """The sanity row: where the ontology decides every span it succeeds without an LM (Sawyer's
-    object name too: the point its pick grasps at names it); the drop point of a Franka Hand
-    place by name, on a robot that places at a point, is what only an LM (or a person) can write."""
+    object name too: the point its pick grasps at names it); where it refuses a call (IIWAKRL has no
+    place, and a place onto a receptacle has no path to trace) it fails without asking one either."""
     agent, infiller = _agent(ontology, "oracle-rule", [])  # any LM call would pop from an empty script
     result = run_episode(agent, task, robot, seed=0, max_steps=400)
     assert infiller.units == [] and result.generated_tokens == 0
@@ -551,9 +566,9 @@ def test_cap_with_the_targets_own_program_as_its_example_is_the_upper_bound_row(
     assert "ur5_grasp_at(" in example and "pick(" not in example and "open_gripper(" not in example
     assert grounded.valid and len(infiller.units) == 1  # one program call, as cap; the rendering costs none
 
-    other, _ = _agent(ontology, "cap-target-example", [UR5E_BODY])  # the drop points are open on UR5e
-    with pytest.raises(ValueError, match="no reference program of stack_tower for UR5e"):
-        other.ground("stack_tower", "UR5e", get_task("end_effector/build_tower"))
+    other, _ = _agent(ontology, "cap-target-example", [UR5E_BODY])  # IIWAKRL has no place to render
+    with pytest.raises(ValueError, match="no reference program of stack_tower for IIWAKRL"):
+        other.ground("stack_tower", "IIWAKRL", get_task("end_effector/build_tower"))
 
 
 def test_cap_with_examples_in_the_targets_api_shows_other_skills_never_the_tasks_own(ontology):

@@ -8,6 +8,7 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from doubles import library_with
 
 from lerobot_policy_recent.descriptions.apis import api_spec_path
 from lerobot_policy_recent.ontology.specs import load_api_spec
@@ -538,18 +539,6 @@ def test_an_object_the_hand_holds_has_not_moved_out_from_under_the_skill():
     assert object_unmoved(inp) is None
 
 
-def _library_with(tmp_path, name: str, code: str) -> str:
-    """A copy of the bundled library where skill ``name`` runs ``code`` (same metadata, same effects)."""
-    import shutil
-
-    from lerobot_policy_recent.skills.records import LIBRARY
-
-    library = tmp_path / "library"
-    shutil.copytree(LIBRARY, library)
-    (library / f"{name}.py").write_text(code)
-    return str(library)
-
-
 SHALLOW_PRESS = '''def press_button(env, task, button="button"):
     """A press that stops 4 cm above the cap: scripted to miss its effect."""
     cap_pos = task.get_object_position(button)
@@ -603,7 +592,7 @@ def test_a_step_that_left_its_state_unreached_is_done_again_and_then_fails_by_na
     Without in-situ adaptation (the paper's ablation) nothing is checked, and the episode ends unnoticed."""
     method = method_named("recent" if insitu else "recent-no-insitu")
     method.offline_validation = False  # the scripted skill was never validated
-    settings = RecentSettings(infiller=RuleConfig(), method=method, skill_library=_library_with(tmp_path, skill, code))
+    settings = RecentSettings(infiller=RuleConfig(), method=method, skill_library=library_with(tmp_path, skill, code))
     agent = RecentAgent(settings, infiller=RuleInfiller(), ontology=ontology)
     result = run_episode(agent, task, robot, seed=0)
     assert not result.success

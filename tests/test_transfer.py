@@ -162,7 +162,10 @@ def test_each_argument_the_lm_writes_is_scored_against_the_ontologys_rendering(o
     places = [
         (d.role, d.expected, d.attempts, d.right_first, d.right) for d in cell.decisions if d.role == "release_target"
     ]
-    assert places == [("release_target", "base", 1, True, True), ("release_target", "middle", 2, False, True)]
+    assert places == [
+        ("release_target", "the position of base", 1, True, True),
+        ("release_target", "the position of middle", 2, False, True),
+    ]
     assert all(d.right for d in cell.decisions) and len(cell.decisions) > len(places)
     assert "| release_target | 2 | 1 (50 %) | 2 (100 %) |" in render_table([cell])
 
