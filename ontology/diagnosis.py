@@ -506,8 +506,8 @@ def _located(
     """The way back from a name to a point: a substitute's point of a role :data:`NAMED_BY_POINT`
     pairs with a name role, which the original call gives by name (a Franka Hand ``place(obj_name=base)``
     onto a place at a point), is that object's position, converted as the point is taken. A release
-    point inside a perceived object puts the load onto it (the shared controllers'
-    ``release_at``), so the receptacle's own position is where to let go, however tall it is."""
+    point that is a perceived object's own position puts the load onto it (the shared controllers'
+    ``release_at``), so the receptacle's position is where to let go, however tall it is."""
     mapped = {m.target for m in mapping}
     found = []
     for param in substitute.parameters:

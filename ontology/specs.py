@@ -28,7 +28,7 @@ ROLE_MEANINGS = {
     "grasp_target": "what the hand grasps (or where)",
     "grasp_object_name": "the object the hand grasps",
     "release_target": "where the hand puts down the object it holds (the point it lowers it to; "
-    "a point inside an object puts it onto that object)",
+    "an object's own position puts it onto that object)",
     "release_receptacle": "what the held object is put on or into",
     "motion_target": "where the hand moves to",
     "approach_object_name": "what the hand moves over (with the object it holds)",

@@ -240,7 +240,7 @@ def test_the_point_a_pick_grasps_at_names_the_object_a_pick_that_takes_both_expe
 
 def test_a_name_based_place_onto_a_point_api_releases_at_the_receptacles_own_position(ontology, rule_infiller):
     """The Franka Hand's place(obj_name=base) onto UR5e's release point: the point is base's own
-    position (a release point inside an object puts the load onto it), so the ontology renders it
+    position (a release point at an object's own position puts the load onto it), so the ontology renders it
     and no LM is asked; a pose-taking URScript gets that position in its base frame, with the held
     rotation. Before, the point was left to the LM, which got it right 13 times in 30 at first."""
     from lerobot_policy_recent.skills.repository import load_skill
