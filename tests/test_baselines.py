@@ -199,7 +199,7 @@ HOSTILE_OUTPUT = [  # what an LM must never get to run, whichever method asked i
 
 # the fast path renders every span of the bundled skills: a pick at a point no one object places
 # leaves Sawyer's object name to the LM
-PICK_BETWEEN = '''def put_in_bin(env, task, obj="cube", receptacle="bin"):
+PICK_BETWEEN_INTO_BIN = '''def put_in_bin(env, task, obj="cube", receptacle="bin"):
     """Pick halfway between the cube and the bin, and drop it into the bin."""
     obj_pos = task.get_object_position(obj)
     bin_pos = task.get_object_position(receptacle)
@@ -223,7 +223,7 @@ PICK_BETWEEN = '''def put_in_bin(env, task, obj="cube", receptacle="bin"):
 def test_the_security_gate_blocks_hostile_output_for_every_method(ontology, tmp_path, method, robot):
     marker = tmp_path / "pwned"
     texts = [t.format(path=str(marker)) for t in HOSTILE_OUTPUT] * 20
-    library = library_with(tmp_path, "put_in_bin", PICK_BETWEEN) if method == "recent+fast-path" else None
+    library = library_with(tmp_path, "put_in_bin", PICK_BETWEEN_INTO_BIN) if method == "recent+fast-path" else None
     agent, infiller = _agent(ontology, method, texts, library)
     result = run_episode(agent, "cube_in_bin", robot, seed=0, max_steps=40)
     assert infiller.units, "the method never asked the LM"
