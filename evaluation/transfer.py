@@ -28,6 +28,7 @@ from lerobot_policy_recent.ontology.skill_code import object_of_point, position_
 from lerobot_policy_recent.recent_plugin.extras import pyplot
 from lerobot_policy_recent.recent_plugin.grounding.grounder import GroundedSkill
 from lerobot_policy_recent.recent_plugin.refactoring.substitution import has_placeholders, render_substitute_call
+from lerobot_policy_recent.recent_plugin.refactoring.units import at_indent
 
 GROUNDINGS = ("source", "ontology", "lm", "refused", "invalid")
 SYMBOLS = {"source": "·", "ontology": "O", "lm": "L", "refused": "–", "invalid": "✗"}
@@ -103,7 +104,8 @@ def classify(grounded: GroundedSkill, source: str) -> Cell:
 
 def scored_decisions(grounded: GroundedSkill) -> list[Decision]:
     """Each argument of a span the LM answered whose rendering is complete (no ``<type>`` left), its
-    first and its accepted answer scored against that rendering, argument by argument."""
+    first and its accepted answer scored against that rendering, argument by argument: the
+    substitute's and those of the calls made before it (a cup's move over the box it lets go in)."""
     found = []
     for conflict in grounded.diagnosis.conflicts:
         original = conflict.span.text(grounded.original)
@@ -112,38 +114,45 @@ def scored_decisions(grounded: GroundedSkill) -> list[Decision]:
         if not calls or not rendering or has_placeholders(rendering):
             continue
         around = (grounded.original[: conflict.span.start], grounded.original[conflict.span.end :])
-        expected = _arguments(around, rendering, conflict.substitute.name)
+        roles = {conflict.substitute.name: {p.name: p.role for p in conflict.substitute.parameters}}
+        for name, arguments in zip(conflict.preparatory, conflict.preparatory_arguments, strict=False):
+            roles[name] = {m.target: m.role for m in arguments}
+        expected = _arguments(around, rendering, roles)
         accepted = next((c for c in calls if c.accepted), None)
-        first = _arguments(around, calls[0].text, conflict.substitute.name)
-        last = _arguments(around, accepted.text, conflict.substitute.name) if accepted is not None else {}
+        first = _arguments(around, calls[0].text, roles)
+        last = _arguments(around, accepted.text, roles) if accepted is not None else {}
         for key, answer in expected.items():
-            role = conflict.substitute.parameter(key[1]).role
-            found.append(Decision(role, answer, len(calls), first.get(key) == answer, last.get(key) == answer))
+            right_first, right = first.get(key) == answer, last.get(key) == answer
+            found.append(Decision(roles[key[0]][key[2]], answer, len(calls), right_first, right))
     return found
 
 
-def _arguments(around: tuple[str, str], text: str, callee: str) -> dict[tuple[int, str], str]:
-    """What each keyword argument of each ``callee(...)`` call in ``text`` says, by the call's place
-    among them (a traced span makes several), read with ``text`` in its place in the skill: an
-    object's position as such (``obj_pos`` read from ``obj``, or ``task.get_object_position(obj)``),
-    else the expression itself, offsets and all (empty: no parse)."""
-    lines = text.splitlines()
-    flat = "\n".join([*lines[:1], *textwrap.dedent("\n".join(lines[1:])).splitlines()])  # later lines: indented
+def _arguments(around: tuple[str, str], text: str, roles: dict[str, dict[str, str]]) -> dict[tuple[str, int, str], str]:
+    """What each keyword argument with a role (``roles``: callee -> parameter -> role) says in the
+    calls of ``text``, keyed by callee, the call's place among that callee's calls (a traced span
+    makes several) and keyword, read with ``text`` in its place in the skill: an object's position
+    as such (``obj_pos`` read from ``obj``, or ``task.get_object_position(obj)``), else the
+    expression itself, offsets and all (empty: no parse)."""
+    before = around[0]
+    indent = before[len(before.rstrip(" \t")) :]  # the span starts after its line's indentation
+    placed = at_indent(text, indent)  # a rendering's later lines at the body's indentation, as an answer's are
     try:
-        names = position_names(around[0] + text + around[1])
-        tree = ast.parse(flat)
+        names = position_names(before + placed[len(indent) :] + around[1])
+        tree = ast.parse(textwrap.dedent(placed))
     except (SyntaxError, ValueError):  # SkillCodeError: the answer left the function unparseable
         return {}
     calls = sorted(
-        (n for n in ast.walk(tree) if isinstance(n, ast.Call) and ast.unparse(n.func) == callee),
+        (n for n in ast.walk(tree) if isinstance(n, ast.Call) and ast.unparse(n.func) in roles),
         key=lambda n: (n.lineno, n.col_offset),
     )
-    meanings = {}
-    for index, call in enumerate(calls):
-        for keyword in (k for k in call.keywords if k.arg):
+    meanings, seen = {}, dict.fromkeys(roles, 0)
+    for call in calls:
+        callee = ast.unparse(call.func)
+        for keyword in (k for k in call.keywords if k.arg in roles[callee]):
             value = ast.unparse(keyword.value)
             bare = isinstance(keyword.value, ast.Name | ast.Call) and object_of_point(value, names)
-            meanings[index, keyword.arg] = f"the position of {bare}" if bare else value
+            meanings[callee, seen[callee], keyword.arg] = f"the position of {bare}" if bare else value
+        seen[callee] += 1
     return meanings
 
 

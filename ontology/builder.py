@@ -366,7 +366,7 @@ def tracing_moves(api: ApiSpec, prim: PrimitiveSpec) -> list[PrimitiveSpec]:
     ``api`` can close (or let go) where the path does, not only move along it."""
     if not prim.path or not all(api.actuator(step.effect) for step in prim.path if step.actuation):
         return []
-    return list(api.point_moves())
+    return api.point_moves()
 
 
 def _literal(value: str | int | float | bool) -> ox.Literal:

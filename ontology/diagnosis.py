@@ -29,13 +29,12 @@ from lerobot_policy_recent.ontology.skill_code import (
     position_names,
 )
 from lerobot_policy_recent.ontology.specs import (
-    HOLDING_ROLES,
     NAMED_BY_POINT,
     PATH_ROLE,
-    RELEASING_EFFECTS,
     ApiSpec,
     ParameterSpec,
     PrimitiveSpec,
+    held_along,
 )
 
 SPAN_TYPES = ("api_substitution", "parameter_binding", "interface_rewiring", "preparatory_step", "path_tracing")
@@ -473,18 +472,11 @@ def _put_back(
     point = original.by_role(RELEASE_POINT)
     if point is None or point.type != "position":
         return None
-    held = None
-    for earlier in sites:
-        if earlier.span.start >= site.span.start:
-            break
-        spec, given = source_api.get(earlier.name), dict(earlier.arguments)
-        for param in spec.parameters if spec is not None else ():
-            if param.role in HOLDING_ROLES and param.name in given:
-                held = given[param.name] if param.type == OBJECT_NAME else names.of(given[param.name])
-        if spec is not None and spec.effects & RELEASING_EFFECTS:
-            held = None
+    calls = [(source_api.get(s.name), dict(s.arguments)) for s in sites]
+    held = held_along(calls, lambda param, text: text if param.type == OBJECT_NAME else names.of(text))
+    at = held[sites.index(site)]
     named = names.of(dict(site.arguments).get(point.name))
-    return named if named is not None and named == held else None
+    return named if named is not None and at is not None and named == at[0] else None
 
 
 def _named_by_point(

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -462,3 +463,25 @@ def _str_list(data: dict, key: str, path: Path, where: str) -> list[str]:
     if not all(isinstance(v, str) for v in values):
         raise SpecError(path, f"{where}.{key}", "must be a list of strings")
     return values
+
+
+def held_along(
+    calls: Sequence[tuple[PrimitiveSpec | None, dict[str, str]]], name_of: Callable[[ParameterSpec, str], str | None]
+) -> list[tuple[str, int] | None]:
+    """What the hand holds as each of a skill's calls (a primitive, or None for any other call, with
+    its arguments' source text) starts, in statement order: the object the last grasp took and that
+    call's index, until a call that lets go. ``name_of`` reads the object from a holding argument
+    (a name, or the object a point names); a grasp whose arguments name none holds something unknown."""
+    held: tuple[str, int] | None = None
+    out: list[tuple[str, int] | None] = []
+    for index, (spec, given) in enumerate(calls):
+        out.append(held)
+        if spec is None:
+            continue
+        taken = [name_of(p, given[p.name]) for p in spec.parameters if p.role in HOLDING_ROLES and p.name in given]
+        if taken:
+            name = next((n for n in taken if n is not None), None)
+            held = None if name is None else (name, index)
+        if spec.effects & RELEASING_EFFECTS:
+            held = None
+    return out

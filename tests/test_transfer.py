@@ -170,6 +170,40 @@ def test_each_argument_the_lm_writes_is_scored_against_the_ontologys_rendering(o
     assert "| release_target | 2 | 1 (50 %) | 2 (100 %) |" in render_table([cell])
 
 
+def test_a_span_of_several_calls_is_scored_call_by_call_wherever_it_stands(ontology):
+    """Spans of several lines, their later lines at the body's indentation as an LM writes them: the
+    rake put back on the 2F-85, traced as three moves and an opening (each move's point its own
+    decision), and the cup's move over the box before it lets go, mid-skill in fill_box. A copy of
+    the rendering is right everywhere."""
+    from lerobot_policy_recent.recent_plugin.grounding.grounder import ground_skill
+    from lerobot_policy_recent.recent_plugin.infillers.base import Completion
+    from lerobot_policy_recent.recent_plugin.refactoring.units import at_indent
+    from lerobot_policy_recent.skills.repository import load_skill
+
+    class Copying:
+        name, model = "copying", "fixed"
+
+        def infill(self, unit):
+            text = at_indent(unit.hints.substitute_call, unit.indent)[len(unit.indent) :]
+            return Completion(text, generated_tokens=7, seconds=0.01)
+
+        def count_tokens(self, text):
+            return 100
+
+    def cell(skill, robot, source):
+        grounded = ground_skill(load_skill(skill), ontology.target(robot), ontology, Copying())
+        assert grounded.valid, grounded.verdict
+        scored = classify(grounded, source)
+        assert scored.decisions and all(d.right_first and d.right for d in scored.decisions)
+        return scored
+
+    back = [d.expected for d in cell("drag_with_tool", "Robotiq85", "Panda").decisions if d.role == "motion_target"]
+    above, at = "[tool_pos[0], tool_pos[1], grip_z + 0.004 + 0.05]", "[tool_pos[0], tool_pos[1], grip_z + 0.004]"
+    assert back[-3:] == [above, at, above]
+    over = [d.expected for d in cell("fill_box", "Suction", "FrankaHand").decisions if d.role == "approach_object_name"]
+    assert over == ["box"]
+
+
 def test_bad_execution_options_are_named_before_anything_is_grounded(tmp_path):
     base = [sys.executable, "-m", "lerobot_policy_recent.scripts.cli", "transfer", "--execute", f"--out={tmp_path}"]
     for option, message in (

@@ -31,14 +31,7 @@ from dataclasses import dataclass
 
 from lerobot_policy_recent.ontology.conversions import OBJECT_NAME
 from lerobot_policy_recent.ontology.skill_code import name_variables, variable_kinds
-from lerobot_policy_recent.ontology.specs import (
-    HOLDING_ROLES,
-    RECEIVING_ROLES,
-    RELEASING_EFFECTS,
-    ROLE_MEANINGS,
-    ApiSpec,
-    ParameterSpec,
-)
+from lerobot_policy_recent.ontology.specs import RECEIVING_ROLES, ROLE_MEANINGS, ApiSpec, ParameterSpec, held_along
 from lerobot_policy_recent.recent_plugin.failures import FailureCategory
 from lerobot_policy_recent.recent_plugin.sandbox import MAX_NESTED_ITERATIONS, format_problem
 from lerobot_policy_recent.robosuite_envs.primitives.frames import SKILL_HELPERS
@@ -217,32 +210,28 @@ class _Checker(ast.NodeVisitor):
     def _check_roles(self, func: ast.FunctionDef) -> None:
         """Arguments checked by their role: a place's receptacle is not the object the hand holds then
         (put "on itself"). The held object is the last name a grasp took, in statement order."""
-        held: tuple[str, ast.Call] | None = None
         calls = sorted(
             (n for n in ast.walk(func) if isinstance(n, ast.Call) and isinstance(n.func, ast.Name)),
             key=lambda n: (n.lineno, n.col_offset),
         )
-        for call in calls:
-            spec = self.api.get(call.func.id)
-            if spec is None:
-                continue
-            for keyword in call.keywords:
+        specs = [self.api.get(call.func.id) for call in calls]
+        given = [{k.arg: ast.unparse(k.value) for k in call.keywords if k.arg} for call in calls]
+        holds = held_along(
+            list(zip(specs, given, strict=True)), lambda p, text: text if p.type == OBJECT_NAME else None
+        )
+        for call, spec, held in zip(calls, specs, holds, strict=True):
+            for keyword in call.keywords if spec is not None and held is not None else ():
                 param = spec.parameter(keyword.arg) if keyword.arg else None
-                if param is None or param.type != OBJECT_NAME:
-                    continue
                 value = ast.unparse(keyword.value)
-                if param.role in HOLDING_ROLES:
-                    held = (value, call)
-                elif param.role in RECEIVING_ROLES and held is not None and held[0] == value:
-                    self.fail(
-                        FailureCategory.HALLUCINATED_KWARG,
-                        f"{keyword.arg}={value}: {spec.name}'s {keyword.arg} is {ROLE_MEANINGS[param.role]}, but "
-                        f"{value} is the object held since line {held[1].lineno} "
-                        f"({ast.unparse(held[1].func)}(..., {value}))",
-                        call,
-                    )
-            if spec.effects & RELEASING_EFFECTS:
-                held = None
+                if param is None or param.type != OBJECT_NAME or param.role not in RECEIVING_ROLES or value != held[0]:
+                    continue
+                since = calls[held[1]]
+                self.fail(
+                    FailureCategory.HALLUCINATED_KWARG,
+                    f"{keyword.arg}={value}: {spec.name}'s {keyword.arg} is {ROLE_MEANINGS[param.role]}, but "
+                    f"{value} is the object held since line {since.lineno} ({ast.unparse(since.func)}(..., {value}))",
+                    call,
+                )
 
     @staticmethod
     def _assigned_names(func: ast.FunctionDef) -> set[str]:
