@@ -89,7 +89,7 @@ def classify(grounded: GroundedSkill, source: str) -> Cell:
     cell.generated_tokens = grounded.generated_tokens
     if cell.grounding == "source":
         return cell
-    missing = [c for c in grounded.diagnosis.conflicts if c.substitute is None and not c.path and not c.omitted]
+    missing = [c for c in grounded.diagnosis.conflicts if c.refused]
     if missing:
         cell.grounding, cell.reason = "refused", f"line {missing[0].span.line}: {missing[0].reason}"
         cell.defect = grounded.valid

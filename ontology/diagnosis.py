@@ -96,6 +96,12 @@ class Conflict:
     # push with, on an end effector that takes no shape (see :func:`_shaping_only`)
     omitted: bool = False
 
+    @property
+    def refused(self) -> bool:
+        """The robot cannot make this call in any form (no substitute, no path to trace, not dropped):
+        the skill is refused on that robot, with ``reason``, before anything is generated or run."""
+        return self.substitute is None and not self.path and not self.omitted
+
     def preparatory_calls(self) -> list[str]:
         """``close_robotiq85``, or ``move_gripper_to(obj_name=obj_name)``: each preparatory call with
         the original's parameters it takes (how diagnoses show them)."""

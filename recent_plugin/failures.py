@@ -20,6 +20,7 @@ class FailureCategory(StrEnum):
     CANNOT_TRACK = "cannot_track"  # calibration, not grounding: the arm stopped short of a goal it was sent to
     EFFECT_UNMET = "effect_unmet"  # a step's declared effect was sensed missing, and doing it again did not help
     SUBTASK_FAILED = "subtask_failed"  # ran to the end, success predicate false
+    UNSUPPORTED = "unsupported"  # the robot lacks a capability the skill needs: refused by the ontology, nothing run
     CRASH = "crash"  # not the method's failure: the run broke off (the LM worker died, an error); no verdict
 
 
@@ -27,7 +28,10 @@ REFUSED = "refused: "  # how a skill a check found infeasible before the arm mov
 
 
 def is_refusal(category: object, message: object) -> bool:
-    """A skill refused as infeasible as sensed (beyond reach, off the table), by name, not a failure of the attempt."""
+    """A skill refused by name as infeasible, not a failure of the attempt: as sensed (beyond reach,
+    off the table), or as known before grounding (the robot has no primitive for one of its calls)."""
+    if str(category) == FailureCategory.UNSUPPORTED:
+        return True
     return str(category) == FailureCategory.UNREACHABLE_OBJECT and str(message or "").startswith(REFUSED)
 
 

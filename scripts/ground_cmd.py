@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 
+from lerobot_policy_recent.recent_plugin.failures import FailureCategory
 from lerobot_policy_recent.scripts.common import add_settings_arguments, agent_from_args
 
 
@@ -31,6 +32,7 @@ def grounding_summary(grounded) -> dict:
                 "substitute": c.substitute.name if c.substitute else None,
                 "span_type": c.span_type,
                 **({"omitted": c.reason} if c.omitted else {}),
+                **({"refused": c.reason} if c.refused else {}),
             }
             for c in grounded.diagnosis.conflicts
         ],
@@ -48,6 +50,8 @@ def grounding_summary(grounded) -> dict:
 def print_grounding(summary: dict) -> None:
     if summary["diff"]:
         print(summary["diff"])
+    elif (summary["failure"] or {}).get("category") == FailureCategory.UNSUPPORTED:
+        print(f"(no change: {summary['robot']} lacks a primitive the skill needs, so nothing was generated)")
     elif summary["conflicts"]:
         print("(no change: no grounding of its conflicts passed validation)")
     else:
@@ -55,8 +59,10 @@ def print_grounding(summary: dict) -> None:
     for c in summary["conflicts"]:
         if c.get("omitted"):
             substitute = f"nothing: {c['omitted']}"
+        elif c.get("refused"):
+            substitute = f"refused: {c['refused']}"
         else:
-            substitute = c["substitute"] or f"(no primitive of {summary['robot']} has its effects)"
+            substitute = c["substitute"] or "?"
         print(f"  line {c['line']}: {c['original']} -> {substitute} ({c['span_type']})")
     verdict = (
         "valid" if summary["valid"] else f"REJECTED ({summary['failure']['category']}: {summary['failure']['message']})"

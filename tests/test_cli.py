@@ -46,8 +46,10 @@ def test_a_skill_that_cannot_be_grounded_says_so_not_that_it_is_compatible(capsy
     monkeypatch.setattr(Ontology, "path_tracers", lambda self, source, primitive, target: [])
     assert main(["ground", "--skill", "push_to_region", "--robot", "Robotiq85", "--infiller.type", "rule"]) == 1
     out = capsys.readouterr().out
-    assert "no grounding of its conflicts passed validation" in out and "directly compatible" not in out
-    assert "push -> (no primitive of Robotiq85 has its effects)" in out and "REJECTED" in out
+    assert "Robotiq85 lacks a primitive the skill needs, so nothing was generated" in out
+    assert "directly compatible" not in out
+    assert "push -> refused: Robotiq85 has no primitive with the effects of push" in out
+    assert "REJECTED (unsupported: refused: push_to_region cannot run on Robotiq85" in out
 
 
 def test_diagnose_json(capsys):

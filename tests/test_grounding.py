@@ -9,6 +9,7 @@ from lerobot_policy_recent.ontology.diagnosis import diagnose
 from lerobot_policy_recent.recent_plugin.grounding.grounder import ground_skill
 from lerobot_policy_recent.recent_plugin.refactoring.fim_prompt import build_prompt
 from lerobot_policy_recent.recent_plugin.refactoring.units import unit_from_conflict
+from lerobot_policy_recent.skills.repository import load_skill
 
 RULE_DIFF_LINES = {
     "-    open_gripper(env, task)",
@@ -44,7 +45,6 @@ def test_prompt_renders_hints_as_comments_before_the_span(ontology, put_in_bin):
 
 def test_a_call_written_over_several_lines_is_one_comment_line_and_a_one_line_span(ontology):
     """wipe_area's push spans seven lines: its "Was:" hint once left six of them as bare code in the prompt."""
-    from lerobot_policy_recent.skills.repository import load_skill
 
     wipe = load_skill("wipe_area")
     conflict = diagnose(ontology, wipe.name, wipe.code, "Sawyer").conflicts[0]
@@ -114,7 +114,6 @@ def test_a_run_time_patch_retry_is_held_to_the_statements_its_check_wrote(ontolo
 def test_a_traced_push_is_one_move_per_waypoint_and_its_retry_is_held_to_all_of_them(ontology, rule_infiller):
     from llama_cpp import LlamaGrammar
 
-    from lerobot_policy_recent.skills.repository import load_skill
 
     wipe, pushing = load_skill("wipe_area"), load_skill("push_to_region")
     grounded = ground_skill(
@@ -243,7 +242,6 @@ def test_a_name_based_place_onto_a_point_api_releases_at_the_receptacles_own_pos
     position (a release point at an object's own position puts the load onto it), so the ontology renders it
     and no LM is asked; a pose-taking URScript gets that position in its base frame, with the held
     rotation. Before, the point was left to the LM, which got it right 13 times in 30 at first."""
-    from lerobot_policy_recent.skills.repository import load_skill
 
     tower = load_skill("stack_tower")
     conflict = diagnose(ontology, tower.name, tower.code, "UR5e", source="FrankaHand").conflicts[2]
@@ -260,7 +258,6 @@ def test_a_name_based_place_onto_a_point_api_releases_at_the_receptacles_own_pos
 def test_same_role_literals_are_translated(ontology, rule_infiller):
     """approach_axis='z' (Panda) and pointing_to='down' (Robotiq85) share a role; the value is mapped too.
     The 2F-85 picks by name: ``obj_pos`` holds exactly the position read for ``obj``, so that name is it."""
-    from lerobot_policy_recent.skills.repository import load_skill
 
     grounded = ground_skill(load_skill("pick_and_lift"), ontology.target("Robotiq85"), ontology, rule_infiller)
     assert grounded.valid
@@ -274,6 +271,18 @@ def test_unrecoverable_after_retry_limit(ontology, put_in_bin):
     assert not grounded.valid
     assert str(grounded.verdict.category) == "non_executable" and "unrecoverable" in grounded.verdict.message
     assert len(grounded.calls) == 3
+
+
+def test_a_call_the_robot_cannot_make_in_any_form_is_refused_without_asking_the_lm(ontology):
+    """IIWAKRL has no place: every answer could only call what it lacks, so none is asked for."""
+    from lerobot_policy_recent.recent_plugin.failures import is_refusal
+
+    asked = ScriptedInfiller([])  # any call would pop from an empty list
+    grounded = ground_skill(load_skill("stack_tower"), ontology.target("IIWAKRL"), ontology, asked)
+    assert not grounded.valid and grounded.calls == [] and asked.units == []
+    assert str(grounded.verdict.category) == "unsupported"
+    assert grounded.verdict.message.startswith("refused: stack_tower cannot run on IIWAKRL: line 5: IIWAKRL has no")
+    assert is_refusal(grounded.verdict.category, grounded.verdict.message)
 
 
 def test_llamacpp_tokenizes_fim_markers_as_special_tokens(llama_infiller):
@@ -312,7 +321,6 @@ def test_fast_path_renders_decided_spans_and_asks_the_lm_only_for_the_rest(ontol
     from dataclasses import replace
 
     from lerobot_policy_recent.recent_plugin.infillers.fast_path import FastPathInfiller
-    from lerobot_policy_recent.skills.repository import load_skill
 
     lm = ScriptedInfiller(["sawyer_pick(env, task, target_object=obj, target_pos=mid)"])
     fast = FastPathInfiller(lm)
@@ -345,7 +353,6 @@ def test_the_real_lm_names_what_no_one_object_places(ontology, llama_infiller, p
 
 def test_a_span_that_changes_a_carried_over_argument_is_rejected(ontology):
     """The 1.5B once repeated the suffix's approach height where the press height belongs."""
-    from lerobot_policy_recent.skills.repository import load_skill
 
     press = load_skill("press_button")
     lift = "ur5_move_to(env, task, target_pos=[cap_pos[0], cap_pos[1], cap_pos[2] + 0.08], timeout_s=3.0)"
@@ -362,7 +369,6 @@ def test_a_span_that_changes_a_carried_over_argument_is_rejected(ontology):
 
 def test_a_multiline_span_without_the_substitute_is_rejected(ontology):
     """In a loop body a span's later lines are indented; it is still parsed and held to the substitute."""
-    from lerobot_policy_recent.skills.repository import load_skill
 
     wipe = load_skill("wipe_area")
     moves_instead = (  # valid code in place, but no push: the span alone did not parse, so went unchecked
@@ -382,7 +388,6 @@ def test_a_traced_path_that_drops_a_waypoints_offset_is_rejected(ontology):
     """The 1.5B wrote `pos=start` for the first move of a traced sweep: the hand went straight down onto
     the block's path instead of above it. Each move is held to its own waypoint, in order."""
     from lerobot_policy_recent.recent_plugin.grounding.grounder import _check_span
-    from lerobot_policy_recent.skills.repository import load_skill
 
     pushing = load_skill("push_to_region")
     conflict = diagnose(ontology, pushing.name, pushing.code, "Suction").conflicts[0]
@@ -397,7 +402,6 @@ def test_a_traced_path_that_drops_a_waypoints_offset_is_rejected(ontology):
 def test_a_span_that_adds_a_statement_or_a_return_is_rejected(ontology):
     """The 1.5B once appended ``return hole_pos`` to a place it was asked for; a span holds the call."""
     from lerobot_policy_recent.recent_plugin.grounding.grounder import _check_span
-    from lerobot_policy_recent.skills.repository import load_skill
 
     peg = load_skill("insert_peg")
     place = next(c for c in diagnose(ontology, peg.name, peg.code, "UR5e").conflicts if c.original == "place")

@@ -20,7 +20,7 @@ from lerobot_policy_recent.ontology.builder import Ontology
 from lerobot_policy_recent.ontology.diagnosis import OMITTED, Conflict, Diagnosis, Warning, diagnose
 from lerobot_policy_recent.ontology.skill_code import CodeSpan
 from lerobot_policy_recent.ontology.target import Target
-from lerobot_policy_recent.recent_plugin.failures import FailureCategory
+from lerobot_policy_recent.recent_plugin.failures import REFUSED, FailureCategory
 from lerobot_policy_recent.recent_plugin.grounding.attempts import (
     LMCall,
     call_events,
@@ -163,7 +163,7 @@ def ground_skill(
     if rediagnose is not None:
         diagnosis = rediagnose(diagnosis)
     result = GroundedSkill.start(skill, robot, diagnosis, infiller)
-    if refused := refused_source(skill, apis):
+    if refused := refused_source(skill, apis) or refused_capability(diagnosis):
         result.verdict, result.seconds = refused, time.perf_counter() - started
         return result
     pending = list(diagnosis.conflicts)
@@ -205,6 +205,19 @@ def refused_source(skill: Skill, apis: dict) -> Verdict | None:
     return replace(
         verdict,
         message=f"the skill {skill.name!r} as written is refused by the security gate:{where} {verdict.message}",
+    )
+
+
+def refused_capability(diagnosis: Diagnosis) -> Verdict | None:
+    """The ontology's refusal of a call the robot cannot make in any form (IIWAKRL has no place), as
+    the skill's verdict: named at once, with the line and the missing effects, rather than sent to the
+    LM, whose every answer could only call what the robot lacks."""
+    refused = next((c for c in diagnosis.conflicts if c.refused), None)
+    if refused is None:
+        return None
+    return Verdict.reject(
+        FailureCategory.UNSUPPORTED,
+        f"{REFUSED}{diagnosis.skill} cannot run on {diagnosis.robot}: line {refused.span.line}: {refused.reason}",
     )
 
 
