@@ -30,6 +30,11 @@ ABLATION_METHODS = methods_of("ablation")
 EXPECTED: dict[str, dict[str, int]] = {name: dict(Method.get_choice_class(name).expected) for name in ABLATION_METHODS}
 
 
+def method_rank(method: str) -> int:
+    """A method's place in table order (``METHODS``); one no longer registered goes after all of them."""
+    return METHODS.index(method) if method in METHODS else len(METHODS)
+
+
 ON_MODEL = "@"  # method@model: a grid row running the method on another model
 
 

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 from lerobot_policy_recent.descriptions.apis import api_spec_path
 from lerobot_policy_recent.descriptions.embodiments import EMBODIMENTS
 from lerobot_policy_recent.evaluation.baselines.program_prompt import PROGRAM
-from lerobot_policy_recent.evaluation.methods import METHODS, ONTOLOGY_METHODS, method_of
+from lerobot_policy_recent.evaluation.methods import ONTOLOGY_METHODS, method_of, method_rank
 from lerobot_policy_recent.ontology.specs import load_api_spec
 from lerobot_policy_recent.skills.repository import SkillNotFoundError, load_skill
 
@@ -106,7 +106,7 @@ def program_counts(rows: list[dict]) -> list[ProgramCounts]:
         calls = tuple(names)
         tally.repeated += regenerated and calls in earlier[episode]
         earlier[episode].append(calls)
-    return sorted(counts.values(), key=lambda c: (METHODS.index(method_of(c.method)), c.method))
+    return sorted(counts.values(), key=lambda c: (method_rank(method_of(c.method)), c.method))
 
 
 def program_table(rows: list[dict]) -> str | None:

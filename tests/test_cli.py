@@ -49,7 +49,7 @@ def test_a_skill_that_cannot_be_grounded_says_so_not_that_it_is_compatible(capsy
     assert "Robotiq85 lacks a primitive the skill needs, so nothing was generated" in out
     assert "directly compatible" not in out
     assert "push -> refused: Robotiq85 has no primitive with the effects of push" in out
-    assert "REJECTED (unsupported: refused: push_to_region cannot run on Robotiq85" in out
+    assert "REJECTED (unsupported: refused: line " in out
 
 
 def test_diagnose_json(capsys):

@@ -114,7 +114,6 @@ def test_a_run_time_patch_retry_is_held_to_the_statements_its_check_wrote(ontolo
 def test_a_traced_push_is_one_move_per_waypoint_and_its_retry_is_held_to_all_of_them(ontology, rule_infiller):
     from llama_cpp import LlamaGrammar
 
-
     wipe, pushing = load_skill("wipe_area"), load_skill("push_to_region")
     grounded = ground_skill(
         wipe, ontology.target("Suction"), ontology, rule_infiller
@@ -281,7 +280,7 @@ def test_a_call_the_robot_cannot_make_in_any_form_is_refused_without_asking_the_
     grounded = ground_skill(load_skill("stack_tower"), ontology.target("IIWAKRL"), ontology, asked)
     assert not grounded.valid and grounded.calls == [] and asked.units == []
     assert str(grounded.verdict.category) == "unsupported"
-    assert grounded.verdict.message.startswith("refused: stack_tower cannot run on IIWAKRL: line 5: IIWAKRL has no")
+    assert grounded.verdict.message.startswith("refused: line 5: IIWAKRL has no primitive with the effects of place")
     assert is_refusal(grounded.verdict.category, grounded.verdict.message)
 
 

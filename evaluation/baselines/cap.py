@@ -1,5 +1,5 @@
-"""Code-as-Policies (``cap``) and its rows: a perfect example (``cap-target-example``), examples in the
-target's API (``cap-api-examples``), another model (``cap-distilled``), a served chat model (``cap-llm``)."""
+"""Code-as-Policies (``cap``) and its rows: a perfect example (``cap-target-example``), another model
+(``cap-distilled``), a served chat model (``cap-llm``)."""
 
 from __future__ import annotations
 
@@ -28,41 +28,36 @@ class RawStateStyle(BaselineStyle):
 @Method.register_subclass("cap")
 @dataclass
 class CodeAsPolicies(Baseline):
-    """Code-as-Policies: the whole program; on a failure, the whole program again with the error appended."""
+    """Code-as-Policies, prompted as the original CaP prompts are: in-context examples written in the
+    *target's* API (other skills of the library, as the ontology renders them for the target with no
+    LM), then the skill's source program (the reference skill the RECENT paper gives every baseline)
+    and the task; the whole program, and on a failure the whole program again with the error appended.
+    Nothing of the task's own skills is shown in the target's API (that is ``cap-target-example``).
+    A target on which the ontology renders few skills completely gets what it renders.
+    ``--method.api_examples=0`` shows the source program alone (``cap`` up to 2026-12-01)."""
 
     style: ClassVar[BaselineStyle] = BaselineStyle("cap", statement_repairs=0)
+    api_examples: int = 2
 
 
 @Method.register_subclass("cap-target-example")
 @dataclass
 class CodeAsPoliciesTargetExample(CodeAsPolicies):
     """Sanity row: CaP with a perfect example, the skill's program for the *target* robot (the
-    ontology's complete rendering, no LM). What CaP can do at best with this model and protocol.
-    A skill the ontology cannot render completely for the target (an argument only an LM can
-    decide) has no such program, and the row refuses it rather than showing a different example."""
+    ontology's complete rendering, no LM), in place of the other skills' examples. What CaP can do at
+    best with this model and protocol. A skill the ontology cannot render completely for the target
+    (an argument only an LM can decide) has no such program, and the row refuses it rather than
+    showing a different example."""
 
     family: ClassVar[str] = "sanity"
     style: ClassVar[BaselineStyle] = BaselineStyle("cap-target-example", statement_repairs=0)
+    api_examples: int = 0
 
     def context(
         self, task: TaskSpec | None, skills: tuple[Skill, ...], target: Target, ontology: Ontology, max_retries: int
     ) -> ProgramContext:
         examples = tuple((skill.name, target_program(skill, target, ontology, max_retries)) for skill in skills)
         return replace(super().context(task, skills, target, ontology, max_retries), target_examples=examples)
-
-
-@Method.register_subclass("cap-api-examples")
-@dataclass
-class CodeAsPoliciesApiExamples(CodeAsPolicies):
-    """CaP prompted as the original CaP prompts are: in-context examples written in the *target's*
-    API (other skills of the library, as the ontology renders them for the target with no LM),
-    then the skill's source program and the task. Nothing of the task's own skills is shown in the
-    target's API (that is cap-target-example). A target on which the ontology renders few skills
-    completely gets what it renders (a Franka Hand skill that places by name, on a robot that places
-    at a point, is not among them)."""
-
-    style: ClassVar[BaselineStyle] = BaselineStyle("cap-api-examples", statement_repairs=0)
-    api_examples: int = 2
 
 
 @Method.register_subclass("cap-distilled")

@@ -113,7 +113,7 @@ class ProgramContext:
     # (the cap-target-example sanity row); a skill without one shows its source program
     target_examples: tuple[tuple[str, str], ...] = ()
     # (skill, its program on the target robot) for *other* skills: examples of the target's own API,
-    # shown before the reference skill, as the original CaP prompts show theirs (``cap-api-examples``)
+    # shown before the reference skill, as the original CaP prompts show theirs (``cap``)
     api_examples: tuple[tuple[str, str], ...] = ()
 
 

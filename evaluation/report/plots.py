@@ -9,7 +9,7 @@ from collections import Counter
 from pathlib import Path
 
 from lerobot_policy_recent.evaluation.confidence import paired_comparisons
-from lerobot_policy_recent.evaluation.methods import ABLATION_METHODS, METHODS, method_of, model_of
+from lerobot_policy_recent.evaluation.methods import ABLATION_METHODS, METHODS, method_of, method_rank, model_of
 from lerobot_policy_recent.evaluation.metrics import group, summarize
 from lerobot_policy_recent.evaluation.report.paper import SUITE_ORDER
 from lerobot_policy_recent.evaluation.report.tables import failure_counts, ordered_rows
@@ -56,7 +56,7 @@ def plot_sr_vs_go(records: list[dict], path: Path) -> Path:
         for method in ordered_rows({m for m, s in by if s == suite}):
             s = summarize(by[(method, suite)])
             # the method's own pair in every report; a row on another model shifted by a round of METHODS
-            i = METHODS.index(method_of(method)) + len(METHODS) * models.index(model_of(method) or "")
+            i = method_rank(method_of(method)) + len(METHODS) * models.index(model_of(method) or "")
             shown[method] = ax.errorbar(
                 s["go"]["mean"],
                 s["sr"]["mean"],

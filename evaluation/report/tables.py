@@ -13,9 +13,9 @@ from lerobot_policy_recent.evaluation.confidence import episode_key, paired_comp
 from lerobot_policy_recent.evaluation.methods import (
     ABLATION_METHODS,
     EXPECTED,
-    METHODS,
     ONTOLOGY_METHODS,
     method_of,
+    method_rank,
     model_of,
 )
 from lerobot_policy_recent.evaluation.metrics import (
@@ -44,14 +44,16 @@ from lerobot_policy_recent.evaluation.report.paper import (
 )
 
 
-def _rank(row: str) -> tuple[int, str]:
-    """Where a grid row sorts: its method's place in METHODS, then its model (the run's own first)."""
-    return METHODS.index(method_of(row)), model_of(row) or ""
+def _rank(row: str) -> tuple[int, str, str]:
+    """Where a grid row sorts: its method's place in METHODS, then its model (the run's own first);
+    a row whose method is no longer registered (records kept from before it was retired) comes last."""
+    return method_rank(method_of(row)), method_of(row), model_of(row) or ""
 
 
 def ordered_rows(rows) -> list[str]:
-    """Grid rows in table order: registered methods only, by family, then model."""
-    return sorted({r for r in rows if method_of(r) in METHODS}, key=_rank)
+    """Grid rows in table order: by family, then model; rows of retired methods after them, so a
+    committed run's table recomputes from its records whatever was renamed since."""
+    return sorted(set(rows), key=_rank)
 
 
 def main_table(records: list[dict]) -> str:

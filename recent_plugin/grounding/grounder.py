@@ -217,7 +217,7 @@ def refused_capability(diagnosis: Diagnosis) -> Verdict | None:
         return None
     return Verdict.reject(
         FailureCategory.UNSUPPORTED,
-        f"{REFUSED}{diagnosis.skill} cannot run on {diagnosis.robot}: line {refused.span.line}: {refused.reason}",
+        f"{REFUSED}line {refused.span.line}: {refused.reason}",
     )
 
 
