@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import ast
 import re
 import time
 from dataclasses import replace
@@ -815,3 +816,33 @@ def test_a_copied_place_keeps_its_guards_and_refuses_a_target_read_off_the_table
     failure = result.failures[-1]
     assert failure.category == "unreachable_object" and failure.skill == "stack"
     assert failure.message.startswith("refused: release target [") and "left the table" in failure.message
+
+
+def test_a_pose_the_ontology_rendered_is_read_by_the_checks_but_a_primitive_is_never_called():
+    """A URScript pose is ``task.to_frame(p, 'base') + quat_to_rotvec(...)``: a check reads it as it
+    reads a position. A call of a primitive inside an argument is not made to read it."""
+    from types import SimpleNamespace
+
+    from lerobot_policy_recent.recent_plugin.insitu.adapter import _value
+    from lerobot_policy_recent.robosuite_envs.primitives.frames import SKILL_HELPERS
+
+    called = []
+    executor = SimpleNamespace(namespace={"p": [0.1, 0.2, 0.9], "rq_open": lambda: called.append(1), **SKILL_HELPERS})
+    pose = _value(ast.parse("p + quat_to_rotvec([0.0, 0.0, 0.0, 1.0])", mode="eval").body, executor)
+    assert np.allclose(pose, [0.1, 0.2, 0.9, 0.0, 0.0, 0.0])
+    assert _value(ast.parse("[rq_open(), 0.0, 0.0]", mode="eval").body, executor) is None and not called
+
+
+@pytest.mark.slow
+def test_a_urscript_place_sees_the_slab_on_its_release_target(ontology):
+    """zone_bin_plate_panel, dev seed 3, variations on, UR5eScript: a slab lies on the zone. Its pose
+    argument read (it was skipped as a call), target_clear pushes the slab off before the place,
+    as on UR5e, and the dice lands on the table, not on the slab."""
+    agent = RecentAgent(
+        RecentSettings(infiller=RuleConfig(), method=method_named("oracle-rule")),
+        infiller=RuleInfiller(),
+        ontology=ontology,
+    )
+    result = run_episode(agent, "kinematic/zone_bin_plate_panel", "UR5eScript", seed=3, variations="on")
+    assert result.success, result.failures
+    assert any("on the release target" in " ".join(c.hints) for c in result.runtime_calls)

@@ -69,6 +69,7 @@ from lerobot_policy_recent.recent_plugin.refactoring.units import (
     cut_unit,
 )
 from lerobot_policy_recent.recent_plugin.sandbox import UNKNOWN, evaluate_now
+from lerobot_policy_recent.robosuite_envs.primitives.frames import SKILL_HELPERS
 from lerobot_policy_recent.skills.repository import Placement, StateEffect
 
 log = logging.getLogger(__name__)
@@ -524,8 +525,13 @@ def _bare(source: str, executor: SkillExecutor) -> str:
 
 
 def _value(node: ast.expr, executor: SkillExecutor) -> object | None:
-    """Evaluate an argument expression now (validated code; calls other than task queries are skipped)."""
-    if any(isinstance(n, ast.Call) and isinstance(n.func, ast.Name) for n in ast.walk(node)):
+    """Evaluate an argument expression now (validated code). A call by bare name may be a primitive,
+    which must not run twice, and is skipped; the ontology's pure conversion helpers are not, so a
+    pose the ontology rendered (``to_frame(p) + quat_to_rotvec(...)``) is read as any position is."""
+    if any(
+        isinstance(n, ast.Call) and isinstance(n.func, ast.Name) and n.func.id not in SKILL_HELPERS
+        for n in ast.walk(node)
+    ):
         return None
     value = evaluate_now(node, executor.namespace)
     return None if value is UNKNOWN else value
