@@ -284,8 +284,20 @@ def _conflict(
         preparatory=preparatory,
         preparatory_arguments=arguments if any(arguments) else (),
     )
-    after = f", after {', '.join(conflict.preparatory_calls())}" if preparatory else ""
+    after = f", after {', '.join(_described(conflict))}" if preparatory else ""
     return replace(conflict, reason=f"no {site.name}; use {substitute.name} (same effects){after}")
+
+
+def _described(conflict: Conflict) -> list[str]:
+    """Each preparatory call in words for a hint: ``move_gripper_to over what place's target_pos names``.
+    Written as a call (``move_gripper_to(obj_name=target_pos)``), the 1.5B copied ``target_pos``, a
+    parameter of the original, not a variable of the skill."""
+    arguments = conflict.preparatory_arguments or ((),) * len(conflict.preparatory)
+    out = []
+    for name, args in zip(conflict.preparatory, arguments, strict=True):
+        sources = [m.source for m in args if m.source]
+        out.append(name + (f" over what {conflict.original}'s {' and '.join(sources)} names" if sources else ""))
+    return out
 
 
 # Closing the fingers with nothing opened or released anywhere in the skill shapes the hand for contact

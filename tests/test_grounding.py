@@ -461,3 +461,24 @@ def test_a_skills_grounding_samples_alike_whatever_was_grounded_before_it():
     other_episode = Sampling()
     BudgetedInfiller(other_episode, CallBudget(0), temperature=0.2, seed=7, scope="grounding stack").infill(None)
     assert other_episode.seeds[0] != stack_seeds(0)[0]  # episode seeds stay real repetitions
+
+
+def test_a_first_answer_is_held_to_as_many_lines_as_the_ontology_asks_and_told_why_a_name_is_the_one(ontology):
+    """The 1.5B went on past a cup's detach into the suffix's calls, copied `target_pos` from a hint
+    written as a call, and put a block "on" the block it held: the span's grammar stops at the
+    statements asked for, and the hints state where the names come from."""
+    from lerobot_policy_recent.recent_plugin.refactoring.fim_prompt import hint_lines, statement_lines
+
+    stack = load_skill("stack")
+    cup = unit_from_conflict(
+        stack.code, diagnose(ontology, "stack", stack.code, "Suction").conflicts[-1], ontology.target("Suction")
+    )
+    assert build_prompt(cup, 32).grammar == statement_lines(2)
+    reason = hint_lines(cup)[0]
+    assert "after move_gripper_to over what place's target_pos names" in reason and "=target_pos" not in reason
+    jaw = unit_from_conflict(
+        stack.code, diagnose(ontology, "stack", stack.code, "Robotiq85").conflicts[-1], ontology.target("Robotiq85")
+    )
+    assert "obj_name is what the held object is put on or into: target, whose position places target_pos" in hint_lines(
+        jaw
+    )

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import ast
 
-from lerobot_policy_recent.ontology.conversions import POINTS
+from lerobot_policy_recent.ontology.conversions import OBJECT_NAME, POINTS
 from lerobot_policy_recent.ontology.diagnosis import Conflict
 from lerobot_policy_recent.ontology.skill_code import enclosing_function, position_names
 from lerobot_policy_recent.ontology.specs import ROLE_MEANINGS
@@ -18,9 +18,12 @@ POSITION_QUERY = "task.get_object_position(name) reads a named object's position
 
 
 def decision_facts(code: str, conflict: Conflict) -> tuple[str, ...]:
-    """The hint lines for ``conflict``'s unfilled arguments (none where nothing is left open)."""
-    if not conflict.unfilled or conflict.substitute is None:
+    """The hint lines for ``conflict``'s unfilled arguments, or, where nothing is left open, for the
+    names the ontology took from a point (:func:`named_by_point`)."""
+    if conflict.substitute is None:
         return ()
+    if not conflict.unfilled:
+        return named_by_point(conflict)
     lines, points = [], False
     for name in dict.fromkeys(conflict.unfilled):
         param = conflict.substitute.parameter(name)
@@ -36,6 +39,20 @@ def decision_facts(code: str, conflict: Conflict) -> tuple[str, ...]:
         lines.append("In scope: " + "; ".join(scope))
     if points:
         lines.append(POSITION_QUERY)
+    return tuple(lines)
+
+
+def named_by_point(conflict: Conflict) -> tuple[str, ...]:
+    """Why an object-name argument is the object it is, where the original passed a point: the
+    point was placed by that object's position (``obj_name is what the held object is put on or
+    into: target, whose position places target_pos``). Given only the call to copy, the 1.5B
+    wrote the object the skill had picked up (``obj``), the first name in scope."""
+    lines = []
+    for m in conflict.mapping:
+        param = conflict.substitute.parameter(m.target)
+        meaning = ROLE_MEANINGS.get(param.role) if param is not None and param.type == OBJECT_NAME else None
+        if meaning and m.conversion is not None and m.conversion.determined and m.source:
+            lines.append(f"{m.target} is {meaning}: {m.conversion.template}, whose position places {m.source}")
     return tuple(lines)
 
 

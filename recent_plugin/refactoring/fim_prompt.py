@@ -225,8 +225,13 @@ def build_prompt(unit: RefactoringUnit, span_tokens: int, window: str = "functio
     else:
         single_line = "\n" not in unit.span and "\n" not in (call or "")
     grammar = STATEMENT_LINE if single_line else STATEMENT_LINES
+    if call and not single_line and unit.style is None:
+        # as many lines as the ontology's statements: uncapped, the 1.5B went on past a traced path or
+        # a cup's detach into the suffix's next calls (`move_gripper_to(obj_name=obj)`, `place(...)`),
+        # and the span was rejected for what it added
+        grammar = statement_lines(call.count("\n") + 1)
     if call and unit.span_type in RUNTIME_SPAN_TYPES:
-        grammar = patch_grammar(call) or (grammar if single_line else statement_lines(call.count("\n") + 1))
+        grammar = patch_grammar(call) or grammar
     forced = None
     draft = call and at_indent(call, unit.indent)[len(unit.indent) :]  # its later lines at the body's indentation
     if unit.hints.attempt > 0 and call and unit.style is None:
