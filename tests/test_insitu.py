@@ -846,3 +846,33 @@ def test_a_urscript_place_sees_the_slab_on_its_release_target(ontology):
     result = run_episode(agent, "kinematic/zone_bin_plate_panel", "UR5eScript", seed=3, variations="on")
     assert result.success, result.failures
     assert any("on the release target" in " ".join(c.hints) for c in result.runtime_calls)
+
+
+def test_an_object_set_down_on_a_stranger_over_its_region_is_not_counted_as_placed():
+    """UR5eScript, zone_bin_plate_panel, dev seed 3, while its checks could not read poses: a slab lay
+    in the zone, the dice came down on it, over the zone's box but off the table, and the skill's
+    placement passed. On the slab, it is not placed; on the zone, it is; in a bin on another
+    object, it is (inside, below the rim)."""
+    from lerobot_policy_recent.skills.repository import load_skill
+
+    (placement,) = load_skill("move_to_region").placements
+
+    def box(pos, size):
+        return ObjectState(np.array(pos, dtype=float), np.array([0, 0, 0, 1.0]), size=np.array(size))
+
+    zone, slab = box([-0.05, -0.30, 0.8005], [0.12, 0.12, 0.001]), box([-0.055, -0.291, 0.818], [0.10, 0.06, 0.014])
+
+    def read(dice_z, objects):
+        seen = {"zone": zone, "dice": box([-0.041, -0.301, dice_z], [0.04, 0.04, 0.04]), **objects}
+        return placement_reached(
+            placement, "dice", "zone", Observation(np.zeros(3), np.array([0, 0, 0, 1.0]), 0.0, seen)
+        )
+
+    met, said = read(0.845, {"slab": slab})
+    assert not met and said.endswith("on slab, not on zone")
+    assert read(0.821, {})[0] and read(0.821, {"slab": box([0.2, 0.2, 0.818], [0.1, 0.06, 0.014])})[0]
+    (into,) = load_skill("put_in_bin").placements
+    bin_ = box([0.1, 0.2, 0.84], [0.2, 0.2, 0.08])
+    cube, under = box([0.1, 0.2, 0.84], [0.04, 0.04, 0.04]), box([0.1, 0.2, 0.81], [0.05, 0.05, 0.02])
+    seen = {"bin": bin_, "cube": cube, "block": under}
+    assert placement_reached(into, "cube", "bin", Observation(np.zeros(3), np.array([0, 0, 0, 1.0]), 0.0, seen))[0]

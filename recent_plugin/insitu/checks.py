@@ -65,6 +65,8 @@ FINGER_SPAN = 0.055  # metres from a grasp's centre an open jaw reaches: half a 
 # metres across its closing axis a finger reaches from the grasp's centre: half a pad (1.2 cm), perception's
 # 3 sigma on where the obstacle lies, and a little for the hand's yaw turning on the way down
 FINGER_ACROSS = 0.012 + 3 * POSITION_SIGMA + 0.003
+# how far above a box's top an object's underside may be read and still lie on it (a tilted die, perception)
+RESTING_GAP = 3 * POSITION_SIGMA + 0.003
 MARKING = 0.005  # metres: what stands no higher off the table is a marking on it (a zone), no wall
 JAW_STROKE = 0.075  # metres across an object the open jaw takes in with room to spare (a Franka Hand's 8 cm, less 5 mm)
 
@@ -658,6 +660,25 @@ def placed_at_target(inp: CheckInput) -> Violation | None:
     )
 
 
+def resting_on_other(name: str, seen, over: str, support, obs: Observation) -> str | None:
+    """The perceived object other than ``over`` that ``name`` lies on, above ``over``'s top: a dice
+    set down on a slab that lay in the zone is over the zone, yet not on it. None where ``name``
+    is down at ``over``'s top or below it (on a plate, inside a bin or a drawer, whatever is under it
+    there), or where nothing else lies under it."""
+    if not np.any(seen.size):
+        return None
+    bottom = seen.pos[2] - seen.size[2] / 2
+    if bottom <= support.pos[2] + support.size[2] / 2 + RESTING_GAP:
+        return None
+    for other, state in sorted(obs.objects.items()):
+        if other in (name, over) or not np.any(state.size):
+            continue
+        top = state.pos[2] + state.size[2] / 2
+        if abs(bottom - top) < RESTING_GAP and beyond_footprint(seen.pos, state.pos, state.size) == 0.0:
+            return other
+    return None
+
+
 def beyond_footprint(pos, centre, size) -> float:
     """Metres across the table that ``pos`` lies outside a box's footprint, widened by three sigmas of
     perception's accuracy (0: over it)."""
@@ -689,6 +710,8 @@ def placement_reached(placement: Placement, name: object, over: object, obs: Obs
     under = seen.pos[2] < support.pos[2] - support.size[2] / 2 - POSITION_SIGMA
     if outside or under:
         return False, f"{where}, {100 * outside:.1f} cm outside {over}'s box{' and below it' if under else ''}"
+    if other := resting_on_other(name, seen, over, support, obs):
+        return False, f"{where}, on {other}, not on {over}"
     if placement.at is None:
         return True, f"{where}, over {over}"
     # at a spot: it lies under the object's own perceived box (moved off it later, by a neighbour's carry, it does not)
