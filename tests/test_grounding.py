@@ -479,6 +479,7 @@ def test_a_first_answer_is_held_to_as_many_lines_as_the_ontology_asks_and_told_w
     jaw = unit_from_conflict(
         stack.code, diagnose(ontology, "stack", stack.code, "Robotiq85").conflicts[-1], ontology.target("Robotiq85")
     )
-    assert "obj_name is what the held object is put on or into: target, whose position places target_pos" in hint_lines(
-        jaw
+    assert (
+        "obj_name is what the held object is put on or into: target, whose position places place's target_pos"
+        in hint_lines(jaw)
     )

@@ -660,11 +660,12 @@ def placed_at_target(inp: CheckInput) -> Violation | None:
     )
 
 
-def resting_on_other(name: str, seen, over: str, support, obs: Observation) -> str | None:
+def resting_on_other(name: str, over: str, obs: Observation) -> str | None:
     """The perceived object other than ``over`` that ``name`` lies on, above ``over``'s top: a dice
     set down on a slab that lay in the zone is over the zone, yet not on it. None where ``name``
     is down at ``over``'s top or below it (on a plate, inside a bin or a drawer, whatever is under it
     there), or where nothing else lies under it."""
+    seen, support = obs.objects[name], obs.objects[over]
     if not np.any(seen.size):
         return None
     bottom = seen.pos[2] - seen.size[2] / 2
@@ -710,7 +711,7 @@ def placement_reached(placement: Placement, name: object, over: object, obs: Obs
     under = seen.pos[2] < support.pos[2] - support.size[2] / 2 - POSITION_SIGMA
     if outside or under:
         return False, f"{where}, {100 * outside:.1f} cm outside {over}'s box{' and below it' if under else ''}"
-    if other := resting_on_other(name, seen, over, support, obs):
+    if other := resting_on_other(name, over, obs):
         return False, f"{where}, on {other}, not on {over}"
     if placement.at is None:
         return True, f"{where}, over {over}"

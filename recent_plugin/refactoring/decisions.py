@@ -45,14 +45,16 @@ def decision_facts(code: str, conflict: Conflict) -> tuple[str, ...]:
 def named_by_point(conflict: Conflict) -> tuple[str, ...]:
     """Why an object-name argument is the object it is, where the original passed a point: the
     point was placed by that object's position (``obj_name is what the held object is put on or
-    into: target, whose position places target_pos``). Given only the call to copy, the 1.5B
+    into: target, whose position places place's target_pos``). Given only the call to copy, the 1.5B
     wrote the object the skill had picked up (``obj``), the first name in scope."""
     lines = []
     for m in conflict.mapping:
         param = conflict.substitute.parameter(m.target)
         meaning = ROLE_MEANINGS.get(param.role) if param is not None and param.type == OBJECT_NAME else None
         if meaning and m.conversion is not None and m.conversion.determined and m.source:
-            lines.append(f"{m.target} is {meaning}: {m.conversion.template}, whose position places {m.source}")
+            lines.append(
+                f"{m.target} is {meaning}: {m.conversion.template}, whose position places {conflict.original}'s {m.source}"
+            )
     return tuple(lines)
 
 
