@@ -151,7 +151,7 @@ def regenerate_skill(
     """
     started = time.perf_counter()
     robot, api, apis = target.name, target.api, onto.apis
-    diagnosis = diagnose(onto, skill.name, skill.code, robot, source=skill.source_embodiment)
+    diagnosis = diagnose(onto, skill.name, skill.code, robot, skill.source_embodiment, skill.placed_over)
     result = GroundedSkill.start(skill, robot, diagnosis, infiller)
     if refused := refused_source(skill, apis):
         result.verdict, result.seconds = refused, time.perf_counter() - started

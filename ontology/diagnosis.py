@@ -8,7 +8,7 @@ conflict carries everything the refactoring step needs — no LM is involved her
 from __future__ import annotations
 
 import re
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 
 from lerobot_policy_recent.ontology.builder import Ontology, tracing_moves
@@ -92,6 +92,9 @@ class Conflict:
     preparatory_arguments: tuple[tuple[ParameterMapping, ...], ...] = ()
     path: tuple[PathStep, ...] = ()  # path tracing: one call of the substitute (a move) per step
     reason: str = ""
+    # what the hand holds as the call starts, by the source's data flow: the object and the line of the
+    # grasp that took it (a place's receptacle is never it); None where nothing known is held
+    held: tuple[str, int] | None = None
     # the call has no counterpart to make and is dropped (rendered as ``pass``): a hand closed only to
     # push with, on an end effector that takes no shape (see :func:`_shaping_only`)
     omitted: bool = False
@@ -178,19 +181,37 @@ def _value_map(source: tuple | None, target: tuple | None) -> tuple[tuple[object
     return tuple(zip(source, target, strict=True))
 
 
-def diagnose(onto: Ontology, skill_name: str, code: str, robot: str, source: str = "Panda") -> Diagnosis:
-    """D(skill, robot) = ⟨determined conflicts, undetermined warnings⟩ — no LM involved."""
+def diagnose(
+    onto: Ontology,
+    skill_name: str,
+    code: str,
+    robot: str,
+    source: str = "Panda",
+    placements: Mapping[str, str] | None = None,
+) -> Diagnosis:
+    """D(skill, robot) = ⟨determined conflicts, undetermined warnings⟩ — no LM involved.
+
+    ``placements``: what the skill's metadata says each object it moves ends over (parameter to
+    parameter, for an object with one placement). Where no one position places a place's release
+    point, the object the hand holds there ends over that one: the receptacle a place by name takes.
+    """
     source_api, target_api = onto.api(source), onto.api(robot)
     sites = [s for s in call_sites(code, skill_name) if source_api.get(s.name) is not None]
     bindings, names = position_bindings(code), position_names(code)
+    holds = held_along(
+        [(source_api.get(s.name), dict(s.arguments)) for s in sites],
+        lambda param, text: text if param.type == OBJECT_NAME else names.of(text),
+    )
     conflicts, warnings = [], []
-    for site in sites:
+    for site, held in zip(sites, holds, strict=True):
         original = source_api.get(site.name)
         target, conflict = target_api.get(site.name), None
         if target is not None and not _same_signature(original, target):
             target = None  # the same name, another interface (the two Panda APIs' picks: a position, a name)
         if target is None:
-            conflict = _conflict(onto, site, original, source, robot, names, sites)
+            held_at = None if held is None else (held[0], sites[held[1]].span.line)
+            site_names = _declared_release(original, site, names, held, placements or {})
+            conflict = replace(_conflict(onto, site, original, source, robot, site_names, sites, held), held=held_at)
             conflicts.append(conflict)
             target = conflict.substitute
         if target is not None:
@@ -200,6 +221,24 @@ def diagnose(onto: Ontology, skill_name: str, code: str, robot: str, source: str
             if any(step.actuate for step in conflict.path):
                 warnings += _traced_warnings(onto, site, original, conflict, source, robot, sites, bindings)
     return Diagnosis(skill=skill_name, robot=robot, conflicts=tuple(conflicts), warnings=tuple(warnings))
+
+
+def _declared_release(
+    original: PrimitiveSpec,
+    site: CallSite,
+    names: PositionNames,
+    held: tuple[str, int] | None,
+    placements: Mapping[str, str],
+) -> PositionNames:
+    """``names``, where the skill declares where the object the hand holds at a place ends, with the
+    place's release point naming that object (a drop point two objects place, over the bin); a
+    point that one object's position places keeps naming that object."""
+    point = original.by_role(RELEASE_POINT)
+    over = placements.get(held[0]) if held is not None else None
+    expression = dict(site.arguments).get(point.name) if point is not None else None
+    if over is None or expression is None:
+        return names
+    return replace(names, declared={**names.declared, expression: over})
 
 
 def _same_signature(original: PrimitiveSpec, target: PrimitiveSpec) -> bool:
@@ -215,6 +254,7 @@ def _conflict(
     robot: str,
     names: PositionNames,
     sites: Sequence[CallSite],
+    held: tuple[str, int] | None,
 ) -> Conflict:
     candidates = onto.substitutes(source, site.name, robot)
     if candidates and _shaping_only(onto.api(source), original, candidates, sites):
@@ -232,7 +272,7 @@ def _conflict(
             ),
         )
     by_name = candidates and not any(c.by_role(RELEASE_POINT) for c in candidates)  # a place that takes no point
-    if by_name and (back := _put_back(onto.api(source), original, site, sites, names)):
+    if by_name and (back := _put_back(original, site, names, held)):
         return _put_back_conflict(onto, site, original, robot, back)
     tracers = onto.path_tracers(source, site.name, robot) if not candidates else []
     if tracers:
@@ -482,19 +522,17 @@ def _put_back_conflict(onto: Ontology, site: CallSite, original: PrimitiveSpec, 
 
 
 def _put_back(
-    source_api: ApiSpec, original: PrimitiveSpec, site: CallSite, sites: Sequence[CallSite], names: PositionNames
+    original: PrimitiveSpec, site: CallSite, names: PositionNames, held: tuple[str, int] | None
 ) -> str | None:
-    """The object the hand holds at ``site`` where the call's release point is placed by that
-    object's own position, read before it was picked up (a rake put back where it stood); None
-    otherwise. Such a point names no receptacle: a place by name has nothing to take."""
+    """The object the hand holds at ``site`` (``held``, as :func:`held_along` reads it) where the call's
+    release point is placed by that object's own position, read before it was picked up (a rake put
+    back where it stood); None otherwise. Such a point names no receptacle: a place by name has
+    nothing to take."""
     point = original.by_role(RELEASE_POINT)
     if point is None or point.type != "position":
         return None
-    calls = [(source_api.get(s.name), dict(s.arguments)) for s in sites]
-    held = held_along(calls, lambda param, text: text if param.type == OBJECT_NAME else names.of(text))
-    at = held[sites.index(site)]
     named = names.of(dict(site.arguments).get(point.name))
-    return named if named is not None and at is not None and named == at[0] else None
+    return named if named is not None and held is not None and named == held[0] else None
 
 
 def _named_by_point(

@@ -11,7 +11,7 @@ from __future__ import annotations
 import ast
 import copy
 import textwrap
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 
 @dataclass(frozen=True)
@@ -168,6 +168,9 @@ class PositionNames:
 
     variables: dict[str, str]
     constants: frozenset[str] = frozenset()
+    # points the skill's metadata names where no one position places them: a place's release point,
+    # where the skill declares the object the hand holds there ends over one object (see ``diagnose``)
+    declared: dict[str, str] = field(default_factory=dict)
 
     def of(self, expression: str | None) -> str | None:
         """The object the position ``expression`` (an argument's source) names, or None."""
@@ -177,7 +180,7 @@ class PositionNames:
             node = ast.parse(expression, mode="eval").body
         except SyntaxError:
             return None
-        return placed_by(node, self.variables, self.constants)
+        return placed_by(node, self.variables, self.constants) or self.declared.get(expression)
 
 
 def placed_by(node: ast.expr, names: dict[str, str], constants: frozenset[str]) -> str | None:

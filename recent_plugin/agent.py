@@ -153,6 +153,7 @@ class RecentAgent:
         return (
             skill.name,
             skill.code_sha256,
+            json.dumps(skill.placed_over, sort_keys=True),  # metadata the ontology decides by
             target.name,
             self._ontology_hash,  # every robot's API spec and MJCF, the schema and the relations
             self.infiller.name,

@@ -10,6 +10,7 @@ flags that reproduce it.
 from __future__ import annotations
 
 from dataclasses import dataclass, field, fields
+from pathlib import Path
 from typing import get_type_hints
 
 import draccus
@@ -43,7 +44,9 @@ class RecentSettings:
     temperature: float = 0.2
     max_skill_steps: int = 3000  # control steps a skill may take before it is stopped
     skill_budget: SkillBudget = field(default_factory=SkillBudget)  # Python time and memory a skill's code may use
-    skill_library: str | None = None  # a directory of skills (+ validation/); None: the bundled Panda skills
+    # a directory of your skills (NAME.py + NAME.yaml, records in validation/), served before the bundled
+    # skills of the same name; None: the bundled skills alone
+    skill_library: str | None = None
 
     def __post_init__(self):
         for name in ("max_retries", "max_repairs", "max_lm_calls", "temperature"):
@@ -51,6 +54,8 @@ class RecentSettings:
                 raise ValueError(f"--{name} must be >= 0, got {getattr(self, name)}")
         if self.max_skill_steps < 1:
             raise ValueError(f"--max_skill_steps must be >= 1, got {self.max_skill_steps}")
+        if self.skill_library is not None and not Path(self.skill_library).is_dir():
+            raise ValueError(f"--skill_library: {self.skill_library!r} is not a directory")
 
     def to_dict(self) -> dict:
         """The resolved tree as plain data (what a run records)."""

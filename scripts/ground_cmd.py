@@ -41,6 +41,12 @@ def grounding_summary(grounded) -> dict:
         "go": round(grounded.go, 2),
         "lm_seconds": round(grounded.lm_seconds, 3),
         "retries": grounded.retries,
+        # what the LM wrote where the ontology left a decision open, each answer with its verdict
+        "lm_answers": [
+            {"line": call.original, "text": call.text.strip(), "accepted": call.accepted, "message": call.message}
+            for call in grounded.calls
+            if not call.rendered and not call.decided
+        ],
         "failure": None
         if grounded.valid
         else {"category": str(grounded.verdict.category), "message": grounded.verdict.message},
@@ -64,6 +70,9 @@ def print_grounding(summary: dict) -> None:
         else:
             substitute = c["substitute"] or "?"
         print(f"  line {c['line']}: {c['original']} -> {substitute} ({c['span_type']})")
+    for answer in summary["lm_answers"]:
+        verdict = "accepted" if answer["accepted"] else f"rejected: {answer['message']}"
+        print(f"  LM wrote for {answer['line']}: {answer['text']} -> {verdict}")
     verdict = (
         "valid" if summary["valid"] else f"REJECTED ({summary['failure']['category']}: {summary['failure']['message']})"
     )

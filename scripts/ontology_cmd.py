@@ -91,7 +91,7 @@ def _graph(args) -> int:
 
 def _diagnose(args) -> int:
     skill, onto = _skill_and_ontology(args)
-    result = diagnose(onto, skill.name, skill.code, args.robot, source=skill.source_embodiment)
+    result = diagnose(onto, skill.name, skill.code, args.robot, skill.source_embodiment, skill.placed_over)
     rows = [
         {
             "line": c.span.line,

@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
+import argparse
 import json
 import os
 from pathlib import Path
 
 from lerobot_policy_recent.recent_plugin.authoring.sim_validation import validate
 from lerobot_policy_recent.robosuite_envs.suites import SEEDS
-from lerobot_policy_recent.skills.records import load_record, save_record
+from lerobot_policy_recent.skills.records import load_record, records_dir, save_record
 from lerobot_policy_recent.skills.repository import (
     LIBRARY,
     Skill,
@@ -16,6 +17,7 @@ from lerobot_policy_recent.skills.repository import (
     list_skills,
     load_skill,
     load_skills,
+    skill_home,
     source_call_sites,
 )
 
@@ -25,14 +27,19 @@ def register(sub) -> None:
     actions = parser.add_subparsers(dest="action", metavar="ACTION", required=True)
     listing = actions.add_parser("list", help="skills in the repository and whether they are validated")
     listing.add_argument("--json", action="store_true")
+    _library_argument(listing)
     listing.set_defaults(handler=_list)
     show = actions.add_parser("show", help="code, metadata and last validation of one skill")
     show.add_argument("name")
+    _library_argument(show)
     show.set_defaults(handler=_show)
     check = actions.add_parser(
         "validate", help="run skills on their source robot over five seeds and record the outcome"
     )
-    check.add_argument("--skill", action="append", help="a skill to validate (repeatable; default: all)")
+    check.add_argument(
+        "--skill", action="append", help="a skill to validate (repeatable; default: all of the library's own)"
+    )
+    _library_argument(check)
     check.add_argument(
         "--seeds",
         choices=("paper", "dev"),
@@ -56,10 +63,29 @@ def register(sub) -> None:
     gen.set_defaults(handler=_generate)
 
 
+def _library_argument(parser) -> None:
+    parser.add_argument(
+        "--skill_library",
+        type=_directory,
+        default=LIBRARY,
+        metavar="DIR",
+        help="your skills (NAME.py + NAME.yaml, records in DIR/validation/), served before the bundled skills of "
+        "the same name; the run commands take the same option (default: the bundled library)",
+    )
+
+
+def _directory(text: str) -> Path:
+    path = Path(text)
+    if not path.is_dir():
+        raise argparse.ArgumentTypeError(f"{text!r} is not a directory")
+    return path
+
+
 def _row(skill: Skill) -> dict:
-    record = load_record(skill.name)
+    record = load_record(skill.name, records_dir(skill.path.parent))
     return {
         "name": skill.name,
+        "library": str(skill.path.parent),
         "subtask": skill.subtask,
         "source": skill.source_embodiment,
         "validated": bool(record and record.matches(skill.code_sha256)),
@@ -69,7 +95,7 @@ def _row(skill: Skill) -> dict:
 
 
 def _list(args) -> int:
-    skills, broken = load_skills()  # a broken file disables its skill, not the listing
+    skills, broken = load_skills(args.skill_library)  # a broken file disables its skill, not the listing
     rows = [_row(s) for s in skills] + [{"name": n, "broken": why} for n, why in broken.items()]
     rows.sort(key=lambda row: row["name"])
     if args.json:
@@ -80,15 +106,17 @@ def _list(args) -> int:
             print(f"{row['name']:<18} BROKEN: {row['broken']}")
             continue
         state = "validated" if row["validated"] else "NOT validated"
+        own = f"  {row['library']}" if Path(row["library"]) != LIBRARY else ""
         print(
             f"{row['name']:<18} {row['subtask']:<18} {row['source']:<11} {row['code_sha256'][:12]}  {state} "
-            f"({len(row['seeds_passed'])}/5 seeds)"
+            f"({len(row['seeds_passed'])}/5 seeds){own}"
         )
     return 0
 
 
 def _show(args) -> int:
-    skill, record = load_skill(args.name), load_record(args.name)
+    home = skill_home(args.name, args.skill_library)
+    skill, record = load_skill(args.name, home), load_record(args.name, records_dir(home))
     print(f"# {skill.name} ({skill.source_embodiment}) — {skill.intent}\n# {skill.path}")
     print(f"# subtask: {skill.subtask}")
     print(f"# preconditions: {', '.join(skill.preconditions) or '-'}")
@@ -120,20 +148,21 @@ def _validate(args) -> int:
 
     from lerobot_policy_recent.robosuite_envs.splits import DEV_SEEDS
 
-    names = args.skill or list_skills()
-    skills = [load_skill(name) for name in names]  # unknown names fail before anything runs
+    names = args.skill or list_skills(args.skill_library)
+    # unknown names fail before anything runs; a user's skill is validated in its own library
+    skills = [load_skill(name, skill_home(name, args.skill_library)) for name in names]
     seeds = DEV_SEEDS if args.seeds == "dev" else SEEDS
-    failed = []
+    failed, saved = [], set()
     with tqdm(total=len(seeds) * len(skills), unit="episode", desc="validate") as bar:
         for skill in skills:
             bar.set_postfix_str(skill.name)
             record = validate(skill, seeds, on_episode=lambda seed, reason: bar.update(1))
-            save_record(record)
+            saved.add(str(save_record(record, records_dir(skill.path.parent)).parent))
             if not record.validated:
                 failed.append(f"{skill.name}: {record.failures}")
     for line in failed:
         print(f"FAILED {line}")
-    print(f"{len(skills) - len(failed)}/{len(skills)} skill(s) validated; records in skills/library/validation/")
+    print(f"{len(skills) - len(failed)}/{len(skills)} skill(s) validated; records in {', '.join(sorted(saved))}")
     return 1 if failed else 0
 
 

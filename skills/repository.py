@@ -83,9 +83,35 @@ class Skill:
     def code_sha256(self) -> str:
         return hashlib.sha256(self.code.encode()).hexdigest()
 
+    @property
+    def placed_over(self) -> dict[str, str]:
+        """Where each object the skill moves ends, for an object with one placement: the receptacle
+        the ontology gives a place by name where no one position places the drop point."""
+        over: dict[str, set[str]] = {}
+        for placement in self.placements:
+            over.setdefault(placement.parameter, set()).add(placement.over)
+        return {moved: next(iter(ends)) for moved, ends in over.items() if len(ends) == 1}
+
 
 def list_skills(library: Path = LIBRARY) -> list[str]:
+    """The skills of one directory (a ``.py`` with its ``.yaml``)."""
     return sorted(p.stem for p in library.glob("*.py") if p.with_suffix(".yaml").is_file())
+
+
+def skill_home(name: str, library: Path = LIBRARY) -> Path:
+    """The directory that serves ``name``: a user's ``library`` where it holds the skill, else the
+    bundled one. A user's skill replaces the bundled skill of its name (the tasks' plans name their
+    skills), and the rest of a task's plan is still served, so a library of one skill runs."""
+    for directory in dict.fromkeys((library, LIBRARY)):
+        if name in list_skills(directory):
+            return directory
+    known = served_skills(library)
+    raise SkillNotFoundError(f"unknown skill {name!r}; known skills: {', '.join(known) or '(none)'}")
+
+
+def served_skills(library: Path = LIBRARY) -> list[str]:
+    """Every skill a run with ``library`` serves: its own and the bundled ones it does not replace."""
+    return sorted({*list_skills(library), *list_skills(LIBRARY)})
 
 
 def load_skill(name: str, library: Path = LIBRARY) -> Skill:
@@ -119,15 +145,16 @@ def load_skill(name: str, library: Path = LIBRARY) -> Skill:
 
 
 def load_skills(library: Path = LIBRARY) -> tuple[list[Skill], dict[str, str]]:
-    """Every skill of the library that loads, and, by name, why each of the others does not.
+    """Every skill a run with ``library`` serves (:func:`served_skills`) that loads, and, by name,
+    why each of the others does not.
 
     One broken file disables its own skill, with the reason naming the file and the field, and
     nothing else: the rest of the library, and every command that reads it, keeps working.
     """
     skills, broken = [], {}
-    for name in list_skills(library):
+    for name in served_skills(library):
         try:
-            skills.append(load_skill(name, library))
+            skills.append(load_skill(name, skill_home(name, library)))
         except (ValueError, SyntaxError, yaml.YAMLError) as error:  # SkillCodeError is a ValueError
             broken[name] = str(error)
     return skills, broken
@@ -221,7 +248,7 @@ def task_calls(plan_skills: list[str], library: Path = LIBRARY) -> CallCount:
     """The calls a task's plan makes: the sum over the reference skills of its subtasks."""
     total = CallCount(0, 0)
     for name in plan_skills:
-        total += skill_calls(load_skill(name, library))
+        total += skill_calls(load_skill(name, skill_home(name, library)))
     return total
 
 
@@ -232,11 +259,13 @@ def source_api(skill: Skill) -> ApiSpec:
 def serve_skill(name: str, library: Path = LIBRARY, *, require_validated: bool = True) -> Skill:
     """The skill for grounding: only with a passing validation record for exactly this code.
 
-    ``require_validated=False`` is the paper's "w/o offline validation" ablation.
+    ``require_validated=False`` is the paper's "w/o offline validation" ablation. ``library``: a
+    user's directory (:func:`skill_home`); a skill's record lies beside it, in its ``validation/``.
     """
-    skill = load_skill(name, library)
+    home = skill_home(name, library)
+    skill = load_skill(name, home)
     if require_validated:
-        record = load_record(name, records_dir(library))
+        record = load_record(name, records_dir(home))
         if record is None or not record.matches(skill.code_sha256):
             why = (
                 "it was never validated"
@@ -245,7 +274,9 @@ def serve_skill(name: str, library: Path = LIBRARY, *, require_validated: bool =
                 if record.code_sha256 != skill.code_sha256
                 else f"it failed validation on seeds {sorted(set(record.seeds) - set(record.passed))}"
             )
+            user = "" if home == LIBRARY else f" --skill_library {home}"
             raise SkillNotValidatedError(
-                f"skill {name!r} is not served: {why}; run `recent skills validate --skill {name}`"
+                f"skill {name!r} ({home / (name + '.py')}) is not served: {why}; "
+                f"run `recent skills validate --skill {name}{user}`"
             )
     return skill

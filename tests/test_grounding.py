@@ -483,3 +483,109 @@ def test_a_first_answer_is_held_to_as_many_lines_as_the_ontology_asks_and_told_w
         "obj_name is what the held object is put on or into: target, whose position places place's target_pos"
         in hint_lines(jaw)
     )
+
+
+def _drop_near_side():
+    """The README's own skill: a Panda put_in_bin whose drop point two objects place (examples/skills)."""
+    from pathlib import Path
+
+    from lerobot_policy_recent.skills.repository import serve_skill
+
+    return serve_skill("put_in_bin", Path(__file__).parents[1] / "examples" / "skills")
+
+
+PLACE_ON_HELD = "place_robotiq85(env, task, obj_name=obj, pointing_to='down')"
+
+
+def test_a_receptacle_that_is_the_held_object_is_rejected_at_its_span_and_the_retry_may_not_name_it(ontology):
+    """Where no one object places the drop point, the name a place takes is the LM's. The span is judged
+    while the grasp before it is still to be grounded, so the whole program's role check could not
+    see what the hand holds: it passed ``obj_name=obj`` there, then blamed the grasp's span three
+    times and failed the skill. The diagnosis knows it from the source's data flow: the hint says it,
+    the span is rejected with the reason, and the retry's grammar leaves the held object out, in
+    quotes too."""
+    from llama_cpp import LlamaGrammar
+
+    from lerobot_policy_recent.recent_plugin.infillers.fast_path import FastPathInfiller
+
+    skill = _drop_near_side()
+    conflict = diagnose(ontology, skill.name, skill.code, "Robotiq85").conflicts[-1]
+    assert conflict.unfilled == ("obj_name",) and conflict.held == ("obj", 6)
+    first = build_prompt(unit_from_conflict(skill.code, conflict, ontology.target("Robotiq85")), 20)
+    assert "    # The hand holds obj here (taken at line 6)\n" in first.prefix
+    assert 'name ::= "obj" | "receptacle" | "\\"" [a-zA-Z0-9_]+ "\\""' in first.grammar  # the first answer is free
+    retry = unit_from_conflict(skill.code, conflict, ontology.target("Robotiq85"), feedback="no", attempt=1)
+    grammar = build_prompt(retry, 20).grammar
+    assert (
+        grammar.splitlines()[0]
+        == 'root ::= "place_robotiq85(env, task, obj_name=" name-0 ", pointing_to=\'down\')" "\\n"'
+    )
+    assert 'name-0 ::= "receptacle"' in grammar.splitlines()
+    LlamaGrammar.from_string(grammar, verbose=False)
+
+    lm = ScriptedInfiller(
+        [PLACE_ON_HELD, PLACE_ON_HELD.replace("=obj", '="cube"'), PLACE_ON_HELD.replace("obj,", "receptacle,")]
+    )
+    grounded = ground_skill(skill, ontology.target("Robotiq85"), ontology, FastPathInfiller(lm))
+    assert grounded.valid, grounded.verdict
+    assert [c.accepted for c in grounded.calls if not c.rendered] == [False, False, True]
+    held = (
+        "place_robotiq85's obj_name is what the held object is put on or into, but obj is the object held since line 6"
+    )
+    assert [c.message for c in grounded.calls if not c.rendered][:2] == [
+        f"obj_name=obj: {held}",
+        f"obj_name='cube': {held}",
+    ]
+    assert "place_robotiq85(env, task, obj_name=receptacle, pointing_to='down')" in grounded.code
+
+
+def test_a_cups_move_over_the_receptacle_may_not_name_the_held_object_either(ontology):
+    """On the cup the place is a preparatory move over the receptacle, then the detach: the move's
+    object is the open decision, and the same exclusion holds it."""
+    from lerobot_policy_recent.recent_plugin.infillers.fast_path import FastPathInfiller
+
+    skill = _drop_near_side()
+    lm = ScriptedInfiller(
+        ["move_gripper_to(env, task, obj_name=obj)\ndetach_vacuum_handle(env, task)"]
+        + ["move_gripper_to(env, task, obj_name=receptacle)\ndetach_vacuum_handle(env, task)"]
+    )
+    grounded = ground_skill(skill, ontology.target("Suction"), ontology, FastPathInfiller(lm))
+    assert grounded.valid, grounded.verdict
+    rejected = next(c for c in grounded.calls if not c.accepted)
+    assert rejected.message.startswith("obj_name=obj: move_gripper_to's obj_name is what the hand moves over")
+    assert "move_gripper_to(env, task, obj_name=receptacle)" in grounded.code
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("robot", ["Robotiq85", "Suction"])
+def test_the_real_lm_grounds_the_readme_skill_onto_a_robot_that_places_by_name(ontology, llama_infiller, robot):
+    """The README's main job: the 1.5B names the receptacle (``receptacle``), held to it by validation
+    where its first answer is the held object."""
+    from lerobot_policy_recent.recent_plugin.infillers.fast_path import FastPathInfiller
+
+    grounded = ground_skill(_drop_near_side(), ontology.target(robot), ontology, FastPathInfiller(llama_infiller))
+    assert grounded.valid, grounded.verdict
+    assert "obj_name=receptacle" in grounded.code and [c.accepted for c in grounded.calls if not c.rendered][-1]
+
+
+def test_a_skill_that_declares_where_the_held_object_ends_has_its_receptacle_decided_by_the_ontology(ontology):
+    """The same skill with ``placements: [{object: obj, over: receptacle}]``: the hand holds obj at the
+    place, and obj ends over receptacle, so the place by name takes receptacle, with no LM. A point
+    that one object's position places keeps naming that object, whatever the metadata says."""
+    from dataclasses import replace
+
+    from lerobot_policy_recent.ontology.skill_code import PositionNames
+    from lerobot_policy_recent.recent_plugin.infillers.fast_path import FastPathInfiller
+    from lerobot_policy_recent.skills.repository import Placement
+
+    declared = replace(_drop_near_side(), placements=(Placement("obj", "receptacle"),))
+    assert declared.placed_over == {"obj": "receptacle"}
+    lm = ScriptedInfiller([])
+    for robot, call in (
+        ("Robotiq85", "place_robotiq85(env, task, obj_name=receptacle"),
+        ("Suction", "move_gripper_to(env, task, obj_name=receptacle)"),
+    ):
+        grounded = ground_skill(declared, ontology.target(robot), ontology, FastPathInfiller(lm))
+        assert grounded.valid and call in grounded.code and not lm.units, robot
+    names = PositionNames({"bin_pos": "receptacle"}, declared={"bin_pos": "obj", "drop": "receptacle"})
+    assert names.of("bin_pos") == "receptacle" and names.of("drop") == "receptacle" and names.of("elsewhere") is None

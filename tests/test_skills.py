@@ -4,11 +4,13 @@ from __future__ import annotations
 
 import json
 import shutil
+from pathlib import Path
 
 import pytest
 
 from lerobot_policy_recent.descriptions.embodiments import SOURCE_EMBODIMENTS
 from lerobot_policy_recent.recent_plugin.authoring.sim_validation import validate
+from lerobot_policy_recent.recent_plugin.settings import RecentSettings
 from lerobot_policy_recent.robosuite_envs.splits import DEV_SEEDS
 from lerobot_policy_recent.robosuite_envs.suites import SEEDS
 from lerobot_policy_recent.skills.records import load_record
@@ -92,7 +94,7 @@ def test_skills_list_json_has_the_documented_fields(capsys):
     rows = json.loads(capsys.readouterr().out)
     assert {r["name"] for r in rows} == set(list_skills())
     for row in rows:
-        assert set(row) == {"name", "subtask", "source", "validated", "code_sha256", "seeds_passed"}
+        assert set(row) == {"name", "library", "subtask", "source", "validated", "code_sha256", "seeds_passed"}
         assert row["source"] in SOURCE_EMBODIMENTS
         assert row["validated"] and row["seeds_passed"] in (sorted(SEEDS), sorted(DEV_SEEDS))
 
@@ -140,7 +142,7 @@ def test_a_broken_skill_file_disables_that_skill_not_the_commands(tmp_path, monk
     """A malformed YAML leaves its skill out, with the file and the field named; the rest keeps working."""
     import shutil
 
-    from lerobot_policy_recent.scripts import ontology_cmd, skills_cmd
+    from lerobot_policy_recent.scripts import ontology_cmd
     from lerobot_policy_recent.scripts.cli import main
     from lerobot_policy_recent.skills import repository
 
@@ -153,10 +155,9 @@ def test_a_broken_skill_file_disables_that_skill_not_the_commands(tmp_path, monk
 
     monkeypatch.setattr(repository, "LIBRARY", library)
     monkeypatch.setattr(ontology_cmd, "load_skills", lambda: repository.load_skills(library))
-    monkeypatch.setattr(skills_cmd, "load_skills", lambda: repository.load_skills(library))
     assert main(["ontology", "stats"]) == 0
     assert "skill 'wipe_area' is left out" in capsys.readouterr().err
-    assert main(["skills", "list"]) == 0
+    assert main(["skills", "list", "--skill_library", str(library)]) == 0
     assert "wipe_area          BROKEN:" in capsys.readouterr().out
 
 
@@ -181,3 +182,56 @@ def test_a_placement_must_name_two_parameters(tmp_path):
         meta.read_text().split("placements:")[0] + "placements: [{object: obj, over: region, at: [0, 0.1]}]\n"
     )
     assert repository.load_skill("move_to_region", library).placements[0].at == (0.0, 0.1)
+
+
+EXAMPLES = Path(__file__).parents[1] / "examples" / "skills"  # the README's own skill, outside the bundled library
+
+
+def test_a_users_library_serves_its_skill_in_place_of_the_bundled_one_and_the_rest_as_bundled(tmp_path):
+    """``--skill_library``: a skill of the user's directory replaces the bundled one of its name, with the
+    record beside it; the rest of a task's plan is still served, so a library of one skill runs a task."""
+    from lerobot_policy_recent.skills.repository import served_skills, skill_home, task_calls
+
+    mine = serve_skill("put_in_bin", EXAMPLES)
+    assert mine.path == EXAMPLES / "put_in_bin.py" and mine.code != load_skill("put_in_bin").code
+    assert skill_home("stack", EXAMPLES) == LIBRARY and serve_skill("stack", EXAMPLES).code == load_skill("stack").code
+    assert served_skills(EXAMPLES) == list_skills()  # one replaced, none added
+    assert task_calls(["put_in_bin", "stack"], EXAMPLES).primitives == task_calls(["put_in_bin", "stack"]).primitives
+    shutil.copytree(EXAMPLES, tmp_path / "mine")
+    (tmp_path / "mine" / "validation" / "put_in_bin.json").unlink()
+    with pytest.raises(SkillNotValidatedError, match=r"mine/put_in_bin.py\) is not served: it was never validated"):
+        serve_skill("put_in_bin", tmp_path / "mine")
+    with pytest.raises(KeyError, match="unknown skill 'nope'; known skills: arrange_in_row"):
+        serve_skill("nope", tmp_path / "mine")
+
+
+def test_the_skills_commands_read_a_users_library_and_name_a_bad_one(capsys, tmp_path):
+    from lerobot_policy_recent.scripts.cli import main
+
+    assert main(["skills", "list", "--json", "--skill_library", str(EXAMPLES)]) == 0
+    rows = {row["name"]: row for row in json.loads(capsys.readouterr().out)}
+    assert rows["put_in_bin"]["library"] == str(EXAMPLES) and rows["put_in_bin"]["validated"]
+    assert rows["stack"]["library"] == str(LIBRARY)
+    assert main(["skills", "show", "put_in_bin", "--skill_library", str(EXAMPLES)]) == 0
+    assert "near_side = [" in capsys.readouterr().out
+    with pytest.raises(SystemExit) as exit_:
+        main(["skills", "list", "--skill_library", str(tmp_path / "absent")])
+    assert (
+        exit_.value.code == 2
+        and "--skill_library: 'PATH' is not a directory".replace("PATH", str(tmp_path / "absent"))
+        in capsys.readouterr().err
+    )
+    with pytest.raises(ValueError, match="--skill_library: .* is not a directory"):
+        RecentSettings(skill_library=str(tmp_path / "absent"))
+
+
+@pytest.mark.slow
+def test_validate_writes_a_users_record_into_their_library(tmp_path, capsys):
+    from lerobot_policy_recent.scripts.cli import main
+
+    shutil.copytree(EXAMPLES, tmp_path / "mine")
+    (tmp_path / "mine" / "validation" / "put_in_bin.json").unlink()
+    assert main(["skills", "validate", "--skill_library", str(tmp_path / "mine")]) == 0
+    assert f"1/1 skill(s) validated; records in {tmp_path / 'mine' / 'validation'}" in capsys.readouterr().out
+    assert serve_skill("put_in_bin", tmp_path / "mine").path.parent == tmp_path / "mine"
+    assert load_record("put_in_bin") is not None  # the bundled record is untouched

@@ -159,7 +159,7 @@ def ground_skill(
     """Ground ``skill`` for ``target``: one localized edit per conflict the diagnosis (or ``rediagnose`` of it) names."""
     started = time.perf_counter()
     robot, api, apis = target.name, target.api, onto.apis
-    diagnosis = diagnose(onto, skill.name, skill.code, robot, source=skill.source_embodiment)
+    diagnosis = diagnose(onto, skill.name, skill.code, robot, skill.source_embodiment, skill.placed_over)
     if rediagnose is not None:
         diagnosis = rediagnose(diagnosis)
     result = GroundedSkill.start(skill, robot, diagnosis, infiller)
@@ -286,6 +286,11 @@ def _check_span(text: str, unit: RefactoringUnit) -> Verdict | None:
             FailureCategory.NON_EXECUTABLE,
             f"the span adds `{ast.unparse(statements[asked])}` after the {asked} statement(s) it was asked for",
         )
+    for call in (n for s in statements for n in ast.walk(s) if isinstance(n, ast.Call)):
+        given = {k.arg: ast.unparse(k.value) for k in call.keywords if k.arg}
+        for barred in unit.hints.exclusions:
+            if (value := given.get(barred.argument)) in barred.names:
+                return Verdict.reject(FailureCategory.HALLUCINATED_KWARG, f"{barred.argument}={value}: {barred.why}")
     return changed_argument(statements, unit.hints.substitute_call)
 
 

@@ -8,13 +8,70 @@ validation then holds the answer to the argument's role (``grounding/grounder.py
 from __future__ import annotations
 
 import ast
+from dataclasses import dataclass
 
 from lerobot_policy_recent.ontology.conversions import OBJECT_NAME, POINTS
 from lerobot_policy_recent.ontology.diagnosis import Conflict
 from lerobot_policy_recent.ontology.skill_code import enclosing_function, position_names
-from lerobot_policy_recent.ontology.specs import ROLE_MEANINGS
+from lerobot_policy_recent.ontology.specs import RECEIVING_ROLES, ROLE_MEANINGS
 
 POSITION_QUERY = "task.get_object_position(name) reads a named object's position [x, y, z] (m, world frame)"
+
+
+@dataclass(frozen=True)
+class Exclusion:
+    """Names an open argument may not take, and why: a place's receptacle is not the object the hand
+    holds (put "on itself"), written as its variable or as its name in quotes. The span is rejected
+    with ``why``, and its retry is held to the other names in scope."""
+
+    argument: str
+    names: tuple[str, ...]  # the held object's variable first, then its default name quoted
+    why: str
+
+
+def exclusions(code: str, conflict: Conflict) -> tuple[Exclusion, ...]:
+    """What the open arguments of ``conflict`` (its substitute's, or a preparatory call's) may not name:
+    a receiving argument (a receptacle, what the hand moves over) never names the object the hand
+    holds there, by the source's data flow. A span is judged while the calls before it are still to
+    be grounded, so the whole program's role check cannot see this there: it blamed the grasp's
+    span instead, three times, and failed the skill."""
+    if conflict.substitute is None or conflict.held is None:
+        return ()
+    held, since = conflict.held
+    spellings = (held, *_quoted_default(code, conflict.span.start, held))
+    sub = conflict.substitute
+    open_ = [(sub.name, p.name, p.role) for name in conflict.unfilled if (p := sub.parameter(name)) is not None]
+    for call, arguments in zip(conflict.preparatory, conflict.preparatory_arguments, strict=False):
+        open_ += [
+            (call, m.target, m.role) for m in arguments if m.conversion is not None and not m.conversion.determined
+        ]
+    found = {}
+    for call, argument, role in open_:
+        if role in RECEIVING_ROLES:
+            why = f"{call}'s {argument} is {ROLE_MEANINGS[role]}, but {held} is the object held since line {since}"
+            found.setdefault(argument, Exclusion(argument, spellings, why))
+    return tuple(found.values())
+
+
+def _quoted_default(code: str, offset: int, name: str) -> tuple[str, ...]:
+    """``"cube"`` and ``'cube'`` where ``name`` is a parameter of the function at ``offset`` with the default ``"cube"``."""
+    func = _function_at(code, offset)
+    if func is None:
+        return ()
+    args = func.args.args
+    for arg, default in zip(args[len(args) - len(func.args.defaults) :], func.args.defaults, strict=True):
+        if arg.arg == name and isinstance(default, ast.Constant) and isinstance(default.value, str):
+            return (f'"{default.value}"', f"'{default.value}'")
+    return ()
+
+
+def _function_at(code: str, offset: int) -> ast.FunctionDef | None:
+    lo, hi = enclosing_function(code, offset)
+    try:
+        func = ast.parse(code[lo:hi]).body[0]
+    except (SyntaxError, IndexError):
+        return None
+    return func if isinstance(func, ast.FunctionDef) else None
 
 
 def decision_facts(code: str, conflict: Conflict) -> tuple[str, ...]:
@@ -37,6 +94,8 @@ def decision_facts(code: str, conflict: Conflict) -> tuple[str, ...]:
     scope = in_scope(code, conflict.span.start)
     if scope:
         lines.append("In scope: " + "; ".join(scope))
+    if conflict.held is not None and exclusions(code, conflict):
+        lines.append(f"The hand holds {conflict.held[0]} here (taken at line {conflict.held[1]})")
     if points:
         lines.append(POSITION_QUERY)
     return tuple(lines)
@@ -60,13 +119,10 @@ def named_by_point(conflict: Conflict) -> tuple[str, ...]:
 
 def in_scope(code: str, offset: int) -> list[str]:
     """The object names and positions the function at ``offset`` holds before it, with their origins."""
+    func = _function_at(code, offset)
+    if func is None:
+        return []
     lo, hi = enclosing_function(code, offset)
-    try:
-        func = ast.parse(code[lo:hi]).body[0]
-    except (SyntaxError, IndexError):
-        return []
-    if not isinstance(func, ast.FunctionDef):
-        return []
     line = code.count("\n", lo, offset) + 1  # the span's line within the function's text
     found: list[str] = []
     args = func.args.args

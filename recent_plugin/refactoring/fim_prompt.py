@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 from lerobot_policy_recent.ontology.diagnosis import SPAN_TYPES, ParameterMapping
 from lerobot_policy_recent.ontology.skill_code import name_variables, variable_kinds
+from lerobot_policy_recent.recent_plugin.refactoring.decisions import Exclusion
 from lerobot_policy_recent.recent_plugin.refactoring.substitution import PLACEHOLDER, has_placeholders
 from lerobot_policy_recent.recent_plugin.refactoring.units import RefactoringUnit, at_indent
 from lerobot_policy_recent.recent_plugin.refactoring.window import WINDOWS, dataflow_window
@@ -93,7 +94,7 @@ def decided_by_rule(unit: RefactoringUnit) -> bool:
     )
 
 
-def call_grammar(call: str, names: tuple[str, ...] = ()) -> str:
+def call_grammar(call: str, names: tuple[str, ...] = (), exclusions: tuple[Exclusion, ...] = ()) -> str:
     """GBNF holding a retry to the ontology's call: its text verbatim, each ``<type>`` placeholder free.
 
     A first attempt is free FIM. After a rejection, a small model tends to copy the same
@@ -103,18 +104,32 @@ def call_grammar(call: str, names: tuple[str, ...] = ()) -> str:
     the 1.5B named a push primitive the robot lacks on all three attempts of a new arm's sweep.
     An ``<object_name>`` is one of the skill's ``names`` (variables holding an object name) or a
     quoted name: left free, the 1.5B wrote the object's position variable there on every retry.
+    A keyword's ``exclusions`` are left out of its names: told that a place's receptacle is not the
+    object the hand holds, the 1.5B still wrote the held object on every retry.
     """
     parts, holes = PLACEHOLDER.split(call), PLACEHOLDER.findall(call)
-    items = []
+    barred: dict[str, set[str]] = {}
+    for exclusion in exclusions:
+        barred.setdefault(exclusion.argument, set()).update(exclusion.names)
+    items, rules = [], {}  # the name rules, by the names each allows
     for i, part in enumerate(parts):
         if part:
             items.append(json.dumps(part, ensure_ascii=False))
-        if i < len(parts) - 1:
-            items.append("name" if holes[i] == "<object_name>" and names else "expr")
-    rules = [f'root ::= {" ".join(items)} "\\n"', "expr ::= [^\\n]+"]
-    if names:
-        rules.append("name ::= " + " | ".join(json.dumps(n) for n in names) + ' | "\\"" [a-zA-Z0-9_]+ "\\""')
-    return "\n".join(rules)
+        if i == len(parts) - 1:
+            continue
+        if holes[i] != "<object_name>" or not names:
+            items.append("expr")
+            continue
+        keyword = re.search(r"(\w+)=$", part)
+        barring = barred.get(keyword.group(1) if keyword else "", set())
+        allowed = tuple(n for n in names if n not in barring)
+        items.append(rules.setdefault(allowed, "name" if allowed == names else f"name-{len(rules)}"))
+    lines = [f'root ::= {" ".join(items)} "\\n"', "expr ::= [^\\n]+"]
+    for allowed, rule in rules.items():
+        # any quoted name, unless names are barred: the held object's own name in quotes passed
+        quoted = [] if allowed != names and allowed else ['"\\"" [a-zA-Z0-9_]+ "\\""']
+        lines.append(f"{rule} ::= " + " | ".join([json.dumps(n) for n in allowed] + quoted))
+    return "\n".join(lines)
 
 
 def unit_name_variables(unit: RefactoringUnit) -> tuple[str, ...]:
@@ -235,7 +250,8 @@ def build_prompt(unit: RefactoringUnit, span_tokens: int, window: str = "functio
     forced = None
     draft = call and at_indent(call, unit.indent)[len(unit.indent) :]  # its later lines at the body's indentation
     if unit.hints.attempt > 0 and call and unit.style is None:
-        grammar = call_grammar(call, unit_name_variables(unit))  # a retry held to the call
+        # a retry held to the call, and its names to those the role allows
+        grammar = call_grammar(call, unit_name_variables(unit), unit.hints.exclusions)
         forced = None if has_placeholders(call) else call + "\n"
         draft = call  # the grammar holds the retry to the call's own lines
     elif call and unit.style is None and unit.span_type not in RUNTIME_SPAN_TYPES and has_placeholders(call):

@@ -14,7 +14,7 @@ from lerobot_policy_recent.ontology.conversions import undetermined_facts
 from lerobot_policy_recent.ontology.diagnosis import Conflict, ParameterMapping
 from lerobot_policy_recent.ontology.skill_code import enclosing_function
 from lerobot_policy_recent.ontology.target import Target
-from lerobot_policy_recent.recent_plugin.refactoring.decisions import decision_facts
+from lerobot_policy_recent.recent_plugin.refactoring.decisions import Exclusion, decision_facts, exclusions
 from lerobot_policy_recent.recent_plugin.refactoring.substitution import render_substitute_call
 
 
@@ -34,6 +34,7 @@ class Hints:
     attempt: int = 0
     observation: str | None = None  # in-situ: what the run-time check saw
     facts: tuple[str, ...] = ()  # what an undetermined conversion's value is (units, frame), not a call to copy
+    exclusions: tuple[Exclusion, ...] = ()  # names an open argument may not take (the held object as a receptacle)
 
     @property
     def robot(self) -> str:
@@ -87,6 +88,7 @@ def unit_from_conflict(
         feedback=feedback,
         attempt=attempt,
         facts=undetermined_facts(conflict) + decision_facts(code, conflict),
+        exclusions=exclusions(code, conflict),
     )
     return cut_unit(code, start, end, conflict.span_type, hints, substitute=sub.name if sub else None)
 
