@@ -24,11 +24,14 @@ from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
+from lerobot_policy_recent.ontology.builder import Ontology
+from lerobot_policy_recent.ontology.diagnosis import Diagnosis, diagnose
 from lerobot_policy_recent.ontology.skill_code import object_of_point, position_names
 from lerobot_policy_recent.recent_plugin.extras import pyplot
 from lerobot_policy_recent.recent_plugin.grounding.grounder import GroundedSkill
 from lerobot_policy_recent.recent_plugin.refactoring.substitution import has_placeholders, render_substitute_call
 from lerobot_policy_recent.recent_plugin.refactoring.units import at_indent
+from lerobot_policy_recent.skills.repository import Skill, load_skills
 
 GROUNDINGS = ("source", "ontology", "lm", "refused", "invalid")
 SYMBOLS = {"source": "·", "ontology": "O", "lm": "L", "refused": "–", "invalid": "✗"}
@@ -81,9 +84,10 @@ class Cell:
     decisions: list[Decision] = field(default_factory=list)  # the LM's, where the code implies the answer
 
 
-def classify(grounded: GroundedSkill, source: str) -> Cell:
+def classify(grounded: GroundedSkill, source: str, keyed: Diagnosis | None = None) -> Cell:
     """The cell of one grounding (see the module's docstring). A span is the LM's when an accepted
-    call was not decided completely by the ontology (``LMCall.decided``)."""
+    call was not decided completely by the ontology (``LMCall.decided``). ``keyed``: the diagnosis
+    with the answers the task's plan implies (:func:`answer_key`), which scores open decisions."""
     cell = Cell(grounded.skill, grounded.robot, "source" if grounded.robot == source else "ontology")
     cell.lm_calls = sum(not c.rendered for c in grounded.calls) if grounded.backend != "rule" else 0
     cell.generated_tokens = grounded.generated_tokens
@@ -98,18 +102,35 @@ def classify(grounded: GroundedSkill, source: str) -> Cell:
         cell.reason = grounded.verdict.message if grounded.verdict is not None else "not validated"
     elif any(c.accepted and not c.decided for c in grounded.calls):
         cell.grounding = "lm"
-    cell.decisions = scored_decisions(grounded)
+    cell.decisions = scored_decisions(grounded, keyed)
     return cell
 
 
-def scored_decisions(grounded: GroundedSkill) -> list[Decision]:
+def answer_key(onto: Ontology, skill: Skill, robot: str) -> Diagnosis | None:
+    """The diagnosis of ``skill`` on ``robot`` with the placements its subtask's reference skill (the
+    bundled one) declares, where the skill declares none: where the task's plan says each object
+    ends, so a receptacle the code leaves open has the answer the plan implies. None where there
+    is no such reference (the skill's own placements already decide what they can)."""
+    if skill.placed_over:
+        return None
+    reference = next((s for s in load_skills()[0] if s.subtask == skill.subtask and s.placed_over), None)
+    if reference is None:
+        return None
+    return diagnose(onto, skill.name, skill.code, robot, skill.source_embodiment, reference.placed_over)
+
+
+def scored_decisions(grounded: GroundedSkill, keyed: Diagnosis | None = None) -> list[Decision]:
     """Each argument of a span the LM answered whose rendering is complete (no ``<type>`` left), its
     first and its accepted answer scored against that rendering, argument by argument: the
-    substitute's and those of the calls made before it (a cup's move over the box it lets go in)."""
+    substitute's and those of the calls made before it (a cup's move over the box it lets go in).
+    A span the ontology left open is scored against its rendering in ``keyed``, where complete."""
     found = []
+    answers = {c.span.start: c for c in keyed.conflicts} if keyed is not None else {}
     for conflict in grounded.diagnosis.conflicts:
         original = conflict.span.text(grounded.original)
         calls = [c for c in grounded.calls if c.kind == "ground" and c.original == original and not c.rendered]
+        if conflict.unfilled and conflict.span.start in answers:
+            conflict = answers[conflict.span.start]
         rendering = render_substitute_call(original, conflict) if conflict.substitute is not None else None
         if not calls or not rendering or has_placeholders(rendering):
             continue
@@ -186,8 +207,9 @@ def ground_cells(agent, skills: list[str], robots: list[str], on_cell=None) -> l
         for robot in robots:
             started = time.perf_counter()
             grounded, hit = agent.ground(name, robot)
-            cell = classify(grounded, skill.source_embodiment)
-            cell.igt_seconds, cell.cached = round(time.perf_counter() - started, 3), hit
+            seconds = round(time.perf_counter() - started, 3)
+            cell = classify(grounded, skill.source_embodiment, answer_key(agent.ontology, skill, robot))
+            cell.igt_seconds, cell.cached = seconds, hit
             cells.append(cell)
             if on_cell is not None:
                 on_cell(cell)

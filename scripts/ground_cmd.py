@@ -45,7 +45,7 @@ def grounding_summary(grounded) -> dict:
         "lm_answers": [
             {"line": call.original, "text": call.text.strip(), "accepted": call.accepted, "message": call.message}
             for call in grounded.calls
-            if not call.rendered and not call.decided
+            if not call.rendered and not call.decided and not call.declined
         ],
         "failure": None
         if grounded.valid

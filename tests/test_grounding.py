@@ -589,3 +589,14 @@ def test_a_skill_that_declares_where_the_held_object_ends_has_its_receptacle_dec
         assert grounded.valid and call in grounded.code and not lm.units, robot
     names = PositionNames({"bin_pos": "receptacle"}, declared={"bin_pos": "obj", "drop": "receptacle"})
     assert names.of("bin_pos") == "receptacle" and names.of("drop") == "receptacle" and names.of("elsewhere") is None
+
+
+def test_the_rule_backend_declines_an_open_decision_once_and_says_why(ontology, rule_infiller):
+    """The rule backend decides nothing the ontology leaves open: one call, no retries of an empty
+    answer, and a reason that names the argument and what would decide it."""
+    grounded = ground_skill(_drop_near_side(), ontology.target("Robotiq85"), ontology, rule_infiller)
+    assert not grounded.valid and len(grounded.calls) == 1 and grounded.calls[0].declined
+    assert grounded.verdict.message.startswith("unrecoverable: could not ground 'place' at line 12 after 1 attempt(s);")
+    assert "the ontology leaves obj_name of place_robotiq85 open, and the rule backend decides nothing" in (
+        grounded.verdict.message
+    )

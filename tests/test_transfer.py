@@ -204,6 +204,32 @@ def test_a_span_of_several_calls_is_scored_call_by_call_wherever_it_stands(ontol
     assert over == ["box"]
 
 
+def test_an_open_receptacle_is_scored_against_where_the_plan_says_the_object_ends(ontology):
+    """The README's own skill declares no placements, so on Robotiq85 the place's receptacle is the
+    LM's to name. Its answer is scored against the ontology's rendering with the placements of the
+    subtask's reference skill (the bundled put_in_bin: obj ends over receptacle)."""
+    from pathlib import Path
+
+    from doubles import ScriptedInfiller
+
+    from lerobot_policy_recent.evaluation.transfer import answer_key
+    from lerobot_policy_recent.recent_plugin.grounding.grounder import ground_skill
+    from lerobot_policy_recent.recent_plugin.infillers.fast_path import FastPathInfiller
+    from lerobot_policy_recent.skills.repository import serve_skill
+
+    mine = serve_skill("put_in_bin", Path(__file__).parents[1] / "examples" / "skills")
+    place = "place_robotiq85(env, task, obj_name={}, pointing_to='down')"
+    lm = ScriptedInfiller([place.format("obj"), place.format("receptacle")])
+    grounded = ground_skill(mine, ontology.target("Robotiq85"), ontology, FastPathInfiller(lm))
+    cell = classify(grounded, "Panda", answer_key(ontology, mine, "Robotiq85"))
+    assert cell.grounding == "lm"
+    assert [(d.role, d.expected, d.attempts, d.right_first, d.right) for d in cell.decisions] == [
+        ("release_receptacle", "receptacle", 2, False, True),
+        ("approach_direction", "'down'", 2, True, True),
+    ]
+    assert classify(grounded, "Panda").decisions == []  # without the key, nothing says what is right
+
+
 def test_bad_execution_options_are_named_before_anything_is_grounded(tmp_path):
     base = [sys.executable, "-m", "lerobot_policy_recent.scripts.cli", "transfer", "--execute", f"--out={tmp_path}"]
     for option, message in (

@@ -49,6 +49,7 @@ class LMCall:
     prompt_seconds: float = 0.0  # of ``seconds``: prompt evaluation (0 where the backend does not measure it)
     generation_seconds: float = 0.0  # of ``seconds``: generation
     forced: bool = False  # the grammar admitted one text, returned without running the model (still a call)
+    declined: bool = False  # the backend cannot decide this span (the rule backend, an open argument): not retried
 
 
 def call_events(skill: str, call: LMCall) -> list[Event]:
@@ -131,6 +132,8 @@ def infill_until_valid(
             return None
         text = clean(completion.text, unit)
         verdict, candidate = judge(unit, text)
+        if completion.declined and not verdict.ok:
+            verdict = Verdict.reject(verdict.category, completion.declined)
         calls.append(
             LMCall(
                 kind=kind,
@@ -153,10 +156,13 @@ def infill_until_valid(
                 prompt_seconds=completion.prompt_seconds,
                 generation_seconds=completion.generation_seconds,
                 forced=completion.forced,
+                declined=bool(completion.declined),
             )
         )
         if verdict.ok:
             return Attempt(unit, text, candidate, verdict)
+        if completion.declined:
+            return None  # no feedback changes what the backend can decide
         feedback = verdict.message
     return None
 

@@ -173,10 +173,12 @@ def ground_skill(
         accepted = _resolve(result, conflict, pending, target, infiller, apis, max_retries)
         if accepted is None:
             tried = len(result.calls) - made
+            declined = tried and result.calls[-1].declined
             why = (
                 f"after {max_retries + 1} attempts"
                 if tried > max_retries
-                else f"after {tried} attempt(s): the task's LM call budget is spent"  # no further call was made
+                else f"after {tried} attempt(s)"
+                + ("" if declined else ": the task's LM call budget is spent")  # no further call was made
             )
             last = result.calls[-1].message if len(result.calls) > made and result.calls[-1].message else ""
             result.verdict = unrecoverable(

@@ -22,6 +22,9 @@ class Completion:
     # system line and instruction (ChatML, or the model's template); empty where a backend has none
     prompt: str = ""
     forced: bool = False  # the grammar admitted this one text: the model was not run (it would have copied it)
+    # why the backend writes nothing for this unit, whatever the feedback (the rule backend, where the
+    # ontology leaves an argument open): the span is not asked again
+    declined: str = ""
 
 
 class Infiller(Protocol):

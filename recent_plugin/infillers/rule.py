@@ -23,8 +23,15 @@ class RuleInfiller:
     def infill(self, unit: RefactoringUnit) -> Completion:
         started = time.perf_counter()
         call = unit.hints.substitute_call or ""
-        text = "" if has_placeholders(call) else call
-        return Completion(text=text, generated_tokens=0, seconds=time.perf_counter() - started)
+        if has_placeholders(call):
+            open_ = ", ".join(unit.hints.unfilled) or "an argument"
+            why = (
+                f"the ontology leaves {open_} of {unit.substitute or 'the call'} open, and the rule backend "
+                "decides nothing: ground with an LM (--infiller.type llamacpp), or give the skill's metadata "
+                "what decides it (docs/add_a_skill.md)"
+            )
+            return Completion(text="", generated_tokens=0, seconds=time.perf_counter() - started, declined=why)
+        return Completion(text=call, generated_tokens=0, seconds=time.perf_counter() - started)
 
     def count_tokens(self, text: str) -> int:
         return approximate_tokens(text)
