@@ -95,6 +95,9 @@ class Conflict:
     # what the hand holds as the call starts, by the source's data flow: the object and the line of the
     # grasp that took it (a place's receptacle is never it); None where nothing known is held
     held: tuple[str, int] | None = None
+    # the original's point argument whose object the skill's ``placements`` named, where no one
+    # position places it (the held object ends over that object): how the hint says where it came from
+    by_placements: str = ""
     # the call has no counterpart to make and is dropped (rendered as ``pass``): a hand closed only to
     # push with, on an end effector that takes no shape (see :func:`_shaping_only`)
     omitted: bool = False
@@ -210,8 +213,9 @@ def diagnose(
             target = None  # the same name, another interface (the two Panda APIs' picks: a position, a name)
         if target is None:
             held_at = None if held is None else (held[0], sites[held[1]].span.line)
-            site_names = _declared_release(original, site, names, held, placements or {})
-            conflict = replace(_conflict(onto, site, original, source, robot, site_names, sites, held), held=held_at)
+            site_names, declared = _declared_release(original, site, names, held, placements or {})
+            conflict = _conflict(onto, site, original, source, robot, site_names, sites, held)
+            conflict = replace(conflict, held=held_at, by_placements=declared)
             conflicts.append(conflict)
             target = conflict.substitute
         if target is not None:
@@ -229,16 +233,17 @@ def _declared_release(
     names: PositionNames,
     held: tuple[str, int] | None,
     placements: Mapping[str, str],
-) -> PositionNames:
+) -> tuple[PositionNames, str]:
     """``names``, where the skill declares where the object the hand holds at a place ends, with the
-    place's release point naming that object (a drop point two objects place, over the bin); a
-    point that one object's position places keeps naming that object."""
+    place's release point naming that object (a drop point two objects place, over the bin), and
+    the point's parameter (empty where nothing was declared); a point that one object's position
+    places keeps naming that object."""
     point = original.by_role(RELEASE_POINT)
     over = placements.get(held[0]) if held is not None else None
     expression = dict(site.arguments).get(point.name) if point is not None else None
-    if over is None or expression is None:
-        return names
-    return replace(names, declared={**names.declared, expression: over})
+    if over is None or expression is None or names.of(expression) is not None:
+        return names, ""
+    return replace(names, declared={**names.declared, expression: over}), point.name
 
 
 def _same_signature(original: PrimitiveSpec, target: PrimitiveSpec) -> bool:

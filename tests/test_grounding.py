@@ -553,6 +553,12 @@ def test_a_cups_move_over_the_receptacle_may_not_name_the_held_object_either(ont
     assert grounded.valid, grounded.verdict
     rejected = next(c for c in grounded.calls if not c.accepted)
     assert rejected.message.startswith("obj_name=obj: move_gripper_to's obj_name is what the hand moves over")
+    conflict = grounded.diagnosis.conflicts[-1]
+    retry = build_prompt(
+        unit_from_conflict(skill.code, conflict, ontology.target("Suction"), feedback="no", attempt=1), 20
+    )
+    assert retry.grammar.splitlines()[0].startswith('root ::= "move_gripper_to(env, task, obj_name=" name-0 ")')
+    assert 'name-0 ::= "receptacle"' in retry.grammar.splitlines()
     assert "move_gripper_to(env, task, obj_name=receptacle)" in grounded.code
 
 
@@ -587,6 +593,12 @@ def test_a_skill_that_declares_where_the_held_object_ends_has_its_receptacle_dec
     ):
         grounded = ground_skill(declared, ontology.target(robot), ontology, FastPathInfiller(lm))
         assert grounded.valid and call in grounded.code and not lm.units, robot
+    conflict = diagnose(ontology, declared.name, declared.code, "Robotiq85", "Panda", declared.placed_over).conflicts[
+        -1
+    ]
+    assert not conflict.unfilled and conflict.by_placements == "target_pos"
+    hint = "obj_name is what the held object is put on or into: receptacle, where the skill's placements put obj"
+    assert hint in "\n".join(unit_from_conflict(declared.code, conflict, ontology.target("Robotiq85")).hints.facts)
     names = PositionNames({"bin_pos": "receptacle"}, declared={"bin_pos": "obj", "drop": "receptacle"})
     assert names.of("bin_pos") == "receptacle" and names.of("drop") == "receptacle" and names.of("elsewhere") is None
 

@@ -290,7 +290,7 @@ def _check_span(text: str, unit: RefactoringUnit) -> Verdict | None:
         )
     for call in (n for s in statements for n in ast.walk(s) if isinstance(n, ast.Call)):
         given = {k.arg: ast.unparse(k.value) for k in call.keywords if k.arg}
-        for barred in unit.hints.exclusions:
+        for barred in (b for b in unit.hints.exclusions if b.call == ast.unparse(call.func)):
             if (value := given.get(barred.argument)) in barred.names:
                 return Verdict.reject(FailureCategory.HALLUCINATED_KWARG, f"{barred.argument}={value}: {barred.why}")
     return changed_argument(statements, unit.hints.substitute_call)

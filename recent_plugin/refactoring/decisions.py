@@ -24,6 +24,7 @@ class Exclusion:
     holds (put "on itself"), written as its variable or as its name in quotes. The span is rejected
     with ``why``, and its retry is held to the other names in scope."""
 
+    call: str  # the callee whose argument it is (the substitute, or a call made before it)
     argument: str
     names: tuple[str, ...]  # the held object's variable first, then its default name quoted
     why: str
@@ -49,7 +50,7 @@ def exclusions(code: str, conflict: Conflict) -> tuple[Exclusion, ...]:
     for call, argument, role in open_:
         if role in RECEIVING_ROLES:
             why = f"{call}'s {argument} is {ROLE_MEANINGS[role]}, but {held} is the object held since line {since}"
-            found.setdefault(argument, Exclusion(argument, spellings, why))
+            found.setdefault((call, argument), Exclusion(call, argument, spellings, why))
     return tuple(found.values())
 
 
@@ -110,10 +111,13 @@ def named_by_point(conflict: Conflict) -> tuple[str, ...]:
     for m in conflict.mapping:
         param = conflict.substitute.parameter(m.target)
         meaning = ROLE_MEANINGS.get(param.role) if param is not None and param.type == OBJECT_NAME else None
-        if meaning and m.conversion is not None and m.conversion.determined and m.source:
-            lines.append(
-                f"{m.target} is {meaning}: {m.conversion.template}, whose position places {conflict.original}'s {m.source}"
-            )
+        if not (meaning and m.conversion is not None and m.conversion.determined and m.source):
+            continue
+        if m.source == conflict.by_placements and conflict.held is not None:
+            why = f"where the skill's placements put {conflict.held[0]}, which the hand holds here"
+        else:
+            why = f"whose position places {conflict.original}'s {m.source}"
+        lines.append(f"{m.target} is {meaning}: {m.conversion.template}, {why}")
     return tuple(lines)
 
 

@@ -108,11 +108,12 @@ def call_grammar(call: str, names: tuple[str, ...] = (), exclusions: tuple[Exclu
     object the hand holds, the 1.5B still wrote the held object on every retry.
     """
     parts, holes = PLACEHOLDER.split(call), PLACEHOLDER.findall(call)
-    barred: dict[str, set[str]] = {}
+    barred: dict[tuple[str, str], set[str]] = {}
     for exclusion in exclusions:
-        barred.setdefault(exclusion.argument, set()).update(exclusion.names)
-    items, rules = [], {}  # the name rules, by the names each allows
+        barred.setdefault((exclusion.call, exclusion.argument), set()).update(exclusion.names)
+    items, rules, written = [], {}, ""  # the name rules, by the names each allows
     for i, part in enumerate(parts):
+        written += part
         if part:
             items.append(json.dumps(part, ensure_ascii=False))
         if i == len(parts) - 1:
@@ -121,7 +122,7 @@ def call_grammar(call: str, names: tuple[str, ...] = (), exclusions: tuple[Exclu
             items.append("expr")
             continue
         keyword = re.search(r"(\w+)=$", part)
-        barring = barred.get(keyword.group(1) if keyword else "", set())
+        barring = barred.get((_open_call(written), keyword.group(1) if keyword else ""), set())
         allowed = tuple(n for n in names if n not in barring)
         items.append(rules.setdefault(allowed, "name" if allowed == names else f"name-{len(rules)}"))
     lines = [f'root ::= {" ".join(items)} "\\n"', "expr ::= [^\\n]+"]
@@ -130,6 +131,18 @@ def call_grammar(call: str, names: tuple[str, ...] = (), exclusions: tuple[Exclu
         quoted = [] if allowed != names and allowed else ['"\\"" [a-zA-Z0-9_]+ "\\""']
         lines.append(f"{rule} ::= " + " | ".join([json.dumps(n) for n in allowed] + quoted))
     return "\n".join(lines)
+
+
+def _open_call(text: str) -> str:
+    """The callee whose parentheses ``text`` leaves open last: whose argument comes next."""
+    callees: list[str] = []
+    for bracket in re.finditer(r"([\w.]*)\(|\)", text):
+        if bracket.group(0) == ")":
+            if callees:
+                callees.pop()
+        else:
+            callees.append(bracket.group(1))
+    return callees[-1] if callees else ""
 
 
 def unit_name_variables(unit: RefactoringUnit) -> tuple[str, ...]:
