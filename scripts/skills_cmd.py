@@ -58,7 +58,13 @@ def register(sub) -> None:
     gen.add_argument("--base_url", required=True, help="e.g. https://api.openai.com or http://localhost:8000")
     gen.add_argument("--model", required=True)
     gen.add_argument("--api_key_env", default="OPENAI_API_KEY", help="environment variable holding the key")
-    gen.add_argument("--library", type=Path, default=LIBRARY, help="where to store the skill (default: bundled)")
+    gen.add_argument(
+        "--skill_library",
+        type=Path,
+        default=LIBRARY,
+        metavar="DIR",
+        help="where to store the skill, with its record in DIR/validation/ (default: the bundled library)",
+    )
     gen.add_argument("--force", action="store_true", help="replace an existing skill of that name")
     gen.set_defaults(handler=_generate)
 
@@ -177,7 +183,7 @@ def _generate(args) -> int:
             base_url=args.base_url,
             model=args.model,
             api_key=os.environ.get(args.api_key_env),
-            library=args.library,
+            library=args.skill_library,
             force=args.force,
             on_episode=lambda seed, reason: bar.update(1),
         )
