@@ -39,7 +39,9 @@ def test_prompt_renders_hints_as_comments_before_the_span(ontology, put_in_bin):
     assert "map target_pos -> grasp_pos; drop approach_axis" in prompt.prefix
     assert prompt.prefix.splitlines()[-2] == "    # Call exactly: ur5_grasp_at(env, task, grasp_pos=obj_pos)"
     assert prompt.prefix.endswith("\n    ") and prompt.stop[0] == "\n"
-    assert prompt.grammar.startswith("root ::= [a-zA-Z_]")  # a statement, never a comment
+    # a statement, never a comment: the call the ontology determined, its arguments free (the 1.5B
+    # otherwise wrote `task.move_to_position([...])`, a method of the task, on every traced move)
+    assert prompt.grammar == 'root ::= "ur5_grasp_at(" [^\\n]* "\\n"?'
     assert "pick(env, task" not in prompt.suffix  # the span itself is not in the prompt's code
 
 
@@ -79,7 +81,7 @@ def test_a_retry_is_held_to_the_ontology_call_with_only_the_placeholders_free(on
         return first, retry
 
     first, retry = prompts("UR5e", 1)
-    assert first.grammar.startswith("root ::= [a-zA-Z_]")  # the first attempt is free FIM
+    assert first.grammar.startswith('root ::= "ur5_grasp_at(" [^')  # the first attempt's arguments are free
     assert retry.grammar.splitlines()[0] == 'root ::= "ur5_grasp_at(env, task, grasp_pos=obj_pos)" "\\n"'
     # a pick between two objects leaves Sawyer's target_object to the LM: a name, not a position
     conflict = diagnose(ontology, "pick_between", PICK_BETWEEN, "Sawyer").conflicts[0]

@@ -260,6 +260,10 @@ def build_prompt(unit: RefactoringUnit, span_tokens: int, window: str = "functio
         grammar = statement_lines(call.count("\n") + 1)
     if call and unit.span_type in RUNTIME_SPAN_TYPES:
         grammar = patch_grammar(call) or grammar
+    elif single_line and unit.style is None and unit.substitute and call and call.startswith(f"{unit.substitute}("):
+        # the call the ontology determined, its arguments free: left to begin the line, the 1.5B wrote
+        # the right point as `task.move_to_position([...])`, a method of the task, on every traced move
+        grammar = f'root ::= {json.dumps(unit.substitute + "(")} [^\\n]* "\\n"?'
     forced = None
     draft = call and at_indent(call, unit.indent)[len(unit.indent) :]  # its later lines at the body's indentation
     if unit.hints.attempt > 0 and call and unit.style is None:
