@@ -20,7 +20,7 @@ import ast
 import json
 import textwrap
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
@@ -106,17 +106,23 @@ def classify(grounded: GroundedSkill, source: str, keyed: Diagnosis | None = Non
     return cell
 
 
-def answer_key(onto: Ontology, skill: Skill, robot: str) -> Diagnosis | None:
-    """The diagnosis of ``skill`` on ``robot`` with the placements its subtask's reference skill (the
-    bundled one) declares, where the skill declares none: where the task's plan says each object
-    ends, so a receptacle the code leaves open has the answer the plan implies. None where there
-    is no such reference (the skill's own placements already decide what they can)."""
-    if skill.placed_over:
+def answer_key(
+    onto: Ontology, skill: Skill, robot: str, references: Mapping[str, Mapping[str, str]]
+) -> Diagnosis | None:
+    """The diagnosis of ``skill`` on ``robot`` with the placements its subtask's reference skill
+    declares (``references``: subtask -> placements, :func:`reference_placements`), where the skill
+    declares none: where the task's plan says each object ends, so a receptacle the code leaves open
+    has the answer the plan implies. None where there is no such reference (the skill's own
+    placements already decide what they can)."""
+    placements = references.get(skill.subtask)
+    if skill.placed_over or not placements:
         return None
-    reference = next((s for s in load_skills()[0] if s.subtask == skill.subtask and s.placed_over), None)
-    if reference is None:
-        return None
-    return diagnose(onto, skill.name, skill.code, robot, skill.source_embodiment, reference.placed_over)
+    return diagnose(onto, skill.name, skill.code, robot, skill.source_embodiment, placements)
+
+
+def reference_placements() -> dict[str, dict[str, str]]:
+    """Where each subtask's reference skill (the bundled library's) says the objects it moves end."""
+    return {s.subtask: s.placed_over for s in load_skills()[0] if s.placed_over}
 
 
 def scored_decisions(grounded: GroundedSkill, keyed: Diagnosis | None = None) -> list[Decision]:
@@ -201,14 +207,16 @@ def decision_lines(cells: list[Cell]) -> list[str]:
 
 def ground_cells(agent, skills: list[str], robots: list[str], on_cell=None) -> list[Cell]:
     """Ground every (skill, robot) with ``agent`` (its method, LM and ontology); ``on_cell`` hears each."""
-    cells = []
+    cells, references = [], reference_placements()
     for name in skills:
         skill = agent.skill(name)
         for robot in robots:
             started = time.perf_counter()
             grounded, hit = agent.ground(name, robot)
             seconds = round(time.perf_counter() - started, 3)
-            cell = classify(grounded, skill.source_embodiment, answer_key(agent.ontology, skill, robot))
+            open_ = any(c.unfilled for c in grounded.diagnosis.conflicts)
+            keyed = answer_key(agent.ontology, skill, robot, references) if open_ else None
+            cell = classify(grounded, skill.source_embodiment, keyed)
             cell.igt_seconds, cell.cached = seconds, hit
             cells.append(cell)
             if on_cell is not None:

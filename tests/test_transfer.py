@@ -212,7 +212,7 @@ def test_an_open_receptacle_is_scored_against_where_the_plan_says_the_object_end
 
     from doubles import ScriptedInfiller
 
-    from lerobot_policy_recent.evaluation.transfer import answer_key
+    from lerobot_policy_recent.evaluation.transfer import answer_key, reference_placements
     from lerobot_policy_recent.recent_plugin.grounding.grounder import ground_skill
     from lerobot_policy_recent.recent_plugin.infillers.fast_path import FastPathInfiller
     from lerobot_policy_recent.skills.repository import serve_skill
@@ -221,7 +221,8 @@ def test_an_open_receptacle_is_scored_against_where_the_plan_says_the_object_end
     place = "place_robotiq85(env, task, obj_name={}, pointing_to='down')"
     lm = ScriptedInfiller([place.format("obj"), place.format("receptacle")])
     grounded = ground_skill(mine, ontology.target("Robotiq85"), ontology, FastPathInfiller(lm))
-    cell = classify(grounded, "Panda", answer_key(ontology, mine, "Robotiq85"))
+    assert reference_placements()["put_in_bin"] == {"obj": "receptacle"}
+    cell = classify(grounded, "Panda", answer_key(ontology, mine, "Robotiq85", reference_placements()))
     assert cell.grounding == "lm"
     assert [(d.role, d.expected, d.attempts, d.right_first, d.right) for d in cell.decisions] == [
         ("release_receptacle", "receptacle", 2, False, True),

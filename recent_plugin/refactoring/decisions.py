@@ -57,13 +57,15 @@ def exclusions(code: str, conflict: Conflict) -> tuple[Exclusion, ...]:
 def _quoted_default(code: str, offset: int, name: str) -> tuple[str, ...]:
     """``"cube"`` and ``'cube'`` where ``name`` is a parameter of the function at ``offset`` with the default ``"cube"``."""
     func = _function_at(code, offset)
-    if func is None:
-        return ()
+    default = _name_defaults(func).get(name) if func is not None else None
+    return (f'"{default}"', f"'{default}'") if default is not None else ()
+
+
+def _name_defaults(func: ast.FunctionDef) -> dict[str, str]:
+    """The function's parameters whose default is a string (an object's name), with it."""
     args = func.args.args
-    for arg, default in zip(args[len(args) - len(func.args.defaults) :], func.args.defaults, strict=True):
-        if arg.arg == name and isinstance(default, ast.Constant) and isinstance(default.value, str):
-            return (f'"{default.value}"', f"'{default.value}'")
-    return ()
+    pairs = zip(args[len(args) - len(func.args.defaults) :], func.args.defaults, strict=True)
+    return {a.arg: d.value for a, d in pairs if isinstance(d, ast.Constant) and isinstance(d.value, str)}
 
 
 def _function_at(code: str, offset: int) -> ast.FunctionDef | None:
@@ -128,11 +130,9 @@ def in_scope(code: str, offset: int) -> list[str]:
         return []
     lo, hi = enclosing_function(code, offset)
     line = code.count("\n", lo, offset) + 1  # the span's line within the function's text
-    found: list[str] = []
-    args = func.args.args
-    for arg, default in zip(args[len(args) - len(func.args.defaults) :], func.args.defaults, strict=True):
-        if isinstance(default, ast.Constant) and isinstance(default.value, str):
-            found.append(f"{arg.arg} (an object name, a parameter: {default.value!r} by default)")
+    found = [
+        f"{arg} (an object name, a parameter: {default!r} by default)" for arg, default in _name_defaults(func).items()
+    ]
     positions = position_names(code[lo:hi]).variables
     for node in ast.walk(func):
         if not (isinstance(node, ast.Assign) and len(node.targets) == 1 and isinstance(node.targets[0], ast.Name)):
