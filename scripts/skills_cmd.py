@@ -8,7 +8,7 @@ import os
 from pathlib import Path
 
 from lerobot_policy_recent.recent_plugin.authoring.sim_validation import validate
-from lerobot_policy_recent.robosuite_envs.suites import SEEDS
+from lerobot_policy_recent.robosuite_envs.suites import SEEDS, validation_task
 from lerobot_policy_recent.skills.records import load_record, records_dir, save_record
 from lerobot_policy_recent.skills.repository import (
     LIBRARY,
@@ -157,6 +157,14 @@ def _validate(args) -> int:
     names = args.skill or list_skills(args.skill_library)
     # unknown names fail before anything runs; a user's skill is validated in its own library
     skills = [load_skill(name, skill_home(name, args.skill_library)) for name in names]
+    for skill in skills:  # each runs in its subtask's single-subtask task
+        try:
+            validation_task(skill.subtask)
+        except KeyError:
+            raise ValueError(
+                f"{skill.path.with_suffix('.yaml')}: field 'subtask': {skill.subtask!r} has no single-subtask task "
+                "to validate in (`recent envs list` shows the subtasks)"
+            ) from None
     seeds = DEV_SEEDS if args.seeds == "dev" else SEEDS
     failed, saved = [], set()
     with tqdm(total=len(seeds) * len(skills), unit="episode", desc="validate") as bar:

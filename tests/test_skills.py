@@ -223,6 +223,11 @@ def test_the_skills_commands_read_a_users_library_and_name_a_bad_one(capsys, tmp
     )
     with pytest.raises(ValueError, match="--skill_library: .* is not a directory"):
         RecentSettings(skill_library=str(tmp_path / "absent"))
+    shutil.copytree(EXAMPLES, tmp_path / "mine")
+    meta = tmp_path / "mine" / "put_in_bin.yaml"
+    meta.write_text(meta.read_text().replace("subtask: put_in_bin", "subtask: put_in_pocket"))
+    assert main(["skills", "validate", "--skill_library", str(tmp_path / "mine")]) == 2  # before any episode
+    assert f"{meta}: field 'subtask': 'put_in_pocket' has no single-subtask task" in capsys.readouterr().err
 
 
 @pytest.mark.slow
