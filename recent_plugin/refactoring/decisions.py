@@ -39,19 +39,25 @@ def exclusions(code: str, conflict: Conflict) -> tuple[Exclusion, ...]:
     if conflict.substitute is None or conflict.held is None:
         return ()
     held, since = conflict.held
-    spellings = (held, *_quoted_default(code, conflict.span.start, held))
     sub = conflict.substitute
     open_ = [(sub.name, p.name, p.role) for name in conflict.unfilled if (p := sub.parameter(name)) is not None]
     for call, arguments in zip(conflict.preparatory, conflict.preparatory_arguments, strict=False):
         open_ += [
             (call, m.target, m.role) for m in arguments if m.conversion is not None and not m.conversion.determined
         ]
-    found = {}
-    for call, argument, role in open_:
-        if role in RECEIVING_ROLES:
-            why = f"{call}'s {argument} is {ROLE_MEANINGS[role]}, but {held} is the object held since line {since}"
-            found.setdefault((call, argument), Exclusion(call, argument, spellings, why))
-    return tuple(found.values())
+    receiving = dict.fromkeys((call, argument, role) for call, argument, role in open_ if role in RECEIVING_ROLES)
+    if not receiving:
+        return ()
+    spellings = (held, *_quoted_default(code, conflict.span.start, held))
+    return tuple(
+        Exclusion(
+            call,
+            argument,
+            spellings,
+            f"{call}'s {argument} is {ROLE_MEANINGS[role]}, but {held} is the object held since line {since}",
+        )
+        for call, argument, role in receiving
+    )
 
 
 def _quoted_default(code: str, offset: int, name: str) -> tuple[str, ...]:
@@ -77,9 +83,10 @@ def _function_at(code: str, offset: int) -> ast.FunctionDef | None:
     return func if isinstance(func, ast.FunctionDef) else None
 
 
-def decision_facts(code: str, conflict: Conflict) -> tuple[str, ...]:
+def decision_facts(code: str, conflict: Conflict, barred: tuple[Exclusion, ...] = ()) -> tuple[str, ...]:
     """The hint lines for ``conflict``'s unfilled arguments, or, where nothing is left open, for the
-    names the ontology took from a point (:func:`named_by_point`)."""
+    names the ontology took from a point (:func:`named_by_point`). ``barred``: its
+    :func:`exclusions`, whose held object the hint names."""
     if conflict.substitute is None:
         return ()
     if not conflict.unfilled:
@@ -97,7 +104,7 @@ def decision_facts(code: str, conflict: Conflict) -> tuple[str, ...]:
     scope = in_scope(code, conflict.span.start)
     if scope:
         lines.append("In scope: " + "; ".join(scope))
-    if conflict.held is not None and exclusions(code, conflict):
+    if conflict.held is not None and barred:
         lines.append(f"The hand holds {conflict.held[0]} here (taken at line {conflict.held[1]})")
     if points:
         lines.append(POSITION_QUERY)

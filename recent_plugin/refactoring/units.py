@@ -76,6 +76,7 @@ def unit_from_conflict(
     """Cut a unit for ``conflict`` from ``code`` (conflicts are resolved last-first, so offsets hold)."""
     start, end = conflict.span.start, conflict.span.end
     sub = conflict.substitute
+    barred = exclusions(code, conflict)
     hints = Hints(
         target=target,
         original_call=code[start:end],
@@ -87,8 +88,8 @@ def unit_from_conflict(
         reason=conflict.reason,
         feedback=feedback,
         attempt=attempt,
-        facts=undetermined_facts(conflict) + decision_facts(code, conflict),
-        exclusions=exclusions(code, conflict),
+        facts=undetermined_facts(conflict) + decision_facts(code, conflict, barred),
+        exclusions=barred,
     )
     return cut_unit(code, start, end, conflict.span_type, hints, substitute=sub.name if sub else None)
 
