@@ -306,6 +306,24 @@ def name_variables(kinds: dict[str, str]) -> tuple[str, ...]:
     return tuple(sorted(n for n, kind in kinds.items() if kind == "name"))
 
 
+def object_literals(func: ast.FunctionDef) -> tuple[str, ...]:
+    """Object names the function writes in quotes where a task query reads them
+    (``task.get_object_position("table")``), in order of first use: names in scope that no variable
+    holds."""
+    found = [
+        node.args[0].value
+        for node in ast.walk(func)
+        if isinstance(node, ast.Call)
+        and isinstance(node.func, ast.Attribute)
+        and isinstance(node.func.value, ast.Name)
+        and node.func.value.id == "task"
+        and node.args
+        and isinstance(node.args[0], ast.Constant)
+        and isinstance(node.args[0].value, str)
+    ]
+    return tuple(dict.fromkeys(found))
+
+
 def _expression_kind(value: ast.expr) -> str | None:
     if (
         isinstance(value, ast.Call)

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import ast
 import difflib
+import json
 import textwrap
 import time
 from collections.abc import Callable
@@ -29,7 +30,12 @@ from lerobot_policy_recent.recent_plugin.grounding.attempts import (
 from lerobot_policy_recent.recent_plugin.grounding.gate import Verdict, security_gate, validate_program
 from lerobot_policy_recent.recent_plugin.infillers.base import Infiller
 from lerobot_policy_recent.recent_plugin.refactoring.substitution import PLACEHOLDER
-from lerobot_policy_recent.recent_plugin.refactoring.units import RefactoringUnit, apply_unit, unit_from_conflict
+from lerobot_policy_recent.recent_plugin.refactoring.units import (
+    RefactoringUnit,
+    apply_unit,
+    names_in_scope,
+    unit_from_conflict,
+)
 from lerobot_policy_recent.skills.repository import Skill
 
 
@@ -293,7 +299,37 @@ def _check_span(text: str, unit: RefactoringUnit) -> Verdict | None:
         for barred in (b for b in unit.hints.exclusions if b.call == ast.unparse(call.func)):
             if (value := given.get(barred.argument)) in barred.names:
                 return Verdict.reject(FailureCategory.HALLUCINATED_KWARG, f"{barred.argument}={value}: {barred.why}")
-    return changed_argument(statements, unit.hints.substitute_call)
+    return _unknown_name(statements, unit) or changed_argument(statements, unit.hints.substitute_call)
+
+
+def _unknown_name(statements: list[ast.stmt], unit: RefactoringUnit) -> Verdict | None:
+    """An object name the LM wrote in quotes where the ontology's call leaves a name open must be one
+    the skill knows (:func:`names_in_scope`): the 1.5B wrote ``obj_name="cube1"``, which no task has."""
+    hole = "_object_name_hole"
+    try:
+        wanted = ast.parse(textwrap.dedent(unit.hints.substitute_call or "").replace("<object_name>", hole))
+    except SyntaxError:
+        return None
+    open_ = {
+        (ast.unparse(n.func), k.arg)
+        for n in ast.walk(wanted)
+        if isinstance(n, ast.Call)
+        for k in n.keywords
+        if isinstance(k.value, ast.Name) and k.value.id == hole
+    }
+    for call in (n for s in statements for n in ast.walk(s) if isinstance(n, ast.Call)):
+        for k in call.keywords:
+            quoted = isinstance(k.value, ast.Constant) and isinstance(k.value.value, str)
+            if not quoted or (ast.unparse(call.func), k.arg) not in open_:
+                continue
+            names = names_in_scope(unit)
+            if json.dumps(k.value.value) not in names:
+                known = ", ".join(names) or "none"
+                return Verdict.reject(
+                    FailureCategory.HALLUCINATED_KWARG,
+                    f"{k.arg}={ast.unparse(k.value)}: no object of that name is in scope (names here: {known})",
+                )
+    return None
 
 
 def _statement_count(code: str | None) -> int:

@@ -12,10 +12,9 @@ import re
 from dataclasses import dataclass
 
 from lerobot_policy_recent.ontology.diagnosis import SPAN_TYPES, ParameterMapping
-from lerobot_policy_recent.ontology.skill_code import name_variables, variable_kinds
 from lerobot_policy_recent.recent_plugin.refactoring.decisions import Exclusion
 from lerobot_policy_recent.recent_plugin.refactoring.substitution import PLACEHOLDER, has_placeholders
-from lerobot_policy_recent.recent_plugin.refactoring.units import RefactoringUnit, at_indent
+from lerobot_policy_recent.recent_plugin.refactoring.units import RefactoringUnit, at_indent, names_in_scope
 from lerobot_policy_recent.recent_plugin.refactoring.window import WINDOWS, dataflow_window
 
 # GBNF grammars for RECENT's localized spans: code statements, never comments (a small model
@@ -95,17 +94,19 @@ def decided_by_rule(unit: RefactoringUnit) -> bool:
 
 
 def call_grammar(call: str, names: tuple[str, ...] = (), exclusions: tuple[Exclusion, ...] = ()) -> str:
-    """GBNF holding a retry to the ontology's call: its text verbatim, each ``<type>`` placeholder free.
+    """GBNF holding an answer to the ontology's call: its text verbatim, each ``<type>`` placeholder free.
 
-    A first attempt is free FIM. After a rejection, a small model tends to copy the same
-    neighbouring line again; constraining the retry keeps what the ontology decided (the
-    substitute, the keywords, the carried-over values) and leaves the LM only what it did not.
-    A run-time patch's retry is held the same way to the statements its check wrote: left free,
-    the 1.5B named a push primitive the robot lacks on all three attempts of a new arm's sweep.
-    An ``<object_name>`` is one of the skill's ``names`` (variables holding an object name) or a
-    quoted name: left free, the 1.5B wrote the object's position variable there on every retry.
-    A keyword's ``exclusions`` are left out of its names: told that a place's receptacle is not the
-    object the hand holds, the 1.5B still wrote the held object on every retry.
+    A first attempt at an open decision is held to the call's form: left free, the 1.5B wrote
+    `put_xyz = task.get_object_position(middle)`, an assignment, not the call. After a rejection, a
+    small model tends to copy the same neighbouring line again; constraining the retry keeps what
+    the ontology decided (the substitute, the keywords, the carried-over values) and leaves the LM
+    only what it did not. A run-time patch's retry is held the same way to the statements its check
+    wrote: left free, the 1.5B named a push primitive the robot lacks on all three attempts of a new
+    arm's sweep. An ``<object_name>`` is one of the ``names`` in scope
+    (:func:`~lerobot_policy_recent.recent_plugin.refactoring.units.names_in_scope`; left free, the
+    1.5B wrote the object's position variable there on every retry), less a keyword's
+    ``exclusions``: told in the hint that a place's receptacle is not the object the hand holds, the
+    1.5B still wrote the held object at every first answer.
     """
     parts, holes = PLACEHOLDER.split(call), PLACEHOLDER.findall(call)
     barred: dict[tuple[str, str], set[str]] = {}
@@ -118,18 +119,15 @@ def call_grammar(call: str, names: tuple[str, ...] = (), exclusions: tuple[Exclu
             items.append(json.dumps(part, ensure_ascii=False))
         if i == len(parts) - 1:
             continue
-        if holes[i] != "<object_name>" or not names:
-            items.append("expr")
-            continue
         keyword = re.search(r"(\w+)=$", part)
         barring = barred.get((_open_call(written), keyword.group(1) if keyword else ""), set())
         allowed = tuple(n for n in names if n not in barring)
+        if holes[i] != "<object_name>" or not allowed:  # nothing in scope fits: validation says so
+            items.append("expr")
+            continue
         items.append(rules.setdefault(allowed, "name" if allowed == names else f"name-{len(rules)}"))
     lines = [f'root ::= {" ".join(items)} "\\n"', "expr ::= [^\\n]+"]
-    for allowed, rule in rules.items():
-        # any quoted name, unless names are barred: the held object's own name in quotes passed
-        quoted = [] if allowed != names and allowed else ['"\\"" [a-zA-Z0-9_]+ "\\""']
-        lines.append(f"{rule} ::= " + " | ".join([json.dumps(n) for n in allowed] + quoted))
+    lines += [f"{rule} ::= " + " | ".join(json.dumps(n) for n in allowed) for allowed, rule in rules.items()]
     return "\n".join(lines)
 
 
@@ -143,15 +141,6 @@ def _open_call(text: str) -> str:
         else:
             callees.append(bracket.group(1))
     return callees[-1] if callees else ""
-
-
-def unit_name_variables(unit: RefactoringUnit) -> tuple[str, ...]:
-    """Variables of the unit's function that hold an object name (``obj="cube"``, ``peg="peg"``)."""
-    try:
-        func = ast.parse(unit.prefix + unit.indent + unit.span + unit.suffix).body[0]
-    except (SyntaxError, IndexError):
-        return ()
-    return name_variables(variable_kinds(func)) if isinstance(func, ast.FunctionDef) else ()
 
 
 @dataclass(frozen=True)
@@ -268,13 +257,13 @@ def build_prompt(unit: RefactoringUnit, span_tokens: int, window: str = "functio
     draft = call and at_indent(call, unit.indent)[len(unit.indent) :]  # its later lines at the body's indentation
     if unit.hints.attempt > 0 and call and unit.style is None:
         # a retry held to the call, and its names to those the role allows
-        grammar = call_grammar(call, unit_name_variables(unit), unit.hints.exclusions)
+        grammar = call_grammar(call, names_in_scope(unit), unit.hints.exclusions)
         forced = None if has_placeholders(call) else call + "\n"
         draft = call  # the grammar holds the retry to the call's own lines
     elif call and unit.style is None and unit.span_type not in RUNTIME_SPAN_TYPES and has_placeholders(call):
-        # an open decision: the call's form is the ontology's, what fills its holes the LM's (left
-        # free, the 1.5B wrote `put_xyz = task.get_object_position(middle)`, an assignment, not the call)
-        grammar = call_grammar(call, unit_name_variables(unit))
+        # an open decision: the call's form is the ontology's, what fills its holes the LM's, among
+        # the names the argument's role allows (the retry's grammar, from the first answer on)
+        grammar = call_grammar(call, names_in_scope(unit), unit.hints.exclusions)
     stop = ("\n", "  #") if single_line else ("\n\n",)
     if unit.style is not None:  # the method's own: Python as the model would write it, or its grammar
         grammar, stop = unit.style.grammar, unit.style.stop or stop

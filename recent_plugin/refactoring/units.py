@@ -7,12 +7,19 @@ ontology's cues for this one edit, rendered later as comments before the span.
 
 from __future__ import annotations
 
+import ast
+import json
 from collections.abc import Callable
 from dataclasses import dataclass
 
 from lerobot_policy_recent.ontology.conversions import undetermined_facts
 from lerobot_policy_recent.ontology.diagnosis import Conflict, ParameterMapping
-from lerobot_policy_recent.ontology.skill_code import enclosing_function
+from lerobot_policy_recent.ontology.skill_code import (
+    enclosing_function,
+    name_variables,
+    object_literals,
+    variable_kinds,
+)
 from lerobot_policy_recent.ontology.target import Target
 from lerobot_policy_recent.recent_plugin.refactoring.decisions import Exclusion, decision_facts, exclusions
 from lerobot_policy_recent.recent_plugin.refactoring.substitution import render_substitute_call
@@ -125,6 +132,20 @@ def cut_unit(
         substitute=substitute,
         style=style,
     )
+
+
+def names_in_scope(unit: RefactoringUnit) -> tuple[str, ...]:
+    """What an object-name argument of the unit's span may be written as: the function's variables
+    that hold an object name (``obj="cube"``), then the names it writes in quotes for a task query,
+    quoted (``"table"``). A name from anywhere else is no object the skill knows: the 1.5B, offered
+    any quoted name, wrote ``obj_name="cube1"``, and it validated."""
+    try:
+        func = ast.parse(unit.prefix + unit.indent + unit.span + unit.suffix).body[0]
+    except (SyntaxError, IndexError):
+        return ()
+    if not isinstance(func, ast.FunctionDef):
+        return ()
+    return name_variables(variable_kinds(func)) + tuple(json.dumps(n) for n in object_literals(func))
 
 
 def apply_unit(code: str, unit: RefactoringUnit, replacement: str) -> str:
