@@ -593,6 +593,13 @@ def test_a_name_in_quotes_is_one_the_skill_knows(ontology):
     rejected, accepted = [c for c in grounded.calls if not c.rendered]
     assert rejected.message == "obj_name='cube1': no object of that name is in scope (names here: obj, \"bin\")"
     assert accepted.accepted and "place_robotiq85(env, task, obj_name=\"bin\", pointing_to='down')" in grounded.code
+    # the check reads the call's holes whatever else it leaves open
+    from lerobot_policy_recent.recent_plugin.grounding.grounder import _check_span
+
+    call = "place_robotiq85(env, task, obj_name=<object_name>, pointing_to=<str>)"
+    unit = replace(unit, hints=replace(unit.hints, substitute_call=call))
+    verdict = _check_span("place_robotiq85(env, task, obj_name='cube1', pointing_to='down')", unit)
+    assert verdict is not None and "no object of that name is in scope" in verdict.message
 
 
 @pytest.mark.slow

@@ -307,7 +307,10 @@ def _unknown_name(statements: list[ast.stmt], unit: RefactoringUnit) -> Verdict 
     the skill knows (:func:`names_in_scope`): the 1.5B wrote ``obj_name="cube1"``, which no task has."""
     hole = "_object_name_hole"
     try:
-        wanted = ast.parse(textwrap.dedent(unit.hints.substitute_call or "").replace("<object_name>", hole))
+        expected = PLACEHOLDER.sub(
+            lambda m: hole if m.group(0) == "<object_name>" else "_", unit.hints.substitute_call or ""
+        )
+        wanted = ast.parse(textwrap.dedent(expected))
     except SyntaxError:
         return None
     open_ = {
