@@ -440,6 +440,26 @@ def held_offset(session: RobotSession) -> np.ndarray:
     return np.zeros(3) if position is None else position - session.obs.eef_pos
 
 
+def load_hangs(session: RobotSession) -> bool:
+    """The held object hangs free in the air, by perception: its box's underside lies above the table
+    and above every other box below it by more than the planner's load clearance. A load that still
+    rests or slides on something (a block dragged along the table, a lid on its box) does not."""
+    held = session.obs.held()
+    if held is None:
+        return False
+    load = session.obs.objects[held]
+    bottom = float(load.pos[2] - load.size[2] / 2)
+    if bottom < TABLE_CLEARANCE + clearance.LOAD_CLEARANCE:
+        return False
+    reach = np.asarray(load.size[:2], dtype=float) / 2
+    below = [
+        box.top
+        for box in clearance.boxes(session.obs)
+        if np.all(np.abs(box.centre[:2] - np.asarray(load.pos[:2])) < box.half[:2] + reach)
+    ]
+    return all(bottom > top + clearance.LOAD_CLEARANCE for top in below)
+
+
 def hold_until_still(session: RobotSession, hold: np.ndarray, *, max_duration_s: float = 2.0) -> Steps:
     """Hold the arm at ``hold`` until the held object stops moving (3 steps under 1 mm each)."""
     previous, still = held_position(session), 0

@@ -29,15 +29,18 @@ __all__ = [
 def move_to_position(
     env: RobotSession, task: TaskContext, pos: Sequence[float], pointing_to: str = "down"
 ) -> control.Steps:
-    """Move the cup to ``pos`` over what is in the way (the shared planner). Free, each leg along a
-    straight line, as the other end-effector APIs' moves go (a move that pushes something slides it
-    along that line; bent, a sweep's cup sideswiped the block and left it behind). Dragging something
-    (sealed on a load, or pressed on a knob it pulls by friction), each axis closing its own error, so
-    the cup keeps pressing where the line would ease off. Lowered onto a surface, it stops where the
+    """Move the cup to ``pos`` over what is in the way (the shared planner). Free, or carrying a load
+    that hangs free (:func:`~.control.load_hangs`), each leg along a straight line, as the other
+    end-effector APIs' moves go (a move that pushes something slides it along that line; bent, a
+    sweep's cup sideswiped the block and left it behind, and a carry brushed a block in its slot out
+    of it). Dragging something (sealed on a load that rests on something, or pressed on a knob it
+    pulls by friction), each axis closing its own error, so the cup keeps pressing where the line
+    would ease off. Lowered onto a surface, it stops where the
     cup rests on it (it cannot reach a point inside what it would seal on, e.g. a knob's centre). A
     drag that stalls within ``DRAG_TOL`` has arrived, as for the other end-effector moves."""
     check_pointing(pointing_to)
-    drag = env.obs.object_detected or env.obs.eef_contact  # sealed on a load, or pressed on a knob
+    # sealed on a load that rests or slides on something, or pressed on a knob
+    drag = (env.obs.object_detected or env.obs.eef_contact) and not control.load_hangs(env)
     yield from control.move_to(env, pos, tol=DRAG_TOL, settle=True, stop_on_contact=True, straight=not drag)
 
 
