@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
+import numpy as np
+
 from lerobot_policy_recent.robosuite_envs.primitives import control
 from lerobot_policy_recent.robosuite_envs.primitives.end_effector_moves import (
     DRAG_TOL,
@@ -29,19 +31,28 @@ __all__ = [
 def move_to_position(
     env: RobotSession, task: TaskContext, pos: Sequence[float], pointing_to: str = "down"
 ) -> control.Steps:
-    """Move the cup to ``pos`` over what is in the way (the shared planner). Free, or carrying a load
-    that hangs free (:func:`~.control.load_hangs`), each leg along a straight line, as the other
-    end-effector APIs' moves go (a move that pushes something slides it along that line; bent, a
-    sweep's cup sideswiped the block and left it behind, and a carry brushed a block in its slot out
-    of it). Dragging something (sealed on a load that rests on something, or pressed on a knob it
-    pulls by friction), each axis closing its own error, so the cup keeps pressing where the line
-    would ease off. Lowered onto a surface, it stops where the
-    cup rests on it (it cannot reach a point inside what it would seal on, e.g. a knob's centre). A
-    drag that stalls within ``DRAG_TOL`` has arrived, as for the other end-effector moves."""
+    """Move the cup to ``pos`` over what is in the way (the shared planner).
+
+    Free, each leg follows a straight line, as the other end-effector APIs' moves do: a move that
+    pushes something slides it along that line (bent, a sweep's cup sideswiped the block and left it
+    behind). Carrying a load that hangs free (:func:`~.control.load_hangs`), the same, and the
+    load's centre goes over ``pos`` in x and y, as a load centred in a hand's grip would: a cup seals
+    where it touched the top face, 2 cm off the centre at times (a block lowered into a drawer behind
+    another then landed on its edge), and a carry that closed each axis on its own bent 4 cm off its
+    line and pushed a block out of its slot. Dragging something (sealed on a load that rests or
+    slides on something, or pressed on a knob it pulls by friction), each axis closes its own error,
+    so the cup keeps pressing where the line would ease off. Lowered onto a surface, it stops where
+    the cup, or its load, rests on it (it cannot reach a point inside what it would seal on, e.g. a
+    knob's centre). A drag that stalls within ``DRAG_TOL`` has arrived, as for the other
+    end-effector moves."""
     check_pointing(pointing_to)
+    goal = control.as_position(pos, "target position")
+    hangs = control.load_hangs(env)
+    if hangs:  # the load over pos, wherever on its top the cup sealed
+        goal = goal - np.array([*control.held_offset(env)[:2], 0.0])
     # sealed on a load that rests or slides on something, or pressed on a knob
-    drag = (env.obs.object_detected or env.obs.eef_contact) and not control.load_hangs(env)
-    yield from control.move_to(env, pos, tol=DRAG_TOL, settle=True, stop_on_contact=True, straight=not drag)
+    drag = (env.obs.object_detected or env.obs.eef_contact) and not hangs
+    yield from control.move_to(env, goal, tol=DRAG_TOL, settle=True, stop_on_contact=True, straight=not drag)
 
 
 def attach_vacuum_handle(env: RobotSession, task: TaskContext, handle_name: str) -> control.Steps:
