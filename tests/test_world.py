@@ -430,7 +430,9 @@ def test_a_cup_carrying_a_lifted_load_moves_along_its_line_and_one_on_the_table_
 
         run(suction.move_to_position(session, TaskContext(session), goal), measure)
         assert session.obs.held() == "red" and max(off_line) < 0.01
-        assert np.linalg.norm(session.obs.objects["red"].pos[:2] - goal[:2]) < 0.011  # the load over the goal (uncentred: 1.8 cm off)
+        assert (
+            np.linalg.norm(session.obs.objects["red"].pos[:2] - goal[:2]) < 0.011
+        )  # the load over the goal (uncentred: 1.8 cm off)
         down = session.obs.eef_pos.copy()
         down[2] = block[2] - 0.012 - control.held_offset(session)[2]  # the grip site where the block would rest
         run(control.move_to(session, down, set_down=True))
