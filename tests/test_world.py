@@ -380,6 +380,20 @@ def test_a_release_aimed_below_where_the_load_comes_to_rest_sets_it_down_instead
         env.close()
 
 
+def _off_line(session, goal):
+    """How far the grip site strays from the line from where it is now to ``goal``: the list each call
+    of the returned function appends the current distance to."""
+    start = session.obs.eef_pos.copy()
+    direction = (goal - start) / np.linalg.norm(goal - start)
+    off_line: list[float] = []
+
+    def measure() -> None:
+        along = session.obs.eef_pos - start
+        off_line.append(float(np.linalg.norm(along - (along @ direction) * direction)))
+
+    return off_line, measure
+
+
 def test_a_free_cup_moves_along_its_line_so_a_sweep_pushes_what_lies_on_it():
     """The cup's move, sealed on nothing and pressed on nothing, goes straight from where it is to its goal,
     as the other end-effector APIs' moves go: closing each axis on its own, the cup ran 45 degrees until
@@ -389,15 +403,8 @@ def test_a_free_cup_moves_along_its_line_so_a_sweep_pushes_what_lies_on_it():
 
     env, session, run = _suction_on_arrange_row()
     try:
-        start = session.obs.eef_pos.copy()
-        goal = start + np.array([0.2, 0.06, -0.05])
-        direction = (goal - start) / np.linalg.norm(goal - start)
-        off_line = []
-
-        def measure() -> None:
-            along = session.obs.eef_pos - start
-            off_line.append(float(np.linalg.norm(along - (along @ direction) * direction)))
-
+        goal = session.obs.eef_pos + np.array([0.2, 0.06, -0.05])
+        off_line, measure = _off_line(session, goal)
         run(suction.move_to_position(session, TaskContext(session), goal), measure)
         assert np.linalg.norm(session.obs.eef_pos - goal) < 0.02 and max(off_line) < 0.01
     finally:
@@ -419,20 +426,12 @@ def test_a_cup_carrying_a_lifted_load_moves_along_its_line_and_one_on_the_table_
         run(control.suction_grasp_at(session, block + np.array([0.015, 0.0, 0.0])))  # sealed off its centre
         assert session.obs.held() == "red" and control.load_hangs(session)
         assert abs(control.held_offset(session)[0]) > 0.008
-        start = session.obs.eef_pos.copy()
-        goal = start + np.array([0.2, 0.06, 0.0])
-        direction = (goal - start) / np.linalg.norm(goal - start)
-        off_line = []
-
-        def measure() -> None:
-            along = session.obs.eef_pos - start
-            off_line.append(float(np.linalg.norm(along - (along @ direction) * direction)))
-
+        goal = session.obs.eef_pos + np.array([0.2, 0.06, 0.0])
+        off_line, measure = _off_line(session, goal)
         run(suction.move_to_position(session, TaskContext(session), goal), measure)
         assert session.obs.held() == "red" and max(off_line) < 0.01
-        assert (
-            np.linalg.norm(session.obs.objects["red"].pos[:2] - goal[:2]) < 0.011
-        )  # the load over the goal (uncentred: 1.8 cm off)
+        centred = np.linalg.norm(session.obs.objects["red"].pos[:2] - goal[:2])
+        assert centred < 0.011  # the load over the goal (uncentred: 1.8 cm off)
         down = session.obs.eef_pos.copy()
         down[2] = block[2] - 0.012 - control.held_offset(session)[2]  # the grip site where the block would rest
         run(control.move_to(session, down, set_down=True))
