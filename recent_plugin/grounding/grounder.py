@@ -294,45 +294,50 @@ def _check_span(text: str, unit: RefactoringUnit) -> Verdict | None:
             FailureCategory.NON_EXECUTABLE,
             f"the span adds `{ast.unparse(statements[asked])}` after the {asked} statement(s) it was asked for",
         )
+    return _misnamed(statements, unit) or changed_argument(statements, unit.hints.substitute_call)
+
+
+def _misnamed(statements: list[ast.stmt], unit: RefactoringUnit) -> Verdict | None:
+    """An object name the span writes that its role or its scope rules out: a receiving argument
+    naming the object the hand holds (``unit.hints.exclusions``), or, where the ontology's call
+    leaves a name open, a quoted name the skill never uses (:func:`names_in_scope`): the 1.5B wrote
+    ``obj_name="cube1"``, which no task has."""
+    open_names, names = _open_names(unit.hints.substitute_call or ""), None
     for call in (n for s in statements for n in ast.walk(s) if isinstance(n, ast.Call)):
-        given = {k.arg: ast.unparse(k.value) for k in call.keywords if k.arg}
-        for barred in (b for b in unit.hints.exclusions if b.call == ast.unparse(call.func)):
-            if (value := given.get(barred.argument)) in barred.names:
-                return Verdict.reject(FailureCategory.HALLUCINATED_KWARG, f"{barred.argument}={value}: {barred.why}")
-    return _unknown_name(statements, unit) or changed_argument(statements, unit.hints.substitute_call)
+        callee = ast.unparse(call.func)
+        for keyword in call.keywords:
+            value = ast.unparse(keyword.value)
+            for barred in unit.hints.exclusions:
+                if (barred.call, barred.argument) == (callee, keyword.arg) and value in barred.names:
+                    return Verdict.reject(FailureCategory.HALLUCINATED_KWARG, f"{keyword.arg}={value}: {barred.why}")
+            quoted = isinstance(keyword.value, ast.Constant) and isinstance(keyword.value.value, str)
+            if not quoted or (callee, keyword.arg) not in open_names:
+                continue
+            names = names_in_scope(unit) if names is None else names
+            if json.dumps(keyword.value.value) not in names:
+                return Verdict.reject(
+                    FailureCategory.HALLUCINATED_KWARG,
+                    f"{keyword.arg}={value}: no object of that name is in scope (names here: {', '.join(names) or 'none'})",
+                )
+    return None
 
 
-def _unknown_name(statements: list[ast.stmt], unit: RefactoringUnit) -> Verdict | None:
-    """An object name the LM wrote in quotes where the ontology's call leaves a name open must be one
-    the skill knows (:func:`names_in_scope`): the 1.5B wrote ``obj_name="cube1"``, which no task has."""
+def _open_names(expected: str) -> set[tuple[str, str]]:
+    """The (callee, keyword) pairs whose value the ontology's call leaves as an ``<object_name>``."""
     hole = "_object_name_hole"
     try:
-        expected = PLACEHOLDER.sub(
-            lambda m: hole if m.group(0) == "<object_name>" else "_", unit.hints.substitute_call or ""
+        tree = ast.parse(
+            textwrap.dedent(PLACEHOLDER.sub(lambda m: hole if m.group(0) == "<object_name>" else "_", expected))
         )
-        wanted = ast.parse(textwrap.dedent(expected))
     except SyntaxError:
-        return None
-    open_ = {
+        return set()
+    return {
         (ast.unparse(n.func), k.arg)
-        for n in ast.walk(wanted)
+        for n in ast.walk(tree)
         if isinstance(n, ast.Call)
         for k in n.keywords
         if isinstance(k.value, ast.Name) and k.value.id == hole
     }
-    for call in (n for s in statements for n in ast.walk(s) if isinstance(n, ast.Call)):
-        for k in call.keywords:
-            quoted = isinstance(k.value, ast.Constant) and isinstance(k.value.value, str)
-            if not quoted or (ast.unparse(call.func), k.arg) not in open_:
-                continue
-            names = names_in_scope(unit)
-            if json.dumps(k.value.value) not in names:
-                known = ", ".join(names) or "none"
-                return Verdict.reject(
-                    FailureCategory.HALLUCINATED_KWARG,
-                    f"{k.arg}={ast.unparse(k.value)}: no object of that name is in scope (names here: {known})",
-                )
-    return None
 
 
 def _statement_count(code: str | None) -> int:
