@@ -304,7 +304,9 @@ END_EFFECTOR = (
          step("put_in_drawer", obj="cube", drawer="drawer"), step("close_drawer", drawer="drawer")),
 )  # fmt: skip
 
-# Where each new multi-object subtask's reference skill is validated (in no suite: the suites are long).
+# Where each multi-object subtask runs alone (reference validation, the transfer matrix), in no suite:
+# the suites are long. The -v1 suites' single-subtask tasks of stack_tower, arrange_in_row and
+# sweep_into_pen keep 400 steps for the subtask; these give it what the paper-length suites give it.
 VALIDATION_TASKS = (
     task(K, "clear_counter", "Clear the four objects into the bin.", KITCHEN, step("clear_into_bin", **CLEAR)),
     task(K, "move_cube", "Move the red cube to the zone.", KITCHEN, step("move_to_region", obj="cube", region="zone")),
@@ -313,6 +315,12 @@ VALIDATION_TASKS = (
          step("fill_drawer", first="cube", second="green", drawer="drawer")),
     task(E, "fill_open_box", "Put the blue block into the open box.", pantry(lid_angle=1.75),
          step("fill_box", obj="blue", box="box")),
+    task(E, "tower_of_three", "Stack the green and blue blocks on the red one.", BLOCKS,
+         step("stack_tower", base="red", middle="green", top="blue")),
+    task(E, "row_of_three", "Line the three blocks up on the marked row, not touching.", BLOCKS,
+         step("arrange_in_row", first="red", second="green", third="blue", row="row")),
+    task(E, "sweep_both", "Sweep both blocks into the pen.", SWEEP,
+         step("sweep_into_pen", first="red", second="blue", pen="pen")),
 )  # fmt: skip
 
 # The earlier suites: most tasks one or two subtasks of a few calls each; kept to compare with.
@@ -451,8 +459,9 @@ def get_suite(name: str) -> tuple[TaskSpec, ...]:
 
 
 def validation_task(subtask: str) -> TaskSpec:
-    """The task that exercises ``subtask`` alone: where its reference skill is validated."""
-    for tasks in (*SUITES.values(), VALIDATION_TASKS):
+    """The task that exercises ``subtask`` alone, with the control steps the paper-length suites give
+    it: where its reference skill is validated and its transfer-matrix cells run."""
+    for tasks in (VALIDATION_TASKS, *SUITES.values()):
         for spec in tasks:
             if [step.subtask for step in spec.plan] == [subtask]:
                 return spec

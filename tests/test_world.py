@@ -11,7 +11,15 @@ from lerobot_policy_recent.robosuite_envs.gym_env import RecentEnv
 from lerobot_policy_recent.robosuite_envs.observation import MAX_OBJECTS, SLOT_DIM
 from lerobot_policy_recent.robosuite_envs.splits import DEV_SEEDS, RETIRED_TEST_TASKS, TEST_SEEDS, split_of
 from lerobot_policy_recent.robosuite_envs.subtasks import SUBTASKS
-from lerobot_policy_recent.robosuite_envs.suites import SUITES, all_tasks, get_suite, validation_task
+from lerobot_policy_recent.robosuite_envs.suites import (
+    STEPS_PER_SUBTASK,
+    SUBTASK_STEPS,
+    SUITES,
+    all_tasks,
+    get_suite,
+    get_task,
+    validation_task,
+)
 from lerobot_policy_recent.robosuite_envs.variations import FAR_TARGET_XY, VARIATIONS, parse_variations
 from lerobot_policy_recent.skills.repository import list_skills
 
@@ -95,6 +103,13 @@ def test_every_subtask_has_a_reference_skill_and_a_single_subtask_task():
     assert set(SUBTASKS) <= set(list_skills())
     for name in SUBTASKS:
         assert validation_task(name).subtasks() == [name]
+
+
+def test_a_subtask_alone_gets_the_steps_the_paper_length_suites_give_it():
+    """Three blocks in a row get three blocks' steps there as in a long task, not the -v1 suites' 400."""
+    for name in SUBTASKS:
+        assert validation_task(name).max_steps == SUBTASK_STEPS.get(name, STEPS_PER_SUBTASK) + 200, name
+    assert validation_task("arrange_in_row").max_steps > get_task("end_effector/arrange_row").max_steps
 
 
 @pytest.mark.parametrize(
