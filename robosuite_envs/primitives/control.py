@@ -520,27 +520,38 @@ def release_below(session: RobotSession, *, depth: float = 1.5 * APPROACH_HEIGHT
     yield from hold_until_still(session, here)
     goal = here - np.array([0.0, 0.0, depth])
     goal[2] = max(goal[2], TABLE_CLEARANCE + 0.001)
-    yield from lower_until_resting(session, goal, timeout_s=timeout_s)
+    yield from lower_until_resting(session, goal, timeout_s=timeout_s, landed_rate=LANDED_RATE)
     yield from actuate_gripper(session, -1.0, duration_s=0.3, max_duration_s=0.5)
     yield from move_to(session, session.obs.eef_pos + [0.0, 0.0, APPROACH_HEIGHT / 2], tol=0.02)
 
 
 LOWERING_STEP = 0.01  # metres ahead of the grip site a load is lowered towards, where it rests is unknown
+LANDED_RATE = 1 / 3  # a cup's lowering that slows to this share of its free descent has met what is below
 
 
-def lower_until_resting(session: RobotSession, goal: np.ndarray, *, timeout_s: float = 5.0) -> Steps:
+def lower_until_resting(
+    session: RobotSession, goal: np.ndarray, *, timeout_s: float = 5.0, landed_rate: float = 0.0
+) -> Steps:
     """Lower slowly towards ``goal`` until the grip site stops coming down (by ``SETTLED`` in
     ``STALL_STEPS`` steps) above it: what it carries, or the hand itself, rests on something. Slowly: a load that
-    lands fast on an edge slides off it. Reaching ``goal`` ends it too."""
+    lands fast on an edge slides off it. Reaching ``goal`` ends it too.
+
+    With ``landed_rate``, coming down at under that share of the fastest it came down on the way counts
+    as resting too: a cup is compliant, and what it presses a load onto (a stack of blocks) yields a
+    little every step; pressing on until that stops tips the stack over."""
     trail: deque[np.ndarray] = deque(maxlen=STALL_STEPS + 1)
+    fastest = 0.0  # metres the grip site came down over STALL_STEPS steps, at most, on the way
     for _ in range(max(1, int(timeout_s * CONTROL_FREQ))):
         here = session.obs.eef_pos
         trail.append(here.copy())
         error = goal - here
         if float(np.linalg.norm(error)) < POS_TOL:
             return
-        if len(trail) > STALL_STEPS and trail[0][2] - trail[-1][2] < SETTLED and error[2] < 0:
-            return  # no longer coming down (a cup's compliance may still sway it sideways)
+        if len(trail) > STALL_STEPS and error[2] < 0:
+            descent = float(trail[0][2] - trail[-1][2])
+            if descent < max(SETTLED, landed_rate * fastest):
+                return  # no longer coming down, or only as what is below yields (a cup may still sway sideways)
+            fastest = max(fastest, descent)
         yield servo_action(session, here + np.clip(error, -LOWERING_STEP, LOWERING_STEP))
     raise PrimitiveFailure(
         "timeout", f"still lowering towards {np.round(goal, 3).tolist()} after {timeout_s:.1f} s: nothing held it up"
