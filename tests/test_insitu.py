@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import ast
+import math
 import re
 import time
 from dataclasses import replace
@@ -722,6 +723,33 @@ def test_a_block_a_later_carry_pushed_off_its_slot_is_not_counted_as_placed():
             },
         ),
     )[0]  # over the row's box
+
+
+def test_a_block_leaning_on_the_one_below_is_not_counted_as_on_it():
+    """A cup pressed a tower's top block onto the middle one, which tipped: the top block's centre read
+    1.4 cm off the middle's (within its box), the check passed it, and it slid off (line_up_then_stack,
+    Suction, seed 7). Leaning 14 degrees it is not lying on it; turned a quarter (a face down) it is,
+    and in a bin a leaning cube is where it should be."""
+    from lerobot_policy_recent.skills.repository import load_skill
+
+    (_, top) = load_skill("stack_tower").placements
+    assert (top.parameter, top.over) == ("top", "middle")
+    level = np.array([0, 0, 0, 1.0])
+    middle = ObjectState(np.array([-0.223, -0.007, 0.865]), level, size=np.array([0.05] * 3))
+    bin_ = ObjectState(np.array([0.1, 0.2, 0.84]), level, size=np.array([0.15, 0.15, 0.08]))
+
+    def read(turn_deg: float, axis: int = 0, *, on: ObjectState = middle, over: str = "middle"):
+        half = math.radians(turn_deg) / 2
+        quat = np.r_[np.eye(3)[axis] * math.sin(half), math.cos(half)]  # xyzw
+        at = on.pos + [0.014, 0.002, 0.045] if over == "middle" else on.pos + [0.0, 0.0, -0.01]
+        block = ObjectState(np.array(at), quat, size=np.array([0.04] * 3))
+        objects = {"blue": block, over: on}
+        return placement_reached(replace(top, over=over), "blue", over, Observation(np.zeros(3), level, 0.0, objects))
+
+    assert read(2.0)[0] and read(90.0)[0] and read(30.0, axis=2)[0]  # flat: level, a face down, turned about z
+    met, said = read(14.0)
+    assert not met and "leaning 14 degrees on middle: not lying flat on it" in said
+    assert read(25.0, on=bin_, over="bin")[0]  # down inside a bin, leaning on its wall
 
 
 @pytest.mark.slow

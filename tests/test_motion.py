@@ -125,6 +125,33 @@ def test_an_object_that_moved_is_read_where_it_is_now():
     assert TaskContext(session).get_object_position("cube") == pytest.approx([0.1, 0.0, 0.82])
 
 
+def _lowered(rates: list[float], landed_rate: float) -> int:
+    """Steps :func:`control.lower_until_resting` takes, the grip site coming down by ``rates[i]`` metres
+    at step i (a cup lowering a load, its goal far below)."""
+    eef = np.array([0.0, 0.0, 1.0])
+    session = RobotSession("Suction", _carrying(eef, 0.04))
+    taken = 0
+    try:
+        for _action in control.lower_until_resting(session, eef - [0.0, 0.0, 0.5], landed_rate=landed_rate):
+            eef = eef - [0.0, 0.0, rates[min(taken, len(rates) - 1)]]
+            session.update(_carrying(eef, 0.04))
+            taken += 1
+    except PrimitiveFailure as failure:  # pressed on for as long as it may ("nothing held it up")
+        assert failure.kind == "timeout"
+    return taken
+
+
+def test_a_cup_lets_go_once_what_it_presses_its_load_onto_only_yields():
+    """Lowering at 2.5 mm a step, the load lands on a stack that then gives 0.6 mm a step: pressing
+    on until it stopped tipped the middle block (line_up_then_stack, seed 7). The cup's set-down ends
+    within a stall window of the landing; without ``landed_rate`` the lowering presses on."""
+    landing = [0.0025] * 30 + [0.0006] * 200
+    assert _lowered(landing, control.LANDED_RATE) <= 30 + control.STALL_STEPS + 1
+    assert _lowered(landing, 0.0) >= 100
+    steady = [0.0025] * 230  # a slow arm lowering at its own steady pace is not landing
+    assert _lowered(steady, control.LANDED_RATE) >= 100
+
+
 class _Arm:
     """A Panda in a suite scene, driven by the shared controllers alone."""
 

@@ -68,6 +68,7 @@ FINGER_ACROSS = 0.012 + 3 * POSITION_SIGMA + 0.003
 # how far above a box's top an object's underside may be read and still lie on it (a tilted die, perception)
 RESTING_GAP = 3 * POSITION_SIGMA + 0.003
 MARKING = 0.005  # metres: what stands no higher off the table is a marking on it (a zone), no wall
+FLAT_DEG = 10.0  # degrees a box set on top of another may lean and still lie flat on it (its faces, any of them)
 JAW_STROKE = 0.075  # metres across an object the open jaw takes in with room to spare (a Franka Hand's 8 cm, less 5 mm)
 
 
@@ -680,6 +681,22 @@ def resting_on_other(name: str, over: str, obs: Observation) -> str | None:
     return None
 
 
+def leaning(seen, support) -> float | None:
+    """Degrees an object set on top of a box standing up from the table leans (none of its faces flat,
+    as perception reads its orientation), where that is over ``FLAT_DEG``; else None. A block that
+    leans on the one below it is on its way off, however its centre lies: a cup that pressed on
+    tipped the middle block of a tower, and the top one slid off after the check had passed it.
+    Inside a bin or a drawer, or on a marking, a leaning object is where it should be."""
+    quat = np.asarray(seen.quat, dtype=float)
+    if not np.any(quat) or support.size[2] <= RESTING_GAP:
+        return None
+    if seen.pos[2] - seen.size[2] / 2 < support.pos[2] + support.size[2] / 2 - RESTING_GAP:
+        return None  # down inside it, not on top
+    upright = float(np.max(np.abs(quat2mat(quat / np.linalg.norm(quat))[2])))  # the face axis nearest vertical
+    lean = math.degrees(math.acos(min(1.0, upright)))
+    return lean if lean > FLAT_DEG else None
+
+
 def beyond_footprint(pos, centre, size) -> float:
     """Metres across the table that ``pos`` lies outside a box's footprint, widened by three sigmas of
     perception's accuracy (0: over it)."""
@@ -713,6 +730,8 @@ def placement_reached(placement: Placement, name: object, over: object, obs: Obs
         return False, f"{where}, {100 * outside:.1f} cm outside {over}'s box{' and below it' if under else ''}"
     if other := resting_on_other(name, over, obs):
         return False, f"{where}, on {other}, not on {over}"
+    if (lean := leaning(seen, support)) is not None:
+        return False, f"{where}, leaning {lean:.0f} degrees on {over}: not lying flat on it"
     if placement.at is None:
         return True, f"{where}, over {over}"
     # at a spot: it lies under the object's own perceived box (moved off it later, by a neighbour's carry, it does not)
