@@ -94,6 +94,8 @@ def measure(name: str) -> Calibration:
         arm = probe.arm_facts()
         gripper = probe.gripper_facts()
         tracking = probe.tracking()
+        env.reset()  # from the arm's home posture: after the tracking poses a 7-joint arm can sit folded where
+        probe = _Probe(env)  # the first probe stops short (Kinova3 read 0 m), and a reset may build a new sim
         table_reach = probe.table_reach(arm["reach_m"])
     finally:
         env.close()

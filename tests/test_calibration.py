@@ -60,6 +60,8 @@ def test_every_embodiment_calibrates_consistently_with_the_ontology(name, ontolo
     measured = measure(name)
     assert (measured.arm_dof, measured.reach_m) == (ontology.arms[name].dof, pytest.approx(ontology.arms[name].reach))
     assert measured.mechanism == ("suction" if name == "Suction" else "fingers")
+    # measured from the home posture: after the tracking poses a folded Kinova3 read 0 m
+    assert np.linalg.norm(measured.base_xyz[:2]) < measured.table_reach_m < measured.reach_m
 
 
 def test_a_calibration_is_measured_once_then_read_from_the_cache(cache):
