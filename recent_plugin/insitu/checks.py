@@ -22,7 +22,7 @@ import numpy as np
 from robosuite.utils.transform_utils import quat2mat
 
 from lerobot_policy_recent.ontology.specs import PATH_ROLE, WORLD_FRAME, ApiSpec, ParameterSpec, Waypoint
-from lerobot_policy_recent.robosuite_envs.observation import POSITION_SIGMA, Observation
+from lerobot_policy_recent.robosuite_envs.observation import POSITION_SIGMA, ObjectState, Observation
 from lerobot_policy_recent.robosuite_envs.primitives.clearance import FINGER_DEPTH, boxes, object_at
 from lerobot_policy_recent.robosuite_envs.primitives.frames import WORLD_AT_ORIGIN, Frame, argument_for, world_point
 from lerobot_policy_recent.skills.repository import Placement, StateEffect
@@ -681,7 +681,7 @@ def resting_on_other(name: str, over: str, obs: Observation) -> str | None:
     return None
 
 
-def leaning(seen, support) -> float | None:
+def leaning(seen: ObjectState, support: ObjectState) -> float | None:
     """Degrees an object set on top of a box standing up from the table leans (none of its faces flat,
     as perception reads its orientation), where that is over ``FLAT_DEG``; else None. A block that
     leans on the one below it is on its way off, however its centre lies: a cup that pressed on
