@@ -109,7 +109,10 @@ def main() -> None:
         print(f"{row['setting']:<40} {row['wall_s']:>8.1f} s for {row['calls']} calls{extra}")
     print(f"every setting wrote the same text: {result['same_answers']}")
     if args.json:
-        numbers = {"cpu": cpu_description(), "model": Path(model).name, "calls": str(args.calls), "n": args.n}
+        root = Path(__file__).resolve().parents[1]
+        calls = args.calls.resolve()
+        shown = calls.relative_to(root) if calls.is_relative_to(root) else calls  # a record, not this checkout's path
+        numbers = {"cpu": cpu_description(), "model": Path(model).name, "calls": str(shown), "n": args.n}
         Path(args.json).write_text(json.dumps({**numbers, **result}, indent=2) + "\n")
 
 
