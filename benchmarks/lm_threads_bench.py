@@ -28,7 +28,8 @@ from lerobot_policy_recent.recent_plugin.infillers.llama_runtime import cpu_desc
 from lerobot_policy_recent.recent_plugin.infillers.llama_worker import LlamaWorker
 from lerobot_policy_recent.recent_plugin.models.fetch import ensure_model
 
-CALLS = Path(__file__).parents[1] / "results" / "baselines_budget" / "repair_lm_261308c" / "lm_calls.jsonl.gz"
+ROOT = Path(__file__).resolve().parents[1]
+CALLS = ROOT / "results" / "baselines_budget" / "repair_lm_261308c" / "lm_calls.jsonl.gz"
 SEED = 7
 TEMPERATURE = 0.2
 
@@ -56,14 +57,15 @@ def replay(worker: LlamaWorker, prompts: list[str], max_tokens: int) -> tuple[fl
 def measure(model: str, prompts: list[str], max_tokens: int) -> dict:
     rows, answers = [], {}
     for threads in (1, 2):
+        setting = f"one LM, {threads} thread(s)"
         worker = LlamaWorker(model, n_threads=threads)
         try:
             replay(worker, prompts[:1], 8)  # loaded and warm: the load is not what is measured
-            wall, answers[f"one LM, {threads} thread(s)"] = replay(worker, prompts, max_tokens)
+            wall, answers[setting] = replay(worker, prompts, max_tokens)
         finally:
             worker.close()
-        rows.append({"setting": f"one LM, {threads} thread(s)", "calls": len(prompts), "wall_s": round(wall, 1)})
-        print(f"one LM, {threads} thread(s): {wall:.1f} s for {len(prompts)} calls", flush=True)
+        rows.append({"setting": setting, "calls": len(prompts), "wall_s": round(wall, 1)})
+        print(f"{setting}: {wall:.1f} s for {len(prompts)} calls", flush=True)
     pair = [LlamaWorker(model, n_threads=1) for _ in range(2)]
     try:
         for worker in pair:
@@ -109,9 +111,8 @@ def main() -> None:
         print(f"{row['setting']:<40} {row['wall_s']:>8.1f} s for {row['calls']} calls{extra}")
     print(f"every setting wrote the same text: {result['same_answers']}")
     if args.json:
-        root = Path(__file__).resolve().parents[1]
         calls = args.calls.resolve()
-        shown = calls.relative_to(root) if calls.is_relative_to(root) else calls  # a record, not this checkout's path
+        shown = calls.relative_to(ROOT) if calls.is_relative_to(ROOT) else calls  # a record, not this checkout's path
         numbers = {"cpu": cpu_description(), "model": Path(model).name, "calls": str(shown), "n": args.n}
         Path(args.json).write_text(json.dumps({**numbers, **result}, indent=2) + "\n")
 
