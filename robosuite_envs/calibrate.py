@@ -20,11 +20,14 @@ import numpy as np
 
 from lerobot_policy_recent.descriptions.embodiments import Embodiment, get_embodiment, resolve_model_file
 from lerobot_policy_recent.robosuite_envs.calibration import CALIBRATION_VERSION, TABLE_REACH_HEIGHT_M, Calibration
+from lerobot_policy_recent.robosuite_envs.observation import ACTION_DIM
 from lerobot_policy_recent.robosuite_envs.primitives import clearance, control
 from lerobot_policy_recent.robosuite_envs.primitives.session import CONTROL_FREQ, RobotSession
 
 POSE_SECONDS = 8.0  # longest the arm servos to one calibration pose; it stops earlier once it is still
 GRIPPER_SECONDS = 10.0  # longest a gripper may take to close or open before calibration gives up on it
+HOLD_SECONDS = 0.5  # how long a zero command is sent to a closed gripper to see whether it stays closed
+HELD_SHARE = 0.1  # a closed gripper that moves less than this share of its stroke under a zero command holds
 STILL = 1e-3  # opening change per control step below which the fingers have stopped
 SETTLE_MARGIN = 1.2  # a stopped arm within this multiple of its steady-state error has arrived
 UNREACHED_M = 0.05  # a calibration pose the stopped arm is this far off is out of its reach
@@ -171,6 +174,7 @@ class _Probe:
                 "open_time_s": max(open_time, self._actuate(-1.0)),
                 "opening_open": round(opened, 4),
                 "opening_closed": round(closed, 4),
+                "zero_holds": False,  # a cup's command is on or off, not a finger travel to hold
             }
         left, right = (
             [self.model.geom_name2id(g) for g in self.gripper.important_geoms[side]]
@@ -181,6 +185,7 @@ class _Probe:
         close_time = self._actuate(1.0)
         closed = self.env.gripper_opening()
         grasp_point = self._in_site(np.mean(self.data.geom_xpos[left + right], axis=0))
+        zero_holds = self._holds_at_zero(closed, stroke=abs(opened - closed))
         open_time = max(open_time, self._actuate(-1.0))
         return {
             "mechanism": "fingers",
@@ -193,7 +198,14 @@ class _Probe:
             "open_time_s": open_time,
             "opening_open": round(opened, 4),
             "opening_closed": round(closed, 4),
+            "zero_holds": zero_holds,
         }
+
+    def _holds_at_zero(self, closed: float, stroke: float) -> bool:
+        """Send the closed gripper a zero command for a while: does it stay closed?"""
+        for _ in range(int(HOLD_SECONDS * CONTROL_FREQ)):
+            self.env.step(np.zeros(ACTION_DIM))
+        return bool(abs(self.env.gripper_opening() - closed) < HELD_SHARE * stroke)
 
     def _actuate(self, command: float) -> float:
         """Command the gripper and hold the arm; seconds until the fingers stop moving."""

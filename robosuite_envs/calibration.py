@@ -20,7 +20,7 @@ from __future__ import annotations
 import json
 from dataclasses import asdict, dataclass
 
-CALIBRATION_VERSION = 5
+CALIBRATION_VERSION = 6
 TABLE_REACH_HEIGHT_M = 0.03  # grip site above the table top for the reach at the table: a sweep's or grasp's height
 
 
@@ -49,6 +49,9 @@ class Calibration:
     open_time_s: float
     opening_open: float  # the gripper's opening reading fully open (finger joint travel; a cup: 0, off)
     opening_closed: float  # … and fully closed with nothing between the fingers (a cup: 1, on)
+    # a zero command leaves the fingers where they are (robosuite's grippers step their command at a fixed
+    # rate); a gripper that reads zero as a position (half open, a cup off) does not
+    zero_holds: bool
     # tracking (operational-space control at CONTROL_FREQ)
     tracking_error_m: float  # worst steady-state error over the calibration poses it reached
     settle_tol_m: float  # a stopped grip site within this of its goal has arrived
@@ -89,7 +92,8 @@ class Calibration:
             f"hand footprint    {2 * self.hand_half_xy[0] * 100:.1f} x {2 * self.hand_half_xy[1] * 100:.1f} cm "
             "(open, along the grip site's x and y)",
             f"close / open      {self.close_time_s:.2f} s / {self.open_time_s:.2f} s "
-            f"(opening reads {self.opening_closed:.3f} closed, {self.opening_open:.3f} open)",
+            f"(opening reads {self.opening_closed:.3f} closed, {self.opening_open:.3f} open; "
+            f"a zero command {'holds it' if self.zero_holds else 'does not hold it'})",
             f"tracking error    {self.tracking_error_m * 1000:.1f} mm steady-state (worst pose); "
             f"a stopped arm within {self.settle_tol_m * 1000:.1f} mm has arrived",
             f"unreached poses   {unreached}",
@@ -108,6 +112,7 @@ class Nominal:
     open_time_s: float = 0.5
     opening_open: float | None = None  # unknown: an opening gripper is done once its fingers stop
     opening_closed: float | None = None
+    zero_holds: bool = False  # unknown: a closing gripper keeps being told to close
     grasp_point: tuple[float, float, float] = (0.0, 0.0, 0.0)
     hand_half_xy: tuple[float, float] | None = None  # unknown: the planner's nominal hand
     tracking_error_m: float = 0.0

@@ -40,6 +40,7 @@ def test_calibration_reads_the_arm_the_ontology_reads_and_measures_the_rest(name
     assert measured.reach_m == pytest.approx(arm.reach, abs=1e-3)
     assert measured.mechanism == "fingers" and abs(np.linalg.norm(measured.closing_axis) - 1) < 1e-2
     assert 0 < measured.close_time_s < 10 and measured.opening_open != measured.opening_closed
+    assert measured.zero_holds  # robosuite's grippers step their command: zero leaves it where it is
     assert measured.tracking_error_m < measured.settle_tol_m <= 0.05 and not measured.unreached
     # at the table the arm reaches past the table's centre, and less far than stretched out in the air
     assert np.linalg.norm(measured.base_xyz[:2]) < measured.table_reach_m < measured.reach_m
@@ -52,6 +53,7 @@ def test_the_hand_footprint_is_measured_from_the_grippers_own_geometry():
     along = int(np.argmax(np.abs(jaw.closing_axis[:2])))  # the site axis the fingers close along
     assert jaw.hand_half_xy[along] > 0.08 > jaw.hand_half_xy[1 - along]  # a Franka Hand is ~20 cm long
     assert max(cup.hand_half_xy) < 0.04 < max(jaw.hand_half_xy)
+    assert jaw.zero_holds and not cup.zero_holds  # a cup's command is on or off
 
 
 @pytest.mark.slow
@@ -93,6 +95,39 @@ def test_a_slow_three_finger_hand_grasps_with_its_calibrated_stroke(cache):
     assert calibration("Jaco").close_time_s > 3.0
     result = run_episode(RecentAgent(RecentSettings(infiller=RuleConfig())), "kinematic/lift_cube", "Jaco", seed=0)
     assert result.success, result.failures
+
+
+def test_a_slow_hand_lets_go_when_told_not_once_its_closing_command_has_unwound(cache):
+    """The Jaco's closing command steps 1 % a control step: left on while the fingers held the cube it
+    wound on, and the open that followed moved no finger for 70 steps (3.5 s). Held at zero once the
+    fingers have squeezed, the hand lets go at once."""
+    from lerobot_policy_recent.robosuite_envs.gym_env import RecentEnv
+    from lerobot_policy_recent.robosuite_envs.observation import Observation
+    from lerobot_policy_recent.robosuite_envs.primitives import control
+    from lerobot_policy_recent.robosuite_envs.primitives.session import RobotSession
+
+    env = RecentEnv(task="kinematic/cube_in_bin", robot="Jaco", render_mode="none")
+    names = env.spec_task.object_names()
+    try:
+        raw, _ = env.reset(seed=3)
+        session = RobotSession("Jaco", Observation.decode(raw["agent_pos"], raw["environment_state"], names))
+        session.calibration = calibration("Jaco")
+
+        def run(steps, until_free: bool = False) -> int:
+            taken = 0
+            for action in steps:
+                raw, *_ = env.step(action)
+                session.update(Observation.decode(raw["agent_pos"], raw["environment_state"], names))
+                taken += 1
+                if until_free and session.obs.held() is None:
+                    break
+            return taken
+
+        run(control.grasp_at(session, session.obs.objects["cube"].pos, object_name="cube"))
+        assert session.obs.held() == "cube" and session.gripper_command == 0.0
+        assert run(control.actuate_gripper(session, -1.0), until_free=True) <= 5
+    finally:
+        env.close()
 
 
 def test_an_arm_stopped_short_of_its_goal_is_a_calibration_failure_not_a_grounding_one():

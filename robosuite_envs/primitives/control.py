@@ -37,6 +37,7 @@ TABLE_CLEARANCE = 0.805  # z below which the fingers would hit the table top (me
 GRIPPER_WAIT_S = 3.0  # longest a gripper command is held by default (a slower calibrated stroke: longer)
 OPEN_ENOUGH = 0.8  # fraction of its calibrated stroke a gripper must open to let go
 STROKE_MARGIN = 1.5  # a full stroke may take this multiple of its calibrated time (under load, against friction)
+SQUEEZE_STEPS = 10  # control steps a closing gripper keeps closing on what it holds before its command is held
 
 
 def servo_action(session: RobotSession, target_pos: np.ndarray) -> Action:
@@ -255,20 +256,31 @@ def actuate_gripper(
     Runs at least ``duration_s`` and then until the opening stops changing (fingers closed on an
     object or at their limit), at most ``max_duration_s``: by default ``GRIPPER_WAIT_S``, or longer
     for a gripper whose calibrated stroke takes longer (a slow linkage, a three-finger hand).
+
+    A gripper whose calibration says a zero command holds it is told zero once closed: its command
+    steps at a fixed rate, and a close left on would wind on past the object (a Jaco hand's by up to
+    4 s) that a later open must first unwind before the fingers move: once it has held the object for
+    ``SQUEEZE_STEPS`` (fingers on an object may jitter and never read still). A fast gripper's fingers
+    stop first, and its command, wound to its end within its short stroke, stays as it is.
     """
     if max_duration_s is None:
         max_duration_s = max(GRIPPER_WAIT_S, STROKE_MARGIN * stroke_seconds(session, command))
     session.gripper_command = float(np.clip(command, -1.0, 1.0))
+    hold_closed = command > 0 and session.calibration.zero_holds
     hold = np.array(session.obs.eef_pos)
     min_steps = max(1, int(duration_s * CONTROL_FREQ))
-    previous, still = session.obs.gripper_opening, 0
+    previous, still, squeezed = session.obs.gripper_opening, 0, 0
     for step in range(max(min_steps, int(max_duration_s * CONTROL_FREQ))):
         yield servo_action(session, hold)
         opening = session.obs.gripper_opening
         still = still + 1 if abs(opening - previous) < 1e-3 else 0
+        squeezed = squeezed + 1 if hold_closed and session.obs.held() is not None else 0
         previous = opening
-        if step + 1 >= min_steps and still >= 3 and (command > -1.0 or opened(session)):
-            return  # stopped (on an object, at the limit); a full open also reads open (fingers on an object stall first)
+        stopped = still >= 3 or squeezed >= SQUEEZE_STEPS
+        if step + 1 >= min_steps and stopped and (command > -1.0 or opened(session)):
+            break  # stopped (on an object, at the limit); a full open also reads open (fingers on an object stall first)
+    if hold_closed and squeezed >= SQUEEZE_STEPS:
+        session.gripper_command = 0.0  # squeezed: a rate command is wound on far enough to hold the grip
 
 
 def opened(session: RobotSession, fraction: float = OPEN_ENOUGH) -> bool:
