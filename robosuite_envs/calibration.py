@@ -92,8 +92,7 @@ class Calibration:
             f"hand footprint    {2 * self.hand_half_xy[0] * 100:.1f} x {2 * self.hand_half_xy[1] * 100:.1f} cm "
             "(open, along the grip site's x and y)",
             f"close / open      {self.close_time_s:.2f} s / {self.open_time_s:.2f} s "
-            f"(opening reads {self.opening_closed:.3f} closed, {self.opening_open:.3f} open; "
-            f"a zero command {'holds it' if self.zero_holds else 'does not hold it'})",
+            f"(opening reads {self.opening_closed:.3f} closed, {self.opening_open:.3f} open{self._hold_line()})",
             f"tracking error    {self.tracking_error_m * 1000:.1f} mm steady-state (worst pose); "
             f"a stopped arm within {self.settle_tol_m * 1000:.1f} mm has arrived",
             f"unreached poses   {unreached}",
@@ -101,6 +100,11 @@ class Calibration:
             f"table top at z = {self.table_top_z:.3f} m, pointing down)",
             f"measured with     {self.measured_with} in {self.seconds:.1f} s (calibration v{self.version})",
         ]
+
+    def _hold_line(self) -> str:
+        if self.mechanism == "suction":
+            return ""  # a cup's command is on or off: not asked
+        return "; a zero command holds it" if self.zero_holds else "; a zero command does not hold it"
 
 
 @dataclass(frozen=True)
