@@ -102,6 +102,7 @@ class Calibration:
         ]
 
     def _hold_line(self) -> str:
+        """What the close / open line says of a zero command (a cup is not asked)."""
         if self.mechanism == "suction":
             return ""  # a cup's command is on or off: not asked
         return "; a zero command holds it" if self.zero_holds else "; a zero command does not hold it"

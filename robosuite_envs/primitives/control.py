@@ -257,11 +257,11 @@ def actuate_gripper(
     object or at their limit), at most ``max_duration_s``: by default ``GRIPPER_WAIT_S``, or longer
     for a gripper whose calibrated stroke takes longer (a slow linkage, a three-finger hand).
 
-    A gripper whose calibration says a zero command holds it is told zero once closed: its command
-    steps at a fixed rate, and a close left on would wind on past the object (a Jaco hand's by up to
-    4 s) that a later open must first unwind before the fingers move: once it has held the object for
-    ``SQUEEZE_STEPS`` (fingers on an object may jitter and never read still). A fast gripper's fingers
-    stop first, and its command, wound to its end within its short stroke, stays as it is.
+    A gripper whose calibration says a zero command holds it is told zero once it has held the object
+    for ``SQUEEZE_STEPS`` (fingers on an object may jitter and never read still): its command steps at
+    a fixed rate, and a close left on winds on past the object, which a later open must unwind before
+    a finger moves (a Jaco hand's: 3.5 s). A fast gripper's fingers stop first, and its command, wound
+    to its end within its short stroke, stays as it is.
     """
     if max_duration_s is None:
         max_duration_s = max(GRIPPER_WAIT_S, STROKE_MARGIN * stroke_seconds(session, command))
