@@ -260,8 +260,8 @@ def actuate_gripper(
     A gripper whose calibration says a zero command holds it is told zero once it has held the object
     for ``SQUEEZE_STEPS`` (fingers on an object may jitter and never read still): its command steps at
     a fixed rate, and a close left on winds on past the object, which a later open must unwind before
-    a finger moves (a Jaco hand's: 3.5 s). A fast gripper's fingers stop first, and its command, wound
-    to its end within its short stroke, stays as it is.
+    a finger moves (a slow hand's for seconds). A fast gripper's fingers stop first, and its command,
+    wound to its end within its short stroke, stays as it is.
     """
     if max_duration_s is None:
         max_duration_s = max(GRIPPER_WAIT_S, STROKE_MARGIN * stroke_seconds(session, command))
