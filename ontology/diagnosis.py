@@ -7,6 +7,7 @@ conflict carries everything the refactoring step needs — no LM is involved her
 
 from __future__ import annotations
 
+import ast
 import re
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
@@ -206,6 +207,7 @@ def diagnose(
         lambda param, text: text if param.type == OBJECT_NAME else names.of(text),
     )
     conflicts, warnings = [], []
+    pressed = _pressed_deeper(onto, source, robot, sites)
     for site, held in zip(sites, holds, strict=True):
         original = source_api.get(site.name)
         target, conflict = target_api.get(site.name), None
@@ -214,7 +216,7 @@ def diagnose(
         if target is None:
             held_at = None if held is None else (held[0], sites[held[1]].span.line)
             site_names, declared = _declared_release(original, site, names, held, placements or {})
-            conflict = _conflict(onto, site, original, source, robot, site_names, sites, held)
+            conflict = _conflict(onto, site, original, source, robot, site_names, sites, held, pressed)
             conflict = replace(conflict, held=held_at, by_placements=declared)
             conflicts.append(conflict)
             target = conflict.substitute
@@ -260,6 +262,7 @@ def _conflict(
     names: PositionNames,
     sites: Sequence[CallSite],
     held: tuple[str, int] | None,
+    pressed: float = 0.0,
 ) -> Conflict:
     candidates = onto.substitutes(source, site.name, robot)
     if candidates and _shaping_only(onto.api(source), original, candidates, sites):
@@ -295,6 +298,8 @@ def _conflict(
             dropped.append(param.name)
         else:
             values, converted = _value_map(param.choices, target.choices), _converted(param, target, given, names)
+            if pressed and param.role == PATH_ROLE and converted is None:
+                converted = _pressed_point(given.get(param.name), names, pressed)
             mapping.append(ParameterMapping(param.name, target.name, param.role, values, converted))
     mapping += _also_named(original, substitute, mapping, given, names)
     located = _located(original, substitute, mapping, given)
@@ -330,7 +335,62 @@ def _conflict(
         preparatory_arguments=arguments if any(arguments) else (),
     )
     after = f", after {', '.join(_described(conflict))}" if preparatory else ""
-    return replace(conflict, reason=f"no {site.name}; use {substitute.name} (same effects){after}")
+    lowered = any(m.conversion and m.role == PATH_ROLE and pressed for m in mapping)
+    deeper = (
+        f"; its point {abs(pressed) * 1000:g} mm {'lower' if pressed > 0 else 'higher'}, where {robot}'s tool presses as deep as {source}'s fingertips"
+        if lowered
+        else ""
+    )
+    return replace(conflict, reason=f"no {site.name}; use {substitute.name} (same effects){after}{deeper}")
+
+
+def _pressed_deeper(onto: Ontology, source: str, robot: str, sites: Sequence[CallSite]) -> float:
+    """Metres the target's tool must go lower than the source's grip site went, to touch where the
+    source's closed fingertips touched: where the skill closes the hand only to push or press with,
+    and the target's tool takes no shape (the call is dropped), each declaring how far its lowest
+    point lies below its grip site. 0 where either is undeclared, or nothing is dropped so."""
+    source_api, target_api = onto.api(source), onto.api(robot)
+    if source_api.tool_tip_m is None or target_api.tool_tip_m is None:
+        return 0.0
+    for site in sites:
+        original = source_api.get(site.name)
+        candidates = onto.substitutes(source, site.name, robot) if target_api.get(site.name) is None else []
+        if original is not None and candidates and _shaping_only(source_api, original, candidates, sites):
+            return round(source_api.tool_tip_m - target_api.tool_tip_m, 4)
+    return 0.0
+
+
+def _pressed_point(expression: str | None, names: PositionNames, deeper: float) -> Conversion | None:
+    """A point straight over a named object (``[cap_pos[0], cap_pos[1], cap_pos[2] + 0.01]``), its
+    height ``deeper`` lower: a fist brought down onto an object presses it with its lowest point, and
+    a tool whose lowest point sits nearer its grip site must go that much lower to press as deep.
+    Points beside an object (a sweep's start, a push's goal) keep their height."""
+    if not expression:
+        return None
+    try:
+        node = ast.parse(expression, mode="eval").body
+    except SyntaxError:
+        return None
+    if not (isinstance(node, ast.List) and len(node.elts) == 3 and "\n" not in expression):
+        return None
+    over = {_item_of(node.elts[0], 0), _item_of(node.elts[1], 1)}
+    if len(over) != 1 or (variable := over.pop()) is None or variable not in names.variables:
+        return None
+    end = node.elts[2].end_col_offset
+    sign = "-" if deeper > 0 else "+"
+    return Conversion(f"{expression[:end]} {sign} {abs(deeper):g}{expression[end:]}")
+
+
+def _item_of(node: ast.expr, index: int) -> str | None:
+    """``P`` where ``node`` is ``P[index]``, else None."""
+    if (
+        isinstance(node, ast.Subscript)
+        and isinstance(node.value, ast.Name)
+        and isinstance(node.slice, ast.Constant)
+        and node.slice.value == index
+    ):
+        return node.value.id
+    return None
 
 
 def _described(conflict: Conflict) -> list[str]:

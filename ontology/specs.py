@@ -150,6 +150,9 @@ class ApiSpec:
     path: Path
     primitives: tuple[PrimitiveSpec, ...] = field(default_factory=tuple)
     frames: tuple[FrameSpec, ...] = ()  # besides the world
+    # how far the tool's lowest point lies below its grip site, pointing down (metres; None: not declared):
+    # where a fist presses with its tip, another tool keeps that point, not the grip site
+    tool_tip_m: float | None = None
 
     def names(self) -> list[str]:
         return [p.name for p in self.primitives]
@@ -187,6 +190,8 @@ class ConditionSpec:
 
 
 CONDITIONS_PATH = Path(__file__).with_name("conditions.yaml")
+TOOL_TIP_KEY = "tool_tip_below_site_m"  # an API file's optional top-level key (ApiSpec.tool_tip_m)
+MAX_TOOL_TIP_M = 0.3
 
 
 def load_conditions(path: Path | str = CONDITIONS_PATH) -> dict[str, ConditionSpec]:
@@ -285,6 +290,9 @@ def load_api_spec(path: Path | str) -> ApiSpec:
     module = _require(data, "module", str, path, "top level")
     raw = _require(data, "primitives", list, path, "top level")
     frames = _parse_frames(data.get("frames", {}), path)
+    tip = data.get(TOOL_TIP_KEY)
+    if tip is not None and not (_number(tip) and 0.0 <= tip <= MAX_TOOL_TIP_M):
+        raise SpecError(path, TOOL_TIP_KEY, f"must be metres from 0 to {MAX_TOOL_TIP_M}, got {tip!r}")
     primitives = []
     seen: set[str] = set()
     for i, item in enumerate(raw):
@@ -294,7 +302,14 @@ def load_api_spec(path: Path | str) -> ApiSpec:
         seen.add(prim.name)
         primitives.append(prim)
         _check_frames(prim, {f.name for f in frames}, path, f"primitives[{i}] ({prim.name})")
-    return ApiSpec(embodiment=embodiment, module=module, path=path, primitives=tuple(primitives), frames=frames)
+    return ApiSpec(
+        embodiment=embodiment,
+        module=module,
+        path=path,
+        primitives=tuple(primitives),
+        frames=frames,
+        tool_tip_m=None if tip is None else float(tip),
+    )
 
 
 def _parse_frames(raw: Any, path: Path) -> tuple[FrameSpec, ...]:

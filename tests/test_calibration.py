@@ -66,6 +66,15 @@ def test_every_embodiment_calibrates_consistently_with_the_ontology(name, ontolo
     assert np.linalg.norm(measured.base_xyz[:2]) < measured.table_reach_m < measured.reach_m
 
 
+def test_a_tool_tip_a_robot_file_declares_is_the_one_the_calibration_measures(ontology):
+    """The ontology keeps a fist's press point from the tool tips the API files declare; each is the
+    depth the calibration measures below the grip site, to half a millimetre."""
+    declared = {name: api.tool_tip_m for name, api in ontology.apis.items() if api.tool_tip_m is not None}
+    assert {"Panda", "FrankaHand", "Suction"} <= set(declared)
+    for name, tip in declared.items():
+        assert calibration(name).below_site_m == pytest.approx(tip, abs=5e-4), name
+
+
 def test_a_calibration_is_measured_once_then_read_from_the_cache(cache):
     first = calibration("Panda")
     path = cache_path(get_embodiment("Panda"))

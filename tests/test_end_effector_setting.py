@@ -75,6 +75,25 @@ def test_a_hand_closed_only_to_push_is_dropped_on_the_cup_and_a_grip_is_not(onto
     assert not wrote.valid and "the ontology drops this call" in wrote.verdict.message
 
 
+def test_a_press_with_the_fist_keeps_its_depth_on_the_cup(ontology, rule_infiller):
+    """The Panda presses the cap with its closed fingertips, 13.7 mm below its grip site, sent 1 cm
+    above the cap; the cup's face lies 2.3 mm below its own, so every point straight over the cap
+    goes 11.4 mm lower (it stopped 7.7 mm above the cap and pressed nothing). A sweep's points lie
+    beside the blocks and keep their height; the 2F-85 closes its fingers and keeps every point."""
+    press = load_skill("press_button")
+    grounded = ground_skill(press, ontology.target("Suction"), ontology, rule_infiller)
+    assert grounded.valid and grounded.generated_tokens == 0
+    assert "move_to_position(env, task, pos=[cap_pos[0], cap_pos[1], cap_pos[2] + 0.01 - 0.0114])" in _lines(
+        grounded.code
+    )
+    descent = [c for c in grounded.diagnosis.conflicts if c.original == "move"][1]
+    assert "11.4 mm lower" in descent.reason
+    sweep = ground_skill(load_skill("sweep_into_pen"), ontology.target("Suction"), ontology, rule_infiller)
+    assert "0.0114" not in sweep.code
+    fingers = ground_skill(press, ontology.target("Robotiq85"), ontology, rule_infiller)
+    assert "0.0114" not in fingers.code
+
+
 def test_the_2f85_takes_the_franka_hands_calls_by_name_as_renames(ontology, rule_infiller):
     for name in ("fill_box", "open_drawer", "stack_tower", "put_in_drawer"):
         skill = load_skill(name)

@@ -12,6 +12,7 @@ from lerobot_policy_recent.robosuite_envs.gym_env import RecentEnv
 from lerobot_policy_recent.robosuite_envs.observation import ObjectState, Observation
 from lerobot_policy_recent.robosuite_envs.primitives import clearance, control
 from lerobot_policy_recent.robosuite_envs.primitives.session import PrimitiveFailure, RobotSession, TaskContext
+from lerobot_policy_recent.robosuite_envs.subtasks import TABLE_Z
 
 SLAB = clearance.Box("slab", np.array([0.0, 0.0, 0.83]), np.array([0.05, 0.05, 0.015]))  # top at 0.845
 
@@ -155,11 +156,11 @@ def test_a_cup_lets_go_once_what_it_presses_its_load_onto_only_yields():
 class _Arm:
     """A Panda in a suite scene, driven by the shared controllers alone."""
 
-    def __init__(self, task: str):
-        self.env = RecentEnv(task=task, robot="Panda", render_mode="none")
+    def __init__(self, task: str, robot: str = "Panda"):
+        self.env = RecentEnv(task=task, robot=robot, render_mode="none")
         self.names = self.env.spec_task.object_names()
         raw, _ = self.env.reset(seed=0)
-        self.session = RobotSession("Panda", self._decode(raw))
+        self.session = RobotSession(robot, self._decode(raw))
 
     def _decode(self, raw) -> Observation:
         return Observation.decode(raw["agent_pos"], raw["environment_state"], self.names)
@@ -209,6 +210,44 @@ def test_a_press_aimed_inside_the_button_ends_where_the_fingertips_meet_it_press
     arm.run(control.move_to(arm.session, button - [0.0, 0.0, 0.01], timeout_s=3.0, settle=True))
     assert arm.session.obs.objects["button"].state == 1.0
     assert arm.session.obs.eef_pos[2] > button[2] - 0.01 + control.POS_TOL  # it stopped on the cap, short of the goal
+
+
+def test_a_cup_lowered_onto_a_button_presses_it_until_the_cap_bottoms_out():
+    """The cup arrives on what it lowers onto once it has stopped there, not on first touch: a
+    button's cap gives way under it. Sent to the point the ontology keeps for a press (11.4 mm under
+    the Panda's, whose fingertips reach deeper), the cap reads pressed; sent to the Panda's own
+    grip-site point, the cup's face stops above the cap's travel and it does not."""
+    from lerobot_policy_recent.robosuite_envs.primitives import suction
+
+    for height, pressed in ((0.01 - 0.0114, 1.0), (0.01, 0.0)):
+        arm = _Arm("kinematic/press_button", "Suction")
+        try:
+            task = TaskContext(arm.session)
+            cap = np.asarray(task.get_object_position("button"))
+            arm.run(suction.move_to_position(arm.session, task, cap + [0.0, 0.0, 0.08]))
+            arm.run(suction.move_to_position(arm.session, task, cap + [0.0, 0.0, height]))
+            assert arm.session.obs.objects["button"].state == pressed, height
+        finally:
+            arm.env.close()
+
+
+@pytest.mark.slow
+def test_an_arm_folded_by_a_stretch_goes_back_by_the_middle_of_the_table_and_arrives():
+    """XArm7, stretched to the table's far corner, stops some 25 cm short of a point nearer its base
+    and stays there (no contact; operational-space control no longer moves it). Planned, the move
+    goes back by the middle of the table, where the arm takes its ordinary posture, and arrives."""
+    arm = _Arm("kinematic/cube_in_bin", "XArm7")
+    try:
+        far, near = np.array([0.15, 0.22, TABLE_Z + 0.12]), np.array([-0.15, 0.22, TABLE_Z + 0.12])
+        arm.run(control.move_to(arm.session, far, timeout_s=6.0, settle=True, tol=0.03))
+        with pytest.raises(PrimitiveFailure) as trapped:
+            arm.run(control.move_to(arm.session, near, timeout_s=6.0, plan=False))
+        assert trapped.value.kind in ("cannot_track", "timeout")
+        assert np.linalg.norm(arm.session.obs.eef_pos - near) > 0.15
+        arm.run(control.move_to(arm.session, near, timeout_s=6.0))
+        assert np.linalg.norm(arm.session.obs.eef_pos - near) < control.POS_TOL
+    finally:
+        arm.env.close()
 
 
 @pytest.mark.slow

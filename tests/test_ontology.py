@@ -231,6 +231,9 @@ def test_malformed_spec_names_file_and_field(tmp_path):
     bad.write_text(grab + path % ("motion_target", "[0, 0.1]"))
     with pytest.raises(SpecError, match=r"primitives\[0\] \(grab\)\.path\[0\]\.offset: must be three numbers"):
         load_api_spec(bad)
+    bad.write_text("tool_tip_below_site_m: -0.01\n" + grab)
+    with pytest.raises(SpecError, match=r"tool_tip_below_site_m: must be metres from 0 to 0.3, got -0.01"):
+        load_api_spec(bad)
     bad.write_text("embodiment: [unclosed\n")
     with pytest.raises(SpecError, match="not valid YAML"):
         load_api_spec(bad)

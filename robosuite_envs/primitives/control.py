@@ -34,9 +34,11 @@ STALL_STEPS = 10  # control steps a lowered load must not move (by SETTLED in al
 SET_DOWN_GAP = 0.02  # metres above its target a grip site may stop once the held object rests on the surface
 APPROACH_HEIGHT = 0.10
 TABLE_CLEARANCE = 0.805  # z below which the fingers would hit the table top (metres, world)
+TABLE_MIDDLE_XY = (0.0, 0.0)  # the table's centre (world x, y; the scenes put it at the origin)
 GRIPPER_WAIT_S = 3.0  # longest a gripper command is held by default (a slower calibrated stroke: longer)
 OPEN_ENOUGH = 0.8  # fraction of its calibrated stroke a gripper must open to let go
 STROKE_MARGIN = 1.5  # a full stroke may take this multiple of its calibrated time (under load, against friction)
+UNFOLD_SHORT = 0.05  # metres short of its goal a stopped arm counts as trapped, not off by its tracking error
 SQUEEZE_STEPS = 10  # control steps a closing gripper keeps closing on what it holds before its command is held
 
 
@@ -77,7 +79,8 @@ def move_to(
 
     ``stop_on_contact``: a compliant tool (a vacuum cup) arrives once it rests on a surface right
     above the target — it cannot go through what it would seal on — or once what it carries rests
-    on something on the way down.
+    on something on the way down; resting means stopped there: a button's cap gives way under it
+    until it bottoms out (stopped on first touch, the cup pressed nothing).
     ``settle``: for an arm whose tracking stops short of the target, ``tol`` is where it may stop,
     not where it stops trying: the move ends within ``POS_TOL``, or within ``tol`` once the grip
     site no longer moves (a press that returned on entering ``tol`` stopped 2 cm above the button).
@@ -121,7 +124,7 @@ def move_to(
         else:
             arrived = err < tol
         if arrived or (
-            stop_on_contact and (resting_above(session, goal, tol) or (still and carried_rests(session, goal)))
+            stop_on_contact and still and (resting_above(session, goal, tol) or carried_rests(session, goal))
         ):
             return
         last = session.obs.eef_pos.copy()
@@ -157,7 +160,7 @@ def _planned(session: RobotSession, goal: np.ndarray, timeout_s: float, final: d
     over what the hand or its load meets there and plan again from above it. Each leg (climb, pass,
     descent) has the move's ``timeout_s``: a detour is never cut short by a budget set for a line."""
     sweep = clearance.Sweep.of(session.obs, session.calibration.hand_half_xy)
-    climbed = False
+    climbed = unfolded = False
     while True:
         path = clearance.path_over(session.obs.eef_pos, goal, clearance.boxes(session.obs), sweep)
         try:
@@ -168,11 +171,37 @@ def _planned(session: RobotSession, goal: np.ndarray, timeout_s: float, final: d
             yield from move_to(session, goal, timeout_s=timeout_s, plan=False, **final)
             return
         except PrimitiveFailure as failure:
+            if not unfolded and _trapped(session, goal, failure):
+                unfolded = True
+                yield from _unfold(session, goal, timeout_s, sweep)
+                continue
             climb = None if climbed or failure.kind != "waypoint_blocked" else _climb(session, goal, sweep)
             if climb is None:
                 raise
             climbed = True
             yield from move_to(session, climb, timeout_s=timeout_s, tol=VIA_TOL, plan=False)
+
+
+def _trapped(session: RobotSession, goal: np.ndarray, failure: PrimitiveFailure) -> bool:
+    """The arm stopped, or crept, far short of its goal with nothing in its way (no contact). A
+    redundant arm folded by a stretch can sit where operational-space control no longer moves it
+    towards a goal it reaches at once from a posture nearer the middle of the table."""
+    if failure.kind not in ("cannot_track", "timeout") or session.obs.eef_contact:
+        return False
+    return float(np.linalg.norm(goal - session.obs.eef_pos)) > UNFOLD_SHORT
+
+
+def _unfold(session: RobotSession, goal: np.ndarray, timeout_s: float, sweep: clearance.Sweep) -> Steps:
+    """Back over the middle of the table, at the higher of the grip site's
+    and the goal's heights, over the perceived boxes: from there an arm takes its ordinary posture.
+    Not reached either, the move is planned again from wherever the arm got to."""
+    here = np.asarray(session.obs.eef_pos, dtype=float)
+    middle = np.array([*TABLE_MIDDLE_XY, max(here[2], goal[2])])
+    try:
+        for via in clearance.path_over(here, middle, clearance.boxes(session.obs), sweep):
+            yield from move_to(session, via, timeout_s=timeout_s, tol=VIA_TOL, plan=False)
+    except PrimitiveFailure:
+        return
 
 
 def _climb(session: RobotSession, goal: np.ndarray, sweep: clearance.Sweep) -> np.ndarray | None:
