@@ -291,7 +291,7 @@ def _conflict(
         )
     substitute = min(candidates, key=lambda c: (len(c.preconditions - original.preconditions), c.name))
     given = dict(site.arguments)
-    mapping, dropped = [], []
+    mapping, dropped, lowered = [], [], False
     for param in original.parameters:
         target = substitute.by_role(param.role) or _named_by_point(param, substitute, given, names)
         if target is None:
@@ -300,6 +300,7 @@ def _conflict(
             values, converted = _value_map(param.choices, target.choices), _converted(param, target, given, names)
             if pressed and param.role == PATH_ROLE and converted is None:
                 converted = _pressed_point(given.get(param.name), names, pressed)
+                lowered = lowered or converted is not None
             mapping.append(ParameterMapping(param.name, target.name, param.role, values, converted))
     mapping += _also_named(original, substitute, mapping, given, names)
     located = _located(original, substitute, mapping, given)
@@ -335,11 +336,9 @@ def _conflict(
         preparatory_arguments=arguments if any(arguments) else (),
     )
     after = f", after {', '.join(_described(conflict))}" if preparatory else ""
-    lowered = any(m.conversion and m.role == PATH_ROLE and pressed for m in mapping)
+    way = "lower" if pressed > 0 else "higher"
     deeper = (
-        f"; its point {abs(pressed) * 1000:g} mm {'lower' if pressed > 0 else 'higher'}, where {robot}'s tool presses as deep as {source}'s fingertips"
-        if lowered
-        else ""
+        f"; its point {abs(pressed) * 1000:g} mm {way}: {robot}'s tool presses as deep as {source}'s" if lowered else ""
     )
     return replace(conflict, reason=f"no {site.name}; use {substitute.name} (same effects){after}{deeper}")
 
@@ -364,7 +363,8 @@ def _pressed_point(expression: str | None, names: PositionNames, deeper: float) 
     """A point straight over a named object (``[cap_pos[0], cap_pos[1], cap_pos[2] + 0.01]``), its
     height ``deeper`` lower: a fist brought down onto an object presses it with its lowest point, and
     a tool whose lowest point sits nearer its grip site must go that much lower to press as deep.
-    Points beside an object (a sweep's start, a push's goal) keep their height."""
+    Points beside an object (a sweep's start, a push's goal) keep their height. The conversion is
+    the whole new argument (a template with no hole for the source's)."""
     if not expression:
         return None
     try:
