@@ -7,7 +7,6 @@ conflict carries everything the refactoring step needs — no LM is involved her
 
 from __future__ import annotations
 
-import ast
 import re
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
@@ -26,6 +25,7 @@ from lerobot_policy_recent.ontology.skill_code import (
     CodeSpan,
     PositionNames,
     call_sites,
+    parse_expression,
     position_bindings,
     position_names,
 )
@@ -365,32 +365,12 @@ def _pressed_point(expression: str | None, names: PositionNames, deeper: float) 
     a tool whose lowest point sits nearer its grip site must go that much lower to press as deep.
     Points beside an object (a sweep's start, a push's goal) keep their height. The conversion is
     the whole new argument (a template with no hole for the source's)."""
-    if not expression:
-        return None
-    try:
-        node = ast.parse(expression, mode="eval").body
-    except SyntaxError:
-        return None
-    if not (isinstance(node, ast.List) and len(node.elts) == 3 and "\n" not in expression):
-        return None
-    over = {_item_of(node.elts[0], 0), _item_of(node.elts[1], 1)}
-    if len(over) != 1 or (variable := over.pop()) is None or variable not in names.variables:
+    node = parse_expression(expression)
+    if node is None or "\n" in expression or names.straight_over(node) is None:
         return None
     end = node.elts[2].end_col_offset
     sign = "-" if deeper > 0 else "+"
     return Conversion(f"{expression[:end]} {sign} {abs(deeper):g}{expression[end:]}")
-
-
-def _item_of(node: ast.expr, index: int) -> str | None:
-    """``P`` where ``node`` is ``P[index]``, else None."""
-    if (
-        isinstance(node, ast.Subscript)
-        and isinstance(node.value, ast.Name)
-        and isinstance(node.slice, ast.Constant)
-        and node.slice.value == index
-    ):
-        return node.value.id
-    return None
 
 
 def _described(conflict: Conflict) -> list[str]:

@@ -174,13 +174,41 @@ class PositionNames:
 
     def of(self, expression: str | None) -> str | None:
         """The object the position ``expression`` (an argument's source) names, or None."""
-        if not expression:
-            return None
-        try:
-            node = ast.parse(expression, mode="eval").body
-        except SyntaxError:
+        node = parse_expression(expression)
+        if node is None:
             return None
         return placed_by(node, self.variables, self.constants) or self.declared.get(expression)
+
+    def straight_over(self, node: ast.expr) -> str | None:
+        """The object a point ``[P[0], P[1], <a height>]`` lies straight over (``P`` its position
+        read), or None: a point beside it (``P[0] - 0.06``) or placed by two objects is not."""
+        if not (isinstance(node, ast.List) and len(node.elts) == 3):
+            return None
+        over = {_item_of(node.elts[0], 0), _item_of(node.elts[1], 1)}
+        variable = over.pop() if len(over) == 1 else None
+        return self.variables.get(variable) if variable is not None else None
+
+
+def parse_expression(text: str | None) -> ast.expr | None:
+    """``text`` as one Python expression, or None (empty, or not an expression)."""
+    if not text:
+        return None
+    try:
+        return ast.parse(text, mode="eval").body
+    except SyntaxError:
+        return None
+
+
+def _item_of(node: ast.expr, index: int) -> str | None:
+    """``P`` where ``node`` is ``P[index]``, else None."""
+    if (
+        isinstance(node, ast.Subscript)
+        and isinstance(node.value, ast.Name)
+        and isinstance(node.slice, ast.Constant)
+        and node.slice.value == index
+    ):
+        return node.value.id
+    return None
 
 
 def placed_by(node: ast.expr, names: dict[str, str], constants: frozenset[str]) -> str | None:

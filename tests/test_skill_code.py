@@ -81,3 +81,27 @@ def test_calls_are_counted_as_the_paper_counts_them():
 """
     counted = count_calls(code, "skill", {"open_gripper", "push", "move", "close_gripper", "place", "pick"})
     assert (counted.primitives, counted.position_reads) == (1 + 3 + 2 + 1 + 2, 1 + 2)
+
+
+def test_a_point_straight_over_an_object_is_told_from_one_beside_it():
+    """Where a fist presses (straight over what a position read names) and where it pushes from (beside it)."""
+    from lerobot_policy_recent.ontology.skill_code import parse_expression, position_names
+
+    names = position_names(
+        "def f(env, task, button='button', cube='cube'):\n"
+        "    cap_pos = task.get_object_position(button)\n"
+        "    obj_pos = task.get_object_position(cube)\n"
+        "    move(env, task, target_pos=[cap_pos[0], cap_pos[1], cap_pos[2] + 0.01])\n"
+    )
+    over = [
+        names.straight_over(parse_expression(text))
+        for text in (
+            "[cap_pos[0], cap_pos[1], cap_pos[2] + 0.01]",
+            "[cap_pos[0] - 0.06, cap_pos[1], cap_pos[2]]",
+            "[cap_pos[0], obj_pos[1], obj_pos[2]]",
+            "[goal[0], goal[1], 0.9]",
+            "cap_pos",
+        )
+    ]
+    assert over == ["button", None, None, None, None]
+    assert parse_expression("[1, 2") is None and parse_expression("") is None
