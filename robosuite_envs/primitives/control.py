@@ -157,10 +157,12 @@ def move_to(
 
 def _planned(session: RobotSession, goal: np.ndarray, timeout_s: float, final: dict) -> Steps:
     """:func:`move_to` along the planner's path over perceived boxes; held up on the way, climb once
-    over what the hand or its load meets there and plan again from above it. Each leg (climb, pass,
+    over what the hand or its load meets there and plan again from above it; stopped far short with
+    nothing in the way, go back by the table's middle and plan again, once (failing so again, the
+    first stop is the failure named: beyond reach stays ``cannot_track``). Each leg (climb, pass,
     descent) has the move's ``timeout_s``: a detour is never cut short by a budget set for a line."""
     sweep = clearance.Sweep.of(session.obs, session.calibration.hand_half_xy)
-    climbed = unfolded = False
+    climbed, trapped = False, None
     while True:
         path = clearance.path_over(session.obs.eef_pos, goal, clearance.boxes(session.obs), sweep)
         try:
@@ -171,8 +173,12 @@ def _planned(session: RobotSession, goal: np.ndarray, timeout_s: float, final: d
             yield from move_to(session, goal, timeout_s=timeout_s, plan=False, **final)
             return
         except PrimitiveFailure as failure:
-            if not unfolded and _trapped(session, goal, failure):
-                unfolded = True
+            if _trapped(session, goal, failure):
+                if trapped is not None:  # the same again: the first stop says why (beyond reach, a trap)
+                    raise PrimitiveFailure(
+                        trapped.kind, f"{trapped.message}; the same after going back by the table's middle"
+                    ) from failure
+                trapped = failure
                 yield from _unfold(session, goal, timeout_s, sweep)
                 continue
             climb = None if climbed or failure.kind != "waypoint_blocked" else _climb(session, goal, sweep)

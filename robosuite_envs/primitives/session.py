@@ -39,7 +39,7 @@ class PrimitiveFailure(RuntimeError):
         if kind not in self.KINDS:
             raise ValueError(f"unknown failure kind {kind!r}; known: {self.KINDS}")
         super().__init__(f"{kind}: {message}")
-        self.kind = kind
+        self.kind, self.message = kind, message
 
 
 @dataclass
