@@ -198,9 +198,9 @@ def _trapped(session: RobotSession, goal: np.ndarray, failure: PrimitiveFailure)
 
 
 def _unfold(session: RobotSession, goal: np.ndarray, timeout_s: float, sweep: clearance.Sweep) -> Steps:
-    """Back over the middle of the table, at the higher of the grip site's
-    and the goal's heights, over the perceived boxes: from there an arm takes its ordinary posture.
-    Not reached either, the move is planned again from wherever the arm got to."""
+    """Back over the middle of the table, at the higher of the grip site's and the goal's heights,
+    over the perceived boxes: from there an arm takes its ordinary posture. Not reached either, the
+    move is planned again from wherever the arm got to."""
     here = np.asarray(session.obs.eef_pos, dtype=float)
     middle = np.array([*TABLE_MIDDLE_XY, max(here[2], goal[2])])
     try:
