@@ -352,9 +352,11 @@ def _pressed_deeper(onto: Ontology, source: str, robot: str, sites: Sequence[Cal
     if source_api.tool_tip_m is None or target_api.tool_tip_m is None:
         return 0.0
     for site in sites:
-        original = source_api.get(site.name)
-        candidates = onto.substitutes(source, site.name, robot) if target_api.get(site.name) is None else []
-        if original is not None and candidates and _shaping_only(source_api, original, candidates, sites):
+        original, target = source_api.get(site.name), target_api.get(site.name)
+        if original is None or (target is not None and _same_signature(original, target)):
+            continue  # not a call of the source's, or one the target makes as it is
+        candidates = onto.substitutes(source, site.name, robot)
+        if candidates and _shaping_only(source_api, original, candidates, sites):
             return round(source_api.tool_tip_m - target_api.tool_tip_m, 4)
     return 0.0
 

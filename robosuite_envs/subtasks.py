@@ -15,9 +15,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from lerobot_policy_recent.robosuite_envs.observation import ObjectState, Observation
+from lerobot_policy_recent.robosuite_envs.table import TABLE_Z
 from lerobot_policy_recent.robosuite_envs.tasks import TaskSpec
-
-TABLE_Z = 0.8  # world height of the table top (robosuite TableArena offset used by the env)
 
 # Geometry of the articulated models (robosuite_envs/objects/assets), as the predicates need it.
 DRAWER_TRAY_OFFSET = np.array([0.1125, 0.0, -0.05])  # knob → tray interior centre (floor top)

@@ -27,7 +27,8 @@ from lerobot_policy_recent.robosuite_envs.grippers import (
 from lerobot_policy_recent.robosuite_envs.objects import get_kind
 from lerobot_policy_recent.robosuite_envs.observation import GroundTruth, ObjectState, Observation
 from lerobot_policy_recent.robosuite_envs.primitives.session import CONTROL_FREQ
-from lerobot_policy_recent.robosuite_envs.subtasks import TABLE_Z, get_subtask
+from lerobot_policy_recent.robosuite_envs.subtasks import get_subtask
+from lerobot_policy_recent.robosuite_envs.table import TABLE_OFFSET, TABLE_SIZE
 from lerobot_policy_recent.robosuite_envs.tasks import ObjectSpec, TaskSpec
 from lerobot_policy_recent.robosuite_envs.variations import (
     FAR_TARGET_XY,
@@ -37,8 +38,6 @@ from lerobot_policy_recent.robosuite_envs.variations import (
     plan_variations,
 )
 
-TABLE_SIZE = (0.8, 0.8, 0.05)
-TABLE_OFFSET = np.array((0.0, 0.0, TABLE_Z))
 PARKING = np.array([1.5, 1.5, 0.05])  # off the table, on the floor: where unused objects wait
 BUTTON_PRESSED = 0.005  # metres of cap travel that count as a press
 SEAL_CONTACTS = 3  # contact points between cup and face that make a vacuum seal (a ball gives one)

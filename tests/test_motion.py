@@ -12,7 +12,7 @@ from lerobot_policy_recent.robosuite_envs.gym_env import RecentEnv
 from lerobot_policy_recent.robosuite_envs.observation import ObjectState, Observation
 from lerobot_policy_recent.robosuite_envs.primitives import clearance, control
 from lerobot_policy_recent.robosuite_envs.primitives.session import PrimitiveFailure, RobotSession, TaskContext
-from lerobot_policy_recent.robosuite_envs.subtasks import TABLE_Z
+from lerobot_policy_recent.robosuite_envs.table import TABLE_Z
 
 SLAB = clearance.Box("slab", np.array([0.0, 0.0, 0.83]), np.array([0.05, 0.05, 0.015]))  # top at 0.845
 

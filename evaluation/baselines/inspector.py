@@ -23,8 +23,7 @@ from lerobot_policy_recent.ontology.skill_code import entry_function, segment_st
 from lerobot_policy_recent.ontology.specs import WORLD_FRAME, ApiSpec, ParameterSpec
 from lerobot_policy_recent.recent_plugin.failures import FailureCategory
 from lerobot_policy_recent.recent_plugin.grounding.gate import SAFE_HELPERS, Verdict
-from lerobot_policy_recent.robosuite_envs.subtasks import TABLE_Z
-from lerobot_policy_recent.robosuite_envs.tabletop import TABLE_SIZE
+from lerobot_policy_recent.robosuite_envs.table import TABLE_SIZE, TABLE_Z
 
 BEHAVIOURS = ("nonsense", "disorder", "infeasible", "badpose")
 REACH_ABOVE_TABLE = 0.6  # metres: how high a target may lie above the table top

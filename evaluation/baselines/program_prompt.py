@@ -26,8 +26,7 @@ from lerobot_policy_recent.recent_plugin.refactoring.fim_prompt import CODE_LINE
 from lerobot_policy_recent.recent_plugin.refactoring.units import Hints, RefactoringUnit, SpanStyle, cut_unit
 from lerobot_policy_recent.robosuite_envs.observation import Observation
 from lerobot_policy_recent.robosuite_envs.primitives.session import TaskContext
-from lerobot_policy_recent.robosuite_envs.subtasks import TABLE_Z
-from lerobot_policy_recent.robosuite_envs.tabletop import TABLE_SIZE
+from lerobot_policy_recent.robosuite_envs.table import TABLE_SIZE, TABLE_Z
 from lerobot_policy_recent.skills.repository import Skill
 
 EMPTY = Verdict.reject(FailureCategory.EMPTY_CONTINUATION, "the completion is empty")

@@ -19,6 +19,7 @@ from robosuite.utils.transform_utils import mat2quat, quat2axisangle, quat2mat, 
 from lerobot_policy_recent.robosuite_envs.observation import ACTION_DIM
 from lerobot_policy_recent.robosuite_envs.primitives import clearance
 from lerobot_policy_recent.robosuite_envs.primitives.session import CONTROL_FREQ, PrimitiveFailure, RobotSession
+from lerobot_policy_recent.robosuite_envs.table import TABLE_OFFSET
 
 Action = np.ndarray
 Steps = Generator[Action, None, None]
@@ -34,7 +35,6 @@ STALL_STEPS = 10  # control steps a lowered load must not move (by SETTLED in al
 SET_DOWN_GAP = 0.02  # metres above its target a grip site may stop once the held object rests on the surface
 APPROACH_HEIGHT = 0.10
 TABLE_CLEARANCE = 0.805  # z below which the fingers would hit the table top (metres, world)
-TABLE_MIDDLE_XY = (0.0, 0.0)  # the table's centre (world x, y; the scenes put it at the origin)
 GRIPPER_WAIT_S = 3.0  # longest a gripper command is held by default (a slower calibrated stroke: longer)
 OPEN_ENOUGH = 0.8  # fraction of its calibrated stroke a gripper must open to let go
 STROKE_MARGIN = 1.5  # a full stroke may take this multiple of its calibrated time (under load, against friction)
@@ -202,7 +202,7 @@ def _unfold(session: RobotSession, goal: np.ndarray, timeout_s: float, sweep: cl
     over the perceived boxes: from there an arm takes its ordinary posture. Not reached either, the
     move is planned again from wherever the arm got to."""
     here = np.asarray(session.obs.eef_pos, dtype=float)
-    middle = np.array([*TABLE_MIDDLE_XY, max(here[2], goal[2])])
+    middle = np.array([*TABLE_OFFSET[:2], max(here[2], goal[2])])
     try:
         for via in clearance.path_over(here, middle, clearance.boxes(session.obs), sweep):
             yield from move_to(session, via, timeout_s=timeout_s, tol=VIA_TOL, plan=False)
