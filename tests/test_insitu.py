@@ -292,6 +292,34 @@ def test_the_lm_sees_only_the_sweeps_coordinates_the_log_keeps_the_slabs():
     assert sweep.startswith("ur5_push_to(env, task, contact_pos=[0.178, ") and "0.834]" not in sweep
 
 
+def test_a_place_by_name_is_checked_for_a_clear_receptacle(ontology):
+    """A 2F-85's place names its receptacle: a slab lying on the plate is swept off first (it was not
+    checked, and the cube came down on the slab), with the robot's Cartesian moves. What lies down inside
+    a bin, below its rim, is not in the way; what the skill names is not clutter."""
+    robotiq85 = load_api_spec(api_spec_path("robotiq85"))
+    params = robotiq85.get("place_robotiq85").parameters
+    sizes = {"obstacle": (0.1, 0.1, 0.03), "plate": (0.14, 0.14, 0.012), "bin": (0.2, 0.2, 0.08), "dice": (0.03,) * 3}
+    path = ontology.path_of("push_object")
+    scene = SceneFacts(frozenset({"obstacle", "dice"}), sizes, task_objects=frozenset({"plate", "bin"}), push_path=path)
+    on_plate = observed(plate=[0.17, -0.02, 0.806], obstacle=[0.165, -0.015, 0.827])
+    violation = target_clear(
+        CheckInput(on_plate, {"obj_name": "plate"}, params, frozenset({"plate"}), {}, scene, robotiq85)
+    )
+    assert violation.cue == "obstacle (slab, 0.10 m wide) lies on the release target"
+    assert violation.statements and all(s.startswith("move_to_position(env, task, pos=[") for s in violation.statements)
+    clear = observed(plate=[0.17, -0.02, 0.806], obstacle=[-0.1, 0.2, 0.815])
+    assert (
+        target_clear(CheckInput(clear, {"obj_name": "plate"}, params, frozenset({"plate"}), {}, scene, robotiq85))
+        is None
+    )
+    in_bin = observed(bin=[0.05, 0.16, 0.84], dice=[0.06, 0.15, 0.82])
+    assert (
+        target_clear(CheckInput(in_bin, {"obj_name": "bin"}, params, frozenset({"bin"}), {}, scene, robotiq85)) is None
+    )
+    named = CheckInput(on_plate, {"obj_name": "plate"}, params, frozenset({"plate", "obstacle"}), {}, scene, robotiq85)
+    assert target_clear(named) is None
+
+
 def test_checks_decide_from_geometry_not_from_kind_names():
     """A post the workcell never listed, reported by perception with its own extents, on the release target:
     it is clutter (loose, named by neither skill nor task) and is swept off by its own width."""
@@ -904,3 +932,27 @@ def test_an_object_set_down_on_a_stranger_over_its_region_is_not_counted_as_plac
     cube, under = box([0.1, 0.2, 0.84], [0.04, 0.04, 0.04]), box([0.1, 0.2, 0.81], [0.05, 0.05, 0.02])
     seen = {"bin": bin_, "cube": cube, "block": under}
     assert placement_reached(into, "cube", "bin", Observation(np.zeros(3), np.array([0, 0, 0, 1.0]), 0.0, seen))[0]
+
+
+def test_inside_a_marking_is_where_the_centre_reads_and_held_up_over_a_support_is_not_on_it():
+    """The cup's push (push_cube, dev seed 7) left the cube's centre 1 cm beyond the zone's edge: widened by
+    perception's noise the zone's box passed it, and the task failed. A marking is judged as read. A cube
+    held 2.5 cm above the plate's top, on nothing perception names (tilted on a slab's edge), is not on it."""
+    from lerobot_policy_recent.skills.repository import load_skill
+
+    (placement,) = load_skill("push_to_region").placements
+    level = np.array([0, 0, 0, 1.0])
+    zone = ObjectState(np.array([-0.05, -0.30, 0.8005]), level, size=np.array([0.1, 0.1, 0.001]))
+
+    def read(y, z=0.8225, over="zone", support=zone):
+        cube = ObjectState(np.array([-0.055, y, z]), level, size=np.array([0.045] * 3))
+        seen = {"cube": cube, over: support}
+        return placement_reached(placement, "cube", over, Observation(np.zeros(3), level, 0.0, seen))
+
+    met, said = read(-0.240)
+    assert not met and "1.0 cm outside zone's box" in said
+    assert read(-0.255)[0]  # 0.5 cm inside its edge
+    plate = ObjectState(np.array([-0.05, -0.02, 0.806]), level, size=np.array([0.14, 0.14, 0.012]))
+    assert read(-0.02, z=0.835, over="plate", support=plate)[0]  # down on it
+    met, said = read(-0.02, z=0.859, over="plate", support=plate)
+    assert not met and "2.4 cm above plate's top: resting on something else" in said

@@ -151,6 +151,14 @@ def _by_role(inp: CheckInput, *roles: str) -> np.ndarray | None:
     return None
 
 
+def _named(inp: CheckInput, role: str) -> str | None:
+    """The object name the guarded call's argument of ``role`` gives, if it takes one."""
+    return next(
+        (str(inp.arguments[p.name]) for p in inp.params if p.role == role and p.name in inp.arguments),
+        None,
+    )
+
+
 def _frame(inp: CheckInput, param: ParameterSpec) -> Frame:
     return (inp.frames or {}).get(param.frame or WORLD_FRAME, WORLD_AT_ORIGIN)
 
@@ -219,14 +227,19 @@ def object_present(inp: CheckInput) -> Violation | None:
 
 def target_clear(inp: CheckInput) -> Violation | None:
     """Something the skill does not name lies on the release target: sweep it off first."""
+    held = _held(inp)
+    carried = max((extents(inp, n)[2] / 2 for n in held), default=0.0)
     target = _by_role(inp, "release_target")
+    if target is None and (receptacle := _named(inp, "release_receptacle")) is not None:
+        # a place by name lowers the load onto the receptacle's top, over its middle
+        state = inp.obs.objects.get(receptacle)
+        if state is not None:
+            target = np.asarray(state.pos, dtype=float) + [0.0, 0.0, extents(inp, receptacle)[2] / 2 + carried]
     if target is None:
         return None
-    held = _held(inp)
     for name, state in _strangers(inp, held):
         size = extents(inp, name)
         half = max(size[:2]) / 2
-        carried = max((extents(inp, n)[2] / 2 for n in held), default=0.0)
         # in the way only if its top reaches where the held object's underside will be (not at a bin's bottom)
         reaches_up = state.pos[2] + size[2] / 2 > target[2] - carried - 0.01
         if np.linalg.norm(state.pos[:2] - target[:2]) < half + CLEARANCE and reaches_up:
@@ -604,10 +617,7 @@ def placed_at_target(inp: CheckInput) -> Violation | None:
     there again. What the target stands on (the tower's base under the block it is put on) is not
     a candidate."""
     point = _by_role(inp, "release_target")
-    receptacle = next(
-        (str(inp.arguments[p.name]) for p in inp.params if p.role == "release_receptacle" and p.name in inp.arguments),
-        None,
-    )
+    receptacle = _named(inp, "release_receptacle")
     if receptacle is None and point is not None and inp.before is not None:
         onto = object_at(boxes(inp.before), point)  # one frame's read: its noise, SAME_POINT
         receptacle = None if onto is None else onto.name
@@ -697,10 +707,10 @@ def leaning(seen: ObjectState, support: ObjectState) -> float | None:
     return lean if lean > FLAT_DEG else None
 
 
-def beyond_footprint(pos, centre, size) -> float:
-    """Metres across the table that ``pos`` lies outside a box's footprint, widened by three sigmas of
-    perception's accuracy (0: over it)."""
-    margin = np.asarray(size[:2], dtype=float) / 2 + 3 * POSITION_SIGMA
+def beyond_footprint(pos, centre, size, widen: float = 3 * POSITION_SIGMA) -> float:
+    """Metres across the table that ``pos`` lies outside a box's footprint, widened by ``widen`` (by default
+    three sigmas of perception's accuracy) (0: over it)."""
+    margin = np.asarray(size[:2], dtype=float) / 2 + widen
     offset = np.abs(np.asarray(pos[:2], dtype=float) - np.asarray(centre[:2], dtype=float))
     return float(np.linalg.norm(np.maximum(offset - margin, 0.0)))
 
@@ -724,12 +734,21 @@ def placement_reached(placement: Placement, name: object, over: object, obs: Obs
     where = f"{name} rests at {_fmt(seen.pos)}"
     if not np.any(support.size):
         return True, f"{where}; {over} has no perceived extents"
-    outside = beyond_footprint(seen.pos, support.pos, support.size)
+    # inside a marking is where its centre lies, read as it is: widened by perception's noise, a cube pushed
+    # 1 cm beyond a zone's edge passed and the task failed. On a support that stands up, its top holds it.
+    marking = support.size[2] <= RESTING_GAP
+    outside = beyond_footprint(seen.pos, support.pos, support.size, widen=0.0 if marking else 3 * POSITION_SIGMA)
     under = seen.pos[2] < support.pos[2] - support.size[2] / 2 - POSITION_SIGMA
     if outside or under:
         return False, f"{where}, {100 * outside:.1f} cm outside {over}'s box{' and below it' if under else ''}"
     if other := resting_on_other(name, over, obs):
         return False, f"{where}, on {other}, not on {over}"
+    if (
+        np.any(seen.size)
+        and (gap := seen.pos[2] - seen.size[2] / 2 - support.pos[2] - support.size[2] / 2) > RESTING_GAP
+    ):
+        # on nothing perception can name (tilted on the edge of a slab): held up, not on it
+        return False, f"{where}, {100 * gap:.1f} cm above {over}'s top: resting on something else"
     if (lean := leaning(seen, support)) is not None:
         return False, f"{where}, leaning {lean:.0f} degrees on {over}: not lying flat on it"
     if placement.at is None:
