@@ -62,6 +62,9 @@ class Placement:
     # where on it, when the skill puts it at a spot (a slot of a row): metres across the table from
     # the other's perceived centre; None: anywhere over its box
     at: tuple[float, float] | None = None
+    # the whole object ends within the other's box (a pen's walls, a bin's), not only its centre: a block
+    # swept to the pen's open side, half of it outside, had its centre over the pen's box
+    inside: bool = False
 
 
 @dataclass(frozen=True)
@@ -193,13 +196,14 @@ def _state_effects(meta: dict, path: Path, parameters: set[str]) -> tuple[StateE
 
 def _placements(meta: dict, path: Path, parameters: set[str]) -> tuple[Placement, ...]:
     """``placements: [{object: obj, over: region}]``: both name parameters of the entry; ``at: [dx, dy]``
-    names the spot on it (a row's slot), in metres from its centre."""
+    names the spot on it (a row's slot), in metres from its centre; ``inside: true``, that the whole
+    object ends within the other's box."""
     value = meta.get("placements") or []
     if not isinstance(value, list):
         raise ValueError(f"{path}: field 'placements' must be a list, got {value!r}")
     placements = []
     for item in value:
-        names = {k: v for k, v in item.items() if k != "at"} if isinstance(item, dict) else None
+        names = {k: v for k, v in item.items() if k not in ("at", "inside")} if isinstance(item, dict) else None
         if (
             names is None
             or set(names) != {"object", "over"}
@@ -207,7 +211,12 @@ def _placements(meta: dict, path: Path, parameters: set[str]) -> tuple[Placement
         ):
             raise ValueError(
                 f"{path}: field 'placements' entry {item!r} must be {{object: <param>, over: <param>}} (and an "
-                f"optional at: [dx, dy]), each one of {sorted(parameters)}"
+                f"optional at: [dx, dy] and inside: true), each one of {sorted(parameters)}"
+            )
+        inside = item.get("inside", False)
+        if not isinstance(inside, bool):
+            raise ValueError(
+                f"{path}: field 'placements' entry {item!r}: 'inside' must be true or false, got {inside!r}"
             )
         at = item.get("at")
         if at is not None and not (
@@ -216,7 +225,8 @@ def _placements(meta: dict, path: Path, parameters: set[str]) -> tuple[Placement
             and all(isinstance(v, int | float) and not isinstance(v, bool) for v in at)
         ):
             raise ValueError(f"{path}: field 'placements' entry {item!r}: 'at' must be [dx, dy] in metres, got {at!r}")
-        placements.append(Placement(item["object"], item["over"], None if at is None else (float(at[0]), float(at[1]))))
+        spot = None if at is None else (float(at[0]), float(at[1]))
+        placements.append(Placement(item["object"], item["over"], spot, inside))
     return tuple(placements)
 
 

@@ -934,6 +934,27 @@ def test_an_object_set_down_on_a_stranger_over_its_region_is_not_counted_as_plac
     assert placement_reached(into, "cube", "bin", Observation(np.zeros(3), np.array([0, 0, 0, 1.0]), 0.0, seen))[0]
 
 
+def test_into_a_pen_the_whole_object_ends_within_its_box():
+    """The cup swept a 5 cm block to the pen's open side (sweep_both, dev seed 3): its centre read 8.8 cm
+    from the pen's, over the pen's 18 cm box, yet half of it lay outside, and the task failed. A skill
+    that declares ``inside`` has the whole object within the other's box."""
+    from lerobot_policy_recent.skills.repository import load_skill
+
+    (first, _) = load_skill("sweep_into_pen").placements
+    level = np.array([0, 0, 0, 1.0])
+    pen = ObjectState(np.array([0.15, 0.0, 0.8]), level, size=np.array([0.18, 0.18, 0.03]))
+
+    def read(x, placement=first):
+        red = ObjectState(np.array([x, -0.039, 0.82]), level, size=np.array([0.05] * 3))
+        seen = {"red": red, "pen": pen}
+        return placement_reached(placement, "red", "pen", Observation(np.zeros(3), level, 0.0, seen))
+
+    met, said = read(0.062)
+    assert not met and "1.1 cm of it outside pen's box" in said
+    assert read(0.085) == (True, "red rests at [0.085, -0.039, 0.820], within pen")
+    assert read(0.062, replace(first, inside=False))[0]  # its centre alone: over the box
+
+
 def test_inside_a_marking_is_where_the_centre_reads_and_held_up_over_a_support_is_not_on_it():
     """The cup's push (push_cube, dev seed 7) left the cube's centre 1 cm beyond the zone's edge: widened by
     perception's noise the zone's box passed it, and the task failed. A marking is judged as read. A cube

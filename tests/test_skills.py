@@ -182,6 +182,14 @@ def test_a_placement_must_name_two_parameters(tmp_path):
         meta.read_text().split("placements:")[0] + "placements: [{object: obj, over: region, at: [0, 0.1]}]\n"
     )
     assert repository.load_skill("move_to_region", library).placements[0].at == (0.0, 0.1)
+    meta.write_text(meta.read_text().split("placements:")[0] + "placements: [{object: obj, over: region, inside: 1}]\n")
+    with pytest.raises(ValueError, match=r"move_to_region\.yaml: field 'placements' entry .*'inside' must be true or"):
+        repository.load_skill("move_to_region", library)
+    meta.write_text(
+        meta.read_text().split("placements:")[0] + "placements: [{object: obj, over: region, inside: true}]\n"
+    )
+    assert repository.load_skill("move_to_region", library).placements[0].inside
+    assert repository.load_skill("sweep_into_pen").placements[0].inside  # a pen's, a bin's walls hold it all
 
 
 EXAMPLES = Path(__file__).parents[1] / "examples" / "skills"  # the README's own skill, outside the bundled library

@@ -737,10 +737,12 @@ def placement_reached(placement: Placement, name: object, over: object, obs: Obs
     # inside a marking is where its centre lies, read as it is: widened by perception's noise, a cube pushed
     # 1 cm beyond a zone's edge passed and the task failed. On a support that stands up, its top holds it.
     marking = support.size[2] <= RESTING_GAP
-    outside = beyond_footprint(seen.pos, support.pos, support.size, widen=0.0 if marking else 3 * POSITION_SIGMA)
+    room = np.asarray(support.size, dtype=float) - (np.asarray(seen.size, dtype=float) if placement.inside else 0.0)
+    outside = beyond_footprint(seen.pos, support.pos, room, widen=0.0 if marking else 3 * POSITION_SIGMA)
     under = seen.pos[2] < support.pos[2] - support.size[2] / 2 - POSITION_SIGMA
     if outside or under:
-        return False, f"{where}, {100 * outside:.1f} cm outside {over}'s box{' and below it' if under else ''}"
+        beyond = f"{100 * outside:.1f} cm {'of it ' if placement.inside else ''}outside {over}'s box"
+        return False, f"{where}, {beyond}{' and below it' if under else ''}"
     if other := resting_on_other(name, over, obs):
         return False, f"{where}, on {other}, not on {over}"
     if (
@@ -752,7 +754,7 @@ def placement_reached(placement: Placement, name: object, over: object, obs: Obs
     if (lean := leaning(seen, support)) is not None:
         return False, f"{where}, leaning {lean:.0f} degrees on {over}: not lying flat on it"
     if placement.at is None:
-        return True, f"{where}, over {over}"
+        return True, f"{where}, {'within' if placement.inside else 'over'} {over}"
     # at a spot: it lies under the object's own perceived box (moved off it later, by a neighbour's carry, it does not)
     spot = np.asarray(support.pos[:2], dtype=float) + placement.at
     off = beyond_footprint(spot, seen.pos, seen.size)
