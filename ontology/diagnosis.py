@@ -477,18 +477,24 @@ def _approach_warning(onto: Ontology, site: CallSite, conflict: Conflict) -> War
 def _traced_warnings(onto, site, original, conflict, source, robot, sites, bindings) -> list[Warning]:
     """A pick or place traced as moves and gripper calls still has the original call's preconditions
     to check (fingers clear of a neighbour, the target clear): before each move up to the contact
-    point, reading the move's point as the original's grasp or release target."""
+    point, reading the move's point as the original's grasp or release target. A traced grasp's
+    hold is read once its last statement (the lift) has run, as a pick's is: traced on a KRL arm, a
+    grasp that closed on nothing went unnoticed until the task's end."""
     contact = next((i for i, step in enumerate(conflict.path) if not step.actuate and not any(step.offset)), None)
     if contact is None:
         return []  # a path that never reaches its target point: nothing there to check
     point, role = conflict.substitute.by_role(PATH_ROLE), original.parameter(conflict.path[contact].source).role
     through = len(conflict.preparatory) + contact
+    last = conflict.path[-1]
     kept = {"object_at_target"}  # the approach warning checks that one already
     out = []
     for w in _warnings(onto, site, original, original, source, robot, sites, bindings):
         if w.phase == "before" and w.kind not in kept:
             kept.add(w.kind)
             out.append(replace(w, primitive=conflict.substitute.name, through=through, roles=((point.name, role),)))
+        elif w.phase == "after" and w.kind == GRASPED:  # a traced place's outcome is the skill's placements'
+            lifted = len(conflict.preparatory) + len(conflict.path) - 1
+            out.append(replace(w, primitive=last.actuate or conflict.substitute.name, through=lifted))
     return out
 
 
@@ -548,6 +554,7 @@ def _converted(
     return converted
 
 
+GRASPED = "object_grasped"  # the effect a grasp leaves: the object held (checked as object_held)
 RELEASE_POINT = "release_target"  # the role of the point a place lets go at
 
 
@@ -669,7 +676,7 @@ def _warnings(onto, site, original, target, source, robot, sites, bindings) -> l
             continue
         if vocab[cond].always or vocab[cond].as_effect:
             warn(cond, phase="after")  # the world decides whether the effect happened: e.g. a push
-        elif cond == "object_grasped" and onto.grippers[robot] != onto.grippers[source]:
+        elif cond == GRASPED and onto.grippers[robot] != onto.grippers[source]:
             warn(cond, phase="after")  # another end effector: will the grasp hold?
     return out
 

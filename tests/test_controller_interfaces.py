@@ -12,6 +12,7 @@ cup added by data (a move, suction on, suction off) gets its picks and places tr
 
 from __future__ import annotations
 
+import ast
 import json
 import math
 import os
@@ -163,6 +164,21 @@ def test_a_traced_place_is_still_checked_for_a_clear_target_read_as_the_release_
     clear = next(w for w in warnings if w.kind == "target_clear")
     assert clear.primitive == "krl_lin" and clear.roles == (("xyz_mm", "release_target"),)
     assert clear.through == 1  # before the move above the target and before the descent onto it
+
+
+def test_a_traced_pick_has_its_hold_read_once_its_lift_has_run(ontology, put_in_bin):
+    """A grasp traced as moves and krl_close closed on nothing, and nothing noticed it until the task
+    ended (fill_open_drawer, IIWAKRL, dev seed 3, on): the pick's hold is read after the traced lift,
+    the last of its five statements, as a pick's is after the call."""
+    from lerobot_policy_recent.recent_plugin.insitu.adapter import _guards
+
+    diagnosis = diagnose(ontology, put_in_bin.name, put_in_bin.code, "IIWAKRL")
+    (hold,) = [w for w in diagnosis.warnings if w.kind == "object_grasped"]
+    assert (hold.phase, hold.check, hold.primitive, hold.through) == ("after", "object_held", "krl_lin", 4)
+    lines = [ast.parse("krl_lin(env, task)").body[0] for _ in range(5)]
+    for offset, node in enumerate(lines):
+        node.lineno = node.end_lineno = hold.span.line + offset
+    assert [_guards(hold, node) for node in lines] == [False, False, False, False, True]  # after the lift only
 
 
 @pytest.mark.slow

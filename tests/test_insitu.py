@@ -794,6 +794,23 @@ def test_a_block_that_fell_off_the_tower_is_grasped_and_put_there_again(ontology
     assert result.success and result.ei == 0
 
 
+@pytest.mark.slow
+def test_a_traced_grasp_that_closed_on_nothing_is_done_again_from_its_first_statement(ontology, rule_infiller):
+    """IIWAKRL has no pick: the Franka Hand's is traced as open, LIN above, LIN down, close, LIN up.
+    On fill_open_drawer, dev seed 3, on, the cube was not held after the lift and the task failed
+    with nothing noticed; the hold is now read after the lift, and the five statements run again
+    (copied, no LM)."""
+    agent = RecentAgent(
+        RecentSettings(infiller=RuleConfig(), method=method_named("recent")), infiller=rule_infiller, ontology=ontology
+    )
+    result = run_episode(agent, "end_effector/fill_open_drawer", "IIWAKRL", seed=3, variations="on")
+    (event,) = [e for e in result.adaptations if e.checks == ("object_held",)]
+    assert event.observation.startswith("nothing held after the grasp")
+    redo = event.after.splitlines()[1:]
+    assert [line.split("(")[0] for line in redo] == ["krl_open", "krl_lin", "krl_lin", "krl_close", "krl_lin"]
+    assert result.success
+
+
 def test_a_sweep_starts_and_ends_where_the_hand_gets_down_to_the_table():
     """plate_clear_switch on the Panda, seed 3: a slab on the plate 0.73 m out. Swept sideways, it ended
     3 cm from the block the skill grasps next; towards the base, the hand must come down 0.81 m out,

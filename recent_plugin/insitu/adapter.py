@@ -271,6 +271,10 @@ class InSituAdapter:
         if grasp is not None:
             redo = (*recomputation(earlier[: grasp.index], grasp.node, primitives), grasp.source)
             copied.append((len(redo) - 1, grasp))
+        traced = self._traced_span(executor.grounded.skill, segment)
+        reads = (s for t in traced for s in recomputation(earlier, t.node, primitives))
+        redo += (*dict.fromkeys(reads), *(t.source for t in traced[:-1]))
+        copied += [(len(redo) - len(traced) + 1 + i, t) for i, t in enumerate(traced[:-1])]
         redo += (*recomputation(earlier, segment.node, primitives), segment.source)
         copied.append((len(redo) - 1, segment))
         self._insert_copy(executor, segment, at, redo, checks, observation, shown=(segment.source, *redo))
@@ -280,6 +284,18 @@ class InSituAdapter:
         self._reruns[executor.grounded.skill] += 1
         if self._reruns[executor.grounded.skill] <= self.max_repairs:
             executor.segments[at + len(redo) - 1].effects = segment.effects
+
+    def _traced_span(self, skill: str, segment: Segment) -> tuple[Segment, ...]:
+        """Where ``segment`` ends a traced call whose effect it checks (a traced pick's lift), the span's
+        statements as grounded, the segment's own last: the grasp is done again from its first move.
+        Empty for a statement that is a call of its own."""
+        spans = [(w.span.line, w.span.line + w.through) for w in segment.effects if w.through is not None]
+        if not spans:
+            return ()
+        (first, last), by_line = spans[0], {}
+        for grounded in self._bodies.get(skill, ()):  # a loop's body repeats: each line's text is the same
+            by_line.setdefault(grounded.node.lineno, grounded)
+        return tuple(by_line[line] for line in range(first, last + 1) if line in by_line)
 
     def _latest_grasp(self, earlier: list[Segment]) -> Segment | None:
         """The last of ``earlier`` that calls a primitive of this robot that grasps an object."""
@@ -503,6 +519,8 @@ def _guards(warning: Warning, node: ast.stmt) -> bool:
     first, last = node.lineno, node.end_lineno or node.lineno
     if warning.through is None:
         return first <= warning.span.line <= last
+    if warning.phase == "after":  # what the span's lines did together: read once its last has run
+        return first == warning.span.line + warning.through
     return warning.span.line <= first <= warning.span.line + warning.through
 
 
