@@ -485,7 +485,10 @@ def _traced_warnings(onto, site, original, conflict, source, robot, sites, bindi
         return []  # a path that never reaches its target point: nothing there to check
     point, role = conflict.substitute.by_role(PATH_ROLE), original.parameter(conflict.path[contact].source).role
     through = len(conflict.preparatory) + contact
-    last = conflict.path[-1]
+    lifted, last = (
+        len(conflict.preparatory) + len(conflict.path) - 1,
+        conflict.path[-1].actuate or conflict.substitute.name,
+    )
     kept = {"object_at_target"}  # the approach warning checks that one already
     out = []
     for w in _warnings(onto, site, original, original, source, robot, sites, bindings):
@@ -493,8 +496,7 @@ def _traced_warnings(onto, site, original, conflict, source, robot, sites, bindi
             kept.add(w.kind)
             out.append(replace(w, primitive=conflict.substitute.name, through=through, roles=((point.name, role),)))
         elif w.phase == "after" and w.kind == GRASPED:  # a traced place's outcome is the skill's placements'
-            lifted = len(conflict.preparatory) + len(conflict.path) - 1
-            out.append(replace(w, primitive=last.actuate or conflict.substitute.name, through=lifted))
+            out.append(replace(w, primitive=last, through=lifted))
     return out
 
 

@@ -691,6 +691,12 @@ def resting_on_other(name: str, over: str, obs: Observation) -> str | None:
     return None
 
 
+def marking(support: ObjectState) -> bool:
+    """A box no taller than what rests on it can be told from (a zone, a plate): a mark on the table,
+    not a support that stands up from it."""
+    return support.size[2] <= RESTING_GAP
+
+
 def leaning(seen: ObjectState, support: ObjectState) -> float | None:
     """Degrees an object set on top of a box standing up from the table leans (none of its faces flat,
     as perception reads its orientation), where that is over ``FLAT_DEG``; else None. A block that
@@ -698,7 +704,7 @@ def leaning(seen: ObjectState, support: ObjectState) -> float | None:
     tipped the middle block of a tower, and the top one slid off after the check had passed it.
     Inside a bin or a drawer, or on a marking, a leaning object is where it should be."""
     quat = np.asarray(seen.quat, dtype=float)
-    if not np.any(quat) or support.size[2] <= RESTING_GAP:
+    if not np.any(quat) or marking(support):
         return None
     if seen.pos[2] - seen.size[2] / 2 < support.pos[2] + support.size[2] / 2 - RESTING_GAP:
         return None  # down inside it, not on top
@@ -725,7 +731,8 @@ def state_reached(effect: StateEffect, name: object, obs: Observation) -> tuple[
 
 def placement_reached(placement: Placement, name: object, over: object, obs: Observation) -> tuple[bool, str]:
     """Once a skill has run: whether perception sees the object over the other's box (its footprint, not
-    below its bottom), and where it sees it. A box perception gives no extents for is not judged."""
+    below its bottom; wholly within it where the placement says ``inside``), resting on it, not on
+    something else above it, and where it sees it. A box perception gives no extents for is not judged."""
     seen = obs.objects.get(name) if isinstance(name, str) else None
     support = obs.objects.get(over) if isinstance(over, str) else None
     if seen is None or support is None:
@@ -734,11 +741,11 @@ def placement_reached(placement: Placement, name: object, over: object, obs: Obs
     where = f"{name} rests at {_fmt(seen.pos)}"
     if not np.any(support.size):
         return True, f"{where}; {over} has no perceived extents"
-    # inside a marking is where its centre lies, read as it is: widened by perception's noise, a cube pushed
-    # 1 cm beyond a zone's edge passed and the task failed. On a support that stands up, its top holds it.
-    marking = support.size[2] <= RESTING_GAP
+    # inside a marking is where its centre reads: widened by perception's noise, a cube pushed 1 cm beyond
+    # a zone's edge passed and the task failed. A support that stands up holds what lies on it, so
+    # there the read is given perception's three sigmas.
     room = np.asarray(support.size, dtype=float) - (np.asarray(seen.size, dtype=float) if placement.inside else 0.0)
-    outside = beyond_footprint(seen.pos, support.pos, room, widen=0.0 if marking else 3 * POSITION_SIGMA)
+    outside = beyond_footprint(seen.pos, support.pos, room, widen=0.0 if marking(support) else 3 * POSITION_SIGMA)
     under = seen.pos[2] < support.pos[2] - support.size[2] / 2 - POSITION_SIGMA
     if outside or under:
         beyond = f"{100 * outside:.1f} cm {'of it ' if placement.inside else ''}outside {over}'s box"
