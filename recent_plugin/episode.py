@@ -296,6 +296,7 @@ def _run(
         result.unmet = unmet_subtask(
             env.spec_task.plan, int(info.get("subtasks_done", 0)), final, finished=executor.finished
         )
+        result.unmet += last_failed_check(result.adaptations) if result.unmet else ""
     if episode is not None:
         episode.end(result.ended_event())
     return result
@@ -318,6 +319,16 @@ def unmet_subtask(plan: Sequence[PlanStep], done: int, final: Observation, *, fi
         seen.append(f"{role}={name} at [{where}] state {round(state.state, 3) + 0.0:.3f}")
     ending = "when the plan ended" if finished else "at the step limit"
     return f"{step.subtask} (subtask {done + 1} of {len(plan)}) not achieved {ending}; observed: " + "; ".join(seen)
+
+
+def last_failed_check(events: Sequence[AdaptationEvent]) -> str:
+    """What the last run-time check that failed saw, for a subtask left unachieved: a step limit
+    reached while a sweep was run again for a block half out of the pen says so, not only where
+    the objects ended."""
+    if not events:
+        return ""
+    last = events[-1]
+    return f"; the last check that failed: {', '.join(last.checks)}: {last.observation}"
 
 
 def crashed_event(task_id: str, robot: str, seed: int, steps: int, wall_seconds: float, exc: Exception) -> EpisodeEnded:

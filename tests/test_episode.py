@@ -146,3 +146,18 @@ def test_a_failed_subtask_names_itself_and_what_was_observed():
         "close_drawer (subtask 2 of 2) not achieved at the step limit"
     )
     assert unmet_subtask(plan, 2, final, finished=True) == ""  # every step achieved: nothing unmet
+
+
+def test_a_subtask_left_unachieved_says_what_the_last_failed_check_saw():
+    """Kinova3's sweep into the pen ran again for a block half out of it and reached the step limit:
+    the record says so, not only where the objects ended."""
+    from lerobot_policy_recent.recent_plugin.episode import last_failed_check
+    from lerobot_policy_recent.recent_plugin.grounding.attempts import AdaptationEvent
+
+    seen = "after sweep_into_pen: blue rests at [0.062, 0.062, 0.823], 0.7 cm of it outside pen's box"
+    events = [
+        AdaptationEvent("revise", "sweep_into_pen", 8, ("fingers_clear",), "red lies in the way", "", "", 0),
+        AdaptationEvent("revise", "sweep_into_pen", 27, ("placement_reached",), seen, "", "", 0),
+    ]
+    assert last_failed_check(events) == f"; the last check that failed: placement_reached: {seen}"
+    assert last_failed_check([]) == ""
