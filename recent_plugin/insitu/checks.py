@@ -671,6 +671,11 @@ def placed_at_target(inp: CheckInput) -> Violation | None:
     )
 
 
+def underside_above(seen: ObjectState, support: ObjectState) -> float:
+    """Metres the object's perceived underside lies above the support's perceived top (below: negative)."""
+    return float(seen.pos[2] - seen.size[2] / 2 - (support.pos[2] + support.size[2] / 2))
+
+
 def resting_on_other(name: str, over: str, obs: Observation) -> str | None:
     """The perceived object other than ``over`` that ``name`` lies on, above ``over``'s top: a dice
     set down on a slab that lay in the zone is over the zone, yet not on it. None where ``name``
@@ -679,9 +684,9 @@ def resting_on_other(name: str, over: str, obs: Observation) -> str | None:
     seen, support = obs.objects[name], obs.objects[over]
     if not np.any(seen.size):
         return None
-    bottom = seen.pos[2] - seen.size[2] / 2
-    if bottom <= support.pos[2] + support.size[2] / 2 + RESTING_GAP:
+    if underside_above(seen, support) <= RESTING_GAP:
         return None
+    bottom = seen.pos[2] - seen.size[2] / 2
     for other, state in sorted(obs.objects.items()):
         if other in (name, over) or not np.any(state.size):
             continue
@@ -706,7 +711,7 @@ def leaning(seen: ObjectState, support: ObjectState) -> float | None:
     quat = np.asarray(seen.quat, dtype=float)
     if not np.any(quat) or marking(support):
         return None
-    if seen.pos[2] - seen.size[2] / 2 < support.pos[2] + support.size[2] / 2 - RESTING_GAP:
+    if underside_above(seen, support) < -RESTING_GAP:
         return None  # down inside it, not on top
     upright = float(np.max(np.abs(quat2mat(quat / np.linalg.norm(quat))[2])))  # the face axis nearest vertical
     lean = math.degrees(math.acos(min(1.0, upright)))
@@ -752,10 +757,7 @@ def placement_reached(placement: Placement, name: object, over: object, obs: Obs
         return False, f"{where}, {beyond}{' and below it' if under else ''}"
     if other := resting_on_other(name, over, obs):
         return False, f"{where}, on {other}, not on {over}"
-    if (
-        np.any(seen.size)
-        and (gap := seen.pos[2] - seen.size[2] / 2 - support.pos[2] - support.size[2] / 2) > RESTING_GAP
-    ):
+    if np.any(seen.size) and (gap := underside_above(seen, support)) > RESTING_GAP:
         # on nothing perception can name (tilted on the edge of a slab): held up, not on it
         return False, f"{where}, {100 * gap:.1f} cm above {over}'s top: resting on something else"
     if (lean := leaning(seen, support)) is not None:
