@@ -28,6 +28,7 @@ POS_SCALE = 0.05  # metres per unit action (robosuite OSC_POSE output_max)
 ROT_SCALE = 0.5  # radians per unit action
 ROT_DEADBAND = 0.06  # radians of orientation error left uncorrected while moving
 MAX_STEP = 0.02  # metres of goal displacement per control step (~0.4 m/s)
+BREAKAWAY_GROWTH = 1.25  # per still step, the factor by which a stalled free arm's setpoint reach grows
 POS_TOL = 0.008
 VIA_TOL = 0.02  # metres within which a waypoint the planner put on the way counts as passed
 SETTLED = 0.001  # metres per control step below which a servoed grip site counts as stopped
@@ -42,10 +43,11 @@ UNFOLD_SHORT = 0.05  # metres short of its goal a stopped arm counts as trapped,
 SQUEEZE_STEPS = 10  # control steps a closing gripper keeps closing on what it holds before its command is held
 
 
-def servo_action(session: RobotSession, target_pos: np.ndarray) -> Action:
-    """One P-step towards ``target_pos`` holding the session's orientation, with its gripper command."""
+def servo_action(session: RobotSession, target_pos: np.ndarray, reach: float = MAX_STEP) -> Action:
+    """One P-step towards ``target_pos`` holding the session's orientation, with its gripper command.
+    ``reach``: how far ahead of the grip site the step's setpoint may lie, per axis (metres)."""
     obs = session.obs
-    delta = np.clip(target_pos - obs.eef_pos, -MAX_STEP, MAX_STEP)
+    delta = np.clip(target_pos - obs.eef_pos, -reach, reach)
     rot = rotation_error(session)
     if np.linalg.norm(rot) < ROT_DEADBAND:
         rot = np.zeros(3)  # small tilts are harmless; fighting them stalls arms near singular postures
@@ -109,7 +111,7 @@ def move_to(
         return
     max_steps = max(1, int(timeout_s * CONTROL_FREQ))
     towards = _line_follower(session.obs.eef_pos, goal) if straight else (lambda _: goal)
-    last = None
+    last, reach = None, MAX_STEP
     trail: deque[np.ndarray] = deque(maxlen=STALL_STEPS + 1)  # the grip site's latest positions
     for _ in range(max_steps):
         err = float(np.linalg.norm(goal - session.obs.eef_pos))
@@ -128,7 +130,9 @@ def move_to(
         ):
             return
         last = session.obs.eef_pos.copy()
-        yield servo_action(session, towards(session.obs.eef_pos))
+        if still and err > tol and len(trail) > STALL_STEPS:  # not at rest as the move begins: stopped short
+            reach = _breakaway(session, reach)
+        yield servo_action(session, towards(session.obs.eef_pos), reach)
     err = float(np.linalg.norm(goal - session.obs.eef_pos))
     if settle and err < tol:
         return
@@ -153,6 +157,20 @@ def move_to(
     raise PrimitiveFailure(
         "timeout", f"did not reach {np.round(goal, 3).tolist()} within {timeout_s:.1f} s (error {err * 100:.1f} cm)"
     )
+
+
+def _breakaway(session: RobotSession, reach: float) -> float:
+    """The setpoint reach for a free arm that creeps or has stopped short of its goal (less than
+    SETTLED a step, past the move's first STALL_STEPS steps, in which an arm at rest gets going):
+    grown by BREAKAWAY_GROWTH per such step up to the controller's full delta (``POS_SCALE``), and kept for the rest of the
+    move, so that the force it commands overcomes its joints' friction (an xArm 7 folded by a sweep
+    stalls against its 1 N·m friction loss under the 3 N a 2 cm setpoint commands, and stalls again
+    as soon as the force drops back). Near the goal the error, not the reach, sets the step.
+    Touching something or carrying a load it keeps ``MAX_STEP``: there a stop is contact, and
+    pushing harder would press into it."""
+    if session.obs.eef_contact or session.obs.held() is not None:
+        return MAX_STEP
+    return min(reach * BREAKAWAY_GROWTH, POS_SCALE)
 
 
 def _planned(session: RobotSession, goal: np.ndarray, timeout_s: float, final: dict) -> Steps:
