@@ -163,12 +163,14 @@ class _Probe:
             cup = self.model.geom_name2id(self.gripper.important_geoms["cup"][0])
             close_time = self._actuate(1.0)
             closed = self.env.gripper_opening()
+            fist = self._extent_below_site()
             return {
                 "mechanism": "suction",
                 "grip_site_in_hand": site_in_hand,
                 "closing_axis": None,
                 "grasp_point": self._in_site(self.data.geom_xpos[cup]),
                 "below_site_m": below,
+                "fist_below_site_m": fist,
                 "hand_half_xy": hand,
                 "close_time_s": close_time,
                 "open_time_s": max(open_time, self._actuate(-1.0)),
@@ -184,6 +186,7 @@ class _Probe:
         axis = self._site_rot().T @ axis
         close_time = self._actuate(1.0)
         closed = self.env.gripper_opening()
+        fist = self._extent_below_site()
         grasp_point = self._in_site(np.mean(self.data.geom_xpos[left + right], axis=0))
         zero_holds = self._holds_at_zero(closed, stroke=abs(opened - closed))
         open_time = max(open_time, self._actuate(-1.0))
@@ -193,6 +196,7 @@ class _Probe:
             "closing_axis": tuple(round(float(v), 3) for v in axis / max(np.linalg.norm(axis), 1e-9)),
             "grasp_point": grasp_point,
             "below_site_m": below,
+            "fist_below_site_m": fist,
             "hand_half_xy": hand,
             "close_time_s": close_time,
             "open_time_s": open_time,

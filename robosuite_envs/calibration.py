@@ -20,7 +20,7 @@ from __future__ import annotations
 import json
 from dataclasses import asdict, dataclass
 
-CALIBRATION_VERSION = 6
+CALIBRATION_VERSION = 7
 TABLE_REACH_HEIGHT_M = 0.03  # grip site above the table top for the reach at the table: a sweep's or grasp's height
 
 
@@ -58,6 +58,9 @@ class Calibration:
     unreached: tuple[tuple[float, float, float], ...] = ()  # calibration poses (world) it could not reach
     table_reach_m: float = float("inf")  # farthest grip site from the base (table plane) it servos to near the table
     table_top_z: float = float("-inf")  # world height of the table top it was measured at (what objects rest on)
+    # how far the closed gripper (a fist) reaches below the grip site, pointing down: linkage fingers
+    # swing lower as they close (an xArm 7's 2.6 cm, a Panda's the same 1.4 cm open or closed)
+    fist_below_site_m: float = 0.0
     measured_with: str = ""  # simulator versions
     seconds: float = 0.0  # how long the calibration took
     version: int = CALIBRATION_VERSION
@@ -88,7 +91,8 @@ class Calibration:
             f"gripper           {self.mechanism}; grip site in hand (xyzw) {_vec(self.grip_site_in_hand)}",
             f"closing axis      {axis} (grip-site frame)",
             f"grasp point       {_vec(self.grasp_point)} m from the grip site (grip-site frame)",
-            f"below grip site   {self.below_site_m * 100:.1f} cm (open, pointing down)",
+            f"below grip site   {self.below_site_m * 100:.1f} cm open, {self.fist_below_site_m * 100:.1f} cm closed "
+            "(pointing down)",
             f"hand footprint    {2 * self.hand_half_xy[0] * 100:.1f} x {2 * self.hand_half_xy[1] * 100:.1f} cm "
             "(open, along the grip site's x and y)",
             f"close / open      {self.close_time_s:.2f} s / {self.open_time_s:.2f} s "
@@ -123,7 +127,8 @@ class Nominal:
     tracking_error_m: float = 0.0
     unreached: tuple = ()
     table_reach_m: float = float("inf")
-    table_top_z: float = float("-inf")
+    table_top_z: float = float("-inf")  # unknown: no floor under a fist
+    fist_below_site_m: float = 0.0
     base_xyz: tuple[float, float, float] = (0.0, 0.0, 0.0)  # an API's base frame then sits at the world origin
 
 

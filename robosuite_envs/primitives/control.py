@@ -36,6 +36,7 @@ STALL_STEPS = 10  # control steps a lowered load must not move (by SETTLED in al
 SET_DOWN_GAP = 0.02  # metres above its target a grip site may stop once the held object rests on the surface
 APPROACH_HEIGHT = 0.10
 TABLE_CLEARANCE = 0.805  # z below which the fingers would hit the table top (metres, world)
+FIST_FLOOR = 0.001  # metres above the table top a closed, empty hand's lowest point is kept
 GRIPPER_WAIT_S = 3.0  # longest a gripper command is held by default (a slower calibrated stroke: longer)
 OPEN_ENOUGH = 0.8  # fraction of its calibrated stroke a gripper must open to let go
 STROKE_MARGIN = 1.5  # a full stroke may take this multiple of its calibrated time (under load, against friction)
@@ -105,6 +106,7 @@ def move_to(
         tol = session.calibration.settle_tol_m if settle else POS_TOL
     if goal[2] < TABLE_CLEARANCE:
         raise PrimitiveFailure("out_of_workspace", f"target z={goal[2]:.3f} m is below the table surface")
+    goal = fist_above_table(session, goal)
     if plan:
         final = dict(tol=tol, settle=settle, set_down=set_down, stop_on_contact=stop_on_contact, straight=straight)
         yield from _planned(session, goal, timeout_s, final)
@@ -159,6 +161,18 @@ def move_to(
     )
 
 
+def fist_above_table(session: RobotSession, goal: np.ndarray) -> np.ndarray:
+    """``goal``, raised where the closed, empty hand's lowest point would go below the table top
+    (``FIST_FLOOR`` above it): a point beside an object at its height (a sweep's start, a push's
+    goal) is the source hand's, and a deeper fist sent there presses its fingertips into the table,
+    whose friction then holds the slide (an xArm 7's fist reaches 2.6 cm below its grip site, a
+    Panda's 1.4 cm). The fist still meets what it pushes, just above the table."""
+    if session.gripper_command <= 0 or session.obs.held() is not None:
+        return goal
+    floor = session.calibration.table_top_z + session.calibration.fist_below_site_m + FIST_FLOOR
+    return goal if goal[2] >= floor else np.r_[goal[:2], floor]
+
+
 def _breakaway(session: RobotSession, reach: float) -> float:
     """The setpoint reach for a free arm that creeps or has stopped short of its goal (less than
     SETTLED a step, past the move's first STALL_STEPS steps, in which an arm at rest gets going):
@@ -166,9 +180,9 @@ def _breakaway(session: RobotSession, reach: float) -> float:
     move, so that the force it commands overcomes its joints' friction (an xArm 7 folded by a sweep
     stalls against its 1 N·m friction loss under the 3 N a 2 cm setpoint commands, and stalls again
     as soon as the force drops back). Near the goal the error, not the reach, sets the step.
-    Touching something or carrying a load it keeps ``MAX_STEP``: there a stop is contact, and
-    pushing harder would press into it."""
-    if session.obs.eef_contact or session.obs.held() is not None:
+    Touching something (the hand, or a finger pad on the table) or carrying a load it keeps
+    ``MAX_STEP``: there a stop is contact, and pushing harder would press into it."""
+    if session.obs.eef_contact or any(session.obs.finger_contact) or session.obs.held() is not None:
         return MAX_STEP
     return min(reach * BREAKAWAY_GROWTH, POS_SCALE)
 
