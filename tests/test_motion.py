@@ -3,6 +3,7 @@ and positions read from a track of the perception rather than from one noisy fra
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Iterator
 
 import numpy as np
@@ -250,6 +251,39 @@ def test_an_arm_folded_by_a_stretch_breaks_away_from_its_stall_and_arrives(monke
         assert np.linalg.norm(arm.session.obs.eef_pos - near) < control.POS_TOL
     finally:
         arm.env.close()
+
+
+@pytest.mark.slow
+def test_a_fist_sent_below_the_table_slides_just_above_it():
+    """XArm7's closed fingers reach 2.6 cm below its grip site (a Panda's 1.4 cm). Sent to a sweep's
+    height, 1.5 cm above the table, with its calibration the fist stops just above the table and
+    slides along it untouched; told its fist is no deeper than the grip site, the same move presses
+    its fingertips onto the table."""
+    from lerobot_policy_recent.robosuite_envs.calibrate import calibration
+
+    for depth, touches in ((None, False), (0.0, True)):
+        arm = _Arm("kinematic/cube_in_bin", "XArm7")
+        try:
+            measured = calibration("XArm7")
+            assert measured.fist_below_site_m > measured.below_site_m + 0.005  # linkage fingers swing lower closed
+            known = measured if depth is None else dataclasses.replace(measured, fist_below_site_m=depth)
+            arm.session = RobotSession("XArm7", arm.session.obs, known)
+            arm.run(control.actuate_gripper(arm.session, 1.0))
+            start = np.array([-0.15, -0.2, TABLE_Z + 0.015])
+            arm.run(control.move_to(arm.session, start + [0.0, 0.0, 0.1], timeout_s=6.0, settle=True))
+            contact = []
+            for action in control.move_to(arm.session, start, timeout_s=4.0, settle=True, tol=0.03):
+                arm.run(iter([action]))
+                contact.append(any(arm.session.obs.finger_contact))
+            assert any(contact[-10:]) is touches, depth
+            if not touches:
+                floor = measured.table_top_z + measured.fist_below_site_m + control.FIST_FLOOR
+                assert arm.session.obs.eef_pos[2] > floor - 0.002  # its goal was raised to the floor
+                arm.run(
+                    control.move_to(arm.session, start + [0.15, 0.0, 0.0], timeout_s=6.0, straight=True, plan=False)
+                )
+        finally:
+            arm.env.close()
 
 
 @pytest.mark.slow

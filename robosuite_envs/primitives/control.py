@@ -132,7 +132,8 @@ def move_to(
         ):
             return
         last = session.obs.eef_pos.copy()
-        if still and err > tol and len(trail) > STALL_STEPS:  # not at rest as the move begins: stopped short
+        creeping = len(trail) > STALL_STEPS and float(np.linalg.norm(trail[-1] - trail[0])) < STALL_STEPS * SETTLED
+        if err > tol and (creeping or (still and reach > MAX_STEP)):
             reach = _breakaway(session, reach)
         yield servo_action(session, towards(session.obs.eef_pos), reach)
     err = float(np.linalg.norm(goal - session.obs.eef_pos))
@@ -174,9 +175,9 @@ def fist_above_table(session: RobotSession, goal: np.ndarray) -> np.ndarray:
 
 
 def _breakaway(session: RobotSession, reach: float) -> float:
-    """The setpoint reach for a free arm that creeps or has stopped short of its goal (less than
-    SETTLED a step, past the move's first STALL_STEPS steps, in which an arm at rest gets going):
-    grown by BREAKAWAY_GROWTH per such step up to the controller's full delta (``POS_SCALE``), and kept for the rest of the
+    """The setpoint reach for a free arm that creeps or has stopped short of its goal (under SETTLED a
+    step on average over the last STALL_STEPS steps: not an arm at rest as the move begins, nor one
+    that slows for a step), and then for each step it is still: grown by BREAKAWAY_GROWTH up to the controller's full delta (``POS_SCALE``), and kept for the rest of the
     move, so that the force it commands overcomes its joints' friction (an xArm 7 folded by a sweep
     stalls against its 1 N·m friction loss under the 3 N a 2 cm setpoint commands, and stalls again
     as soon as the force drops back). Near the goal the error, not the reach, sets the step.
