@@ -28,11 +28,11 @@ POS_SCALE = 0.05  # metres per unit action (robosuite OSC_POSE output_max)
 ROT_SCALE = 0.5  # radians per unit action
 ROT_DEADBAND = 0.06  # radians of orientation error left uncorrected while moving
 MAX_STEP = 0.02  # metres of goal displacement per control step (~0.4 m/s)
-BREAKAWAY_GROWTH = 1.25  # per still step, the factor by which a stalled free arm's setpoint reach grows
+BREAKAWAY_GROWTH = 1.25  # per step, the factor by which a stopped free arm's setpoint reach grows (_breakaway)
 POS_TOL = 0.008
 VIA_TOL = 0.02  # metres within which a waypoint the planner put on the way counts as passed
 SETTLED = 0.001  # metres per control step below which a servoed grip site counts as stopped
-STALL_STEPS = 10  # control steps a lowered load must not move (by SETTLED in all) to count as set down
+STALL_STEPS = 10  # control steps over which a grip site is judged stopped (a lowered load set down, an arm stalled)
 SET_DOWN_GAP = 0.02  # metres above its target a grip site may stop once the held object rests on the surface
 APPROACH_HEIGHT = 0.10
 TABLE_CLEARANCE = 0.805  # z below which the fingers would hit the table top (metres, world)
@@ -106,7 +106,7 @@ def move_to(
         tol = session.calibration.settle_tol_m if settle else POS_TOL
     if goal[2] < TABLE_CLEARANCE:
         raise PrimitiveFailure("out_of_workspace", f"target z={goal[2]:.3f} m is below the table surface")
-    goal = fist_above_table(session, goal)
+    goal = _fist_above_table(session, goal)
     if plan:
         final = dict(tol=tol, settle=settle, set_down=set_down, stop_on_contact=stop_on_contact, straight=straight)
         yield from _planned(session, goal, timeout_s, final)
@@ -162,7 +162,7 @@ def move_to(
     )
 
 
-def fist_above_table(session: RobotSession, goal: np.ndarray) -> np.ndarray:
+def _fist_above_table(session: RobotSession, goal: np.ndarray) -> np.ndarray:
     """``goal``, raised where the closed, empty hand's lowest point would go below the table top
     (``FIST_FLOOR`` above it): a point beside an object at its height (a sweep's start, a push's
     goal) is the source hand's, and a deeper fist sent there presses its fingertips into the table,
@@ -175,14 +175,15 @@ def fist_above_table(session: RobotSession, goal: np.ndarray) -> np.ndarray:
 
 
 def _breakaway(session: RobotSession, reach: float) -> float:
-    """The setpoint reach for a free arm that creeps or has stopped short of its goal (under SETTLED a
-    step on average over the last STALL_STEPS steps: not an arm at rest as the move begins, nor one
-    that slows for a step), and then for each step it is still: grown by BREAKAWAY_GROWTH up to the controller's full delta (``POS_SCALE``), and kept for the rest of the
-    move, so that the force it commands overcomes its joints' friction (an xArm 7 folded by a sweep
-    stalls against its 1 N·m friction loss under the 3 N a 2 cm setpoint commands, and stalls again
-    as soon as the force drops back). Near the goal the error, not the reach, sets the step.
-    Touching something (the hand, or a finger pad on the table) or carrying a load it keeps
-    ``MAX_STEP``: there a stop is contact, and pushing harder would press into it."""
+    """The setpoint reach for a free arm that creeps or has stopped short of its goal (under SETTLED
+    a step on average over the last STALL_STEPS steps: not an arm at rest as the move begins, nor
+    one that slows for a step), and then for each step it is still: grown by BREAKAWAY_GROWTH up to
+    the controller's full delta (``POS_SCALE``) and kept for the rest of the move, so that the force
+    it commands overcomes its joints' friction (an xArm 7 folded by a sweep stalls against its
+    1 N·m friction loss under the 3 N a 2 cm setpoint commands, and stalls again as soon as the
+    force drops back). Near the goal the error, not the reach, sets the step. Touching something
+    (the hand, or a finger pad on the table) or carrying a load, it is back to ``MAX_STEP``: there
+    a stop is contact, and pushing harder would press into it."""
     if session.obs.eef_contact or any(session.obs.finger_contact) or session.obs.held() is not None:
         return MAX_STEP
     return min(reach * BREAKAWAY_GROWTH, POS_SCALE)
