@@ -115,9 +115,11 @@ def move_to(
     towards = _line_follower(session.obs.eef_pos, goal) if straight else (lambda _: goal)
     last, reach = None, MAX_STEP
     trail: deque[np.ndarray] = deque(maxlen=STALL_STEPS + 1)  # the grip site's latest positions
+    errors: deque[float] = deque(maxlen=STALL_STEPS + 1)  # ... and their distances to the goal
     for _ in range(max_steps):
         err = float(np.linalg.norm(goal - session.obs.eef_pos))
         trail.append(session.obs.eef_pos.copy())
+        errors.append(err)
         if set_down and load_rests(session, goal, trail, tol):
             return
         if not straight and landed(session, goal, trail):
@@ -140,6 +142,8 @@ def move_to(
     if settle and err < tol:
         return
     stalled = last is not None and float(np.linalg.norm(session.obs.eef_pos - last)) < SETTLED
+    # pushed harder and still no nearer: at a limit, however it moves there (a Panda beyond its reach sags)
+    stalled = stalled or (reach > MAX_STEP and errors[0] - errors[-1] < STALL_STEPS * SETTLED)
     blocked, load = session.obs.eef_contact, session.obs.held()
     if stalled and (blocked or load):  # pressing on something, or carrying a load that rests on something
         near = session.obs.in_contact()
