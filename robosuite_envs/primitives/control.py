@@ -115,11 +115,9 @@ def move_to(
     towards = _line_follower(session.obs.eef_pos, goal) if straight else (lambda _: goal)
     last, reach = None, MAX_STEP
     trail: deque[np.ndarray] = deque(maxlen=STALL_STEPS + 1)  # the grip site's latest positions
-    errors: deque[float] = deque(maxlen=STALL_STEPS + 1)  # ... and their distances to the goal
     for _ in range(max_steps):
         err = float(np.linalg.norm(goal - session.obs.eef_pos))
         trail.append(session.obs.eef_pos.copy())
-        errors.append(err)
         if set_down and load_rests(session, goal, trail, tol):
             return
         if not straight and landed(session, goal, trail):
@@ -134,8 +132,7 @@ def move_to(
         ):
             return
         last = session.obs.eef_pos.copy()
-        creeping = len(trail) > STALL_STEPS and float(np.linalg.norm(trail[-1] - trail[0])) < STALL_STEPS * SETTLED
-        if err > tol and (creeping or (still and reach > MAX_STEP)):
+        if err > tol and ((still and reach > MAX_STEP) or _creeping(trail)):
             reach = _breakaway(session, reach)
         yield servo_action(session, towards(session.obs.eef_pos), reach)
     err = float(np.linalg.norm(goal - session.obs.eef_pos))
@@ -143,7 +140,8 @@ def move_to(
         return
     stalled = last is not None and float(np.linalg.norm(session.obs.eef_pos - last)) < SETTLED
     # pushed harder and still no nearer: at a limit, however it moves there (a Panda beyond its reach sags)
-    stalled = stalled or (reach > MAX_STEP and errors[0] - errors[-1] < STALL_STEPS * SETTLED)
+    nearer = float(np.linalg.norm(goal - trail[0]) - np.linalg.norm(goal - trail[-1]))
+    stalled = stalled or (reach > MAX_STEP and nearer < STALL_STEPS * SETTLED)
     blocked, load = session.obs.eef_contact, session.obs.held()
     if stalled and (blocked or load):  # pressing on something, or carrying a load that rests on something
         near = session.obs.in_contact()
@@ -176,6 +174,11 @@ def _fist_above_table(session: RobotSession, goal: np.ndarray) -> np.ndarray:
         return goal
     floor = session.calibration.table_top_z + session.calibration.fist_below_site_m + FIST_FLOOR
     return goal if goal[2] >= floor else np.r_[goal[:2], floor]
+
+
+def _creeping(trail: Sequence[np.ndarray]) -> bool:
+    """The grip site moved under SETTLED a step on average over the last STALL_STEPS steps."""
+    return len(trail) > STALL_STEPS and float(np.linalg.norm(trail[-1] - trail[0])) < STALL_STEPS * SETTLED
 
 
 def _breakaway(session: RobotSession, reach: float) -> float:
