@@ -59,7 +59,7 @@ class Calibration:
     table_reach_m: float = float("inf")  # farthest grip site from the base (table plane) it servos to near the table
     table_top_z: float = float("-inf")  # world height of the table top it was measured at (what objects rest on)
     # how far the closed gripper (a fist) reaches below the grip site, pointing down: linkage fingers
-    # swing lower as they close (an xArm 7's 2.6 cm, a Panda's the same 1.4 cm open or closed)
+    # swing lower as they close, parallel ones do not
     fist_below_site_m: float = 0.0
     measured_with: str = ""  # simulator versions
     seconds: float = 0.0  # how long the calibration took

@@ -139,7 +139,7 @@ def move_to(
     if settle and err < tol:
         return
     stalled = last is not None and float(np.linalg.norm(session.obs.eef_pos - last)) < SETTLED
-    # pushed harder and still no nearer: at a limit, however it moves there (a Panda beyond its reach sags)
+    # pushed harder and still no nearer: at a limit, however it moves there (an arm beyond its reach sags)
     nearer = float(np.linalg.norm(goal - trail[0]) - np.linalg.norm(goal - trail[-1]))
     stalled = stalled or (reach > MAX_STEP and nearer < STALL_STEPS * SETTLED)
     blocked, load = session.obs.eef_contact, session.obs.held()
@@ -168,8 +168,8 @@ def _fist_above_table(session: RobotSession, goal: np.ndarray) -> np.ndarray:
     """``goal``, raised where the closed, empty hand's lowest point would go below the table top
     (``FIST_FLOOR`` above it): a point beside an object at its height (a sweep's start, a push's
     goal) is the source hand's, and a deeper fist sent there presses its fingertips into the table,
-    whose friction then holds the slide (an xArm 7's fist reaches 2.6 cm below its grip site, a
-    Panda's 1.4 cm). The fist still meets what it pushes, just above the table."""
+    whose friction then holds the slide (linkage fingers swing lower as they close). The fist
+    still meets what it pushes, just above the table."""
     if session.gripper_command <= 0 or session.obs.held() is not None:
         return goal
     floor = session.calibration.table_top_z + session.calibration.fist_below_site_m + FIST_FLOOR
@@ -186,9 +186,9 @@ def _breakaway(session: RobotSession, reach: float) -> float:
     a step on average over the last STALL_STEPS steps: not an arm at rest as the move begins, nor
     one that slows for a step), and then for each step it is still: grown by BREAKAWAY_GROWTH up to
     the controller's full delta (``POS_SCALE``) and kept for the rest of the move, so that the force
-    it commands overcomes its joints' friction (an xArm 7 folded by a sweep stalls against its
-    1 N·m friction loss under the 3 N a 2 cm setpoint commands, and stalls again as soon as the
-    force drops back). Near the goal the error, not the reach, sets the step. Touching something
+    it commands overcomes its joints' friction (an arm with high joint friction, folded by a sweep,
+    stalls under the force a MAX_STEP setpoint commands, and stalls again as soon as the force
+    drops back). Near the goal the error, not the reach, sets the step. Touching something
     (the hand, or a finger pad on the table) or carrying a load, it is back to ``MAX_STEP``: there
     a stop is contact, and pushing harder would press into it."""
     if session.obs.eef_contact or any(session.obs.finger_contact) or session.obs.held() is not None:
