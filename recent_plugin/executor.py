@@ -70,6 +70,10 @@ class Adapter(Protocol):
         """Once the last statement has run: may append statements to run; a text names an unmet effect."""
         ...
 
+    def achieved(self, executor: SkillExecutor, failure: SkillFailure) -> bool:
+        """A step failed: whether what the skill is for already holds (it then ends, done)."""
+        ...
+
     def repair(self, executor: SkillExecutor, failure: SkillFailure) -> bool: ...
 
 
@@ -295,6 +299,9 @@ class SkillExecutor:
         failure = SkillFailure(self.grounded.skill, segment.index, segment.line, category, message)
         self._running = None
         self.emit(SegmentFailed(failure.skill, failure.segment, failure.line, str(category), message))
+        if repairable and self.adapter is not None and self.adapter.achieved(self, failure):
+            self.cursor = len(self.segments)  # the rest of the skill is moot; its effects are checked as ever
+            return
         if repairable and self.adapter is not None and self.adapter.repair(self, failure):
             self.meter.created = 0  # the repair starts afresh: at most max_repairs + 1 budgets per skill
             return  # the failed segment was replaced by a repair; it runs again from the current state

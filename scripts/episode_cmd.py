@@ -84,7 +84,7 @@ def _run(args) -> int:
     for summary in summaries:
         print_grounding(summary)
     for a in result.adaptations:
-        verdict = "patched" if a.after else "no valid patch"
+        verdict = "patched" if a.after else "the skill ends here, done" if a.kind == "achieved" else "no valid patch"
         print(f"  {a.kind} in {a.skill} segment {a.segment} ({', '.join(a.checks)}): {a.observation} -> {verdict}")
         if a.after:
             print("    " + a.after.replace("\n", "\n    "))

@@ -638,6 +638,52 @@ def test_a_step_that_left_its_state_unreached_is_done_again_and_then_fails_by_na
     assert result.ei == sum(e.attempts for e in result.adaptations if not set(e.checks) & AFTER_SKILL)
 
 
+IN_THEN_MISS = '''def move_to_region(env, task, obj="cube", region="zone"):
+    """Sets the cube down in the zone, then grasps at bare table beside it: a step that fails once the aim holds."""
+    obj_pos = task.get_object_position(obj)
+    region_pos = task.get_object_position(region)
+    open_gripper(env, task)
+    pick(env, task, target_pos=obj_pos, approach_axis="z")
+    place(env, task, target_pos=[region_pos[0], region_pos[1], obj_pos[2] + 0.002], approach_axis="z")
+    pick(env, task, target_pos=[region_pos[0] - 0.15, region_pos[1], obj_pos[2]], approach_axis="z")
+'''
+ONLY_MISS = '''def move_to_region(env, task, obj="cube", region="zone"):
+    """Grasps at bare table beside the zone: a step that fails while the aim does not hold."""
+    obj_pos = task.get_object_position(obj)
+    region_pos = task.get_object_position(region)
+    open_gripper(env, task)
+    pick(env, task, target_pos=[region_pos[0] - 0.15, region_pos[1], obj_pos[2]], approach_axis="z")
+'''
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(("code", "done"), [(IN_THEN_MISS, True), (ONLY_MISS, False)], ids=["aim-holds", "aim-unmet"])
+def test_a_step_that_fails_once_the_skills_aim_holds_ends_the_skill_done_and_is_recorded(
+    ontology, tmp_path, code, done
+):
+    """A failed step is not repaired where perception already reads every effect the skill declares (the
+    block fell into the box it was to be carried to, and three grasps of it, wedged, failed the task): the
+    skill ends there, and the record says what failed and what holds. Where the aim does not hold, the
+    step is repaired and fails by name as before."""
+    method = method_named("recent")
+    method.offline_validation = False  # the scripted skill was never validated
+    library = library_with(tmp_path, "move_to_region", code)
+    settings = RecentSettings(infiller=RuleConfig(), method=method, skill_library=library)
+    agent = RecentAgent(settings, infiller=RuleInfiller(), ontology=ontology)
+    result = run_episode(agent, "kinematic/move_cube", "Panda", seed=0, to_completion=True)  # past the success
+    achieved = [e for e in result.adaptations if e.kind == "achieved"]
+    repairs = [e for e in result.adaptations if e.kind == "repair"]
+    if done:
+        assert result.success and not result.failures and not repairs
+        (event,) = achieved
+        assert event.observation.startswith("grasp_lost: nothing is held after grasping at")
+        assert "what move_to_region is for holds: cube rests at" in event.observation
+        assert event.checks == ("placement_reached",) and event.after is None
+    else:
+        assert not result.success and not achieved and repairs
+        assert result.failures[-1].category == "grasp_lost"
+
+
 def test_the_bundled_press_lights_the_button_and_its_check_passes(panda_agent):
     result = run_episode(panda_agent, "kinematic/press_button", "Panda", seed=0)
     assert result.success and not result.adaptations

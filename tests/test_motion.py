@@ -233,22 +233,31 @@ def test_a_cup_lowered_onto_a_button_presses_it_until_the_cap_bottoms_out():
 
 
 @pytest.mark.slow
-def test_an_arm_folded_by_a_stretch_breaks_away_from_its_stall_and_arrives(monkeypatch):
+@pytest.mark.parametrize("load", [False, True], ids=["empty", "carrying"])
+def test_an_arm_folded_by_a_stretch_breaks_away_from_its_stall_and_arrives(monkeypatch, load):
     """XArm7, stretched to the table's far corner, is sent 30 cm back towards its base. Under the force
     a 2 cm setpoint commands, its folded joints stall against their friction some 25 cm short (no
-    contact); the setpoint's reach grows while it is stopped short, and the same move arrives."""
+    contact); the setpoint's reach grows while it is stopped short, and the same move arrives. So it
+    does carrying a cube that hangs free, clear of every box below it: a stop there is no contact (the
+    failure says so, not "resting on something")."""
     arm = _Arm("kinematic/cube_in_bin", "XArm7")
     try:
-        far, near = np.array([0.15, 0.22, TABLE_Z + 0.12]), np.array([-0.15, 0.22, TABLE_Z + 0.12])
+        height = TABLE_Z + (0.15 if load else 0.12)  # the cube hangs above the bin's rim
+        far, near = np.array([0.15, 0.22, height]), np.array([-0.15, 0.22, height])
+        if load:
+            arm.run(control.grasp_at(arm.session, arm.position("cube")))
         arm.run(control.move_to(arm.session, far, timeout_s=6.0, settle=True, tol=0.03))
+        assert control.load_hangs(arm.session) is load
         with monkeypatch.context() as patch:
             patch.setattr(control, "BREAKAWAY_GROWTH", 1.0)  # the reach never grows: the stall stays
             with pytest.raises(PrimitiveFailure) as trapped:
                 arm.run(control.move_to(arm.session, near, timeout_s=6.0, plan=False))
         assert trapped.value.kind in ("cannot_track", "timeout")
+        assert ("cube hanging free in hand" in str(trapped.value)) is (load and trapped.value.kind == "cannot_track")
         assert np.linalg.norm(arm.session.obs.eef_pos - near) > 0.15
         arm.run(control.move_to(arm.session, near, timeout_s=6.0, plan=False))
         assert np.linalg.norm(arm.session.obs.eef_pos - near) < control.POS_TOL
+        assert arm.session.obs.held() == ("cube" if load else None)
     finally:
         arm.env.close()
 

@@ -74,6 +74,10 @@ class BaselineAdapter:
         """Baselines check no effects (they react to failures only)."""
         return None
 
+    def achieved(self, executor: SkillExecutor, failure: SkillFailure) -> bool:
+        """Baselines check no effects: a failed step is repaired or fails."""
+        return False
+
     def repair(self, executor: SkillExecutor, failure: SkillFailure) -> bool:
         name = executor.grounded.skill
         if not self._budget.take(executor, failure):

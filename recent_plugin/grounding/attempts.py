@@ -171,7 +171,7 @@ def infill_until_valid(
 class AdaptationEvent:
     """One run-time decision: a check that failed, and the patch (or none) that answered it."""
 
-    kind: str  # "revise" (a check failed before the segment) or "repair" (the segment failed)
+    kind: str  # "revise" (a check failed before it), "repair" (it failed), "achieved" (it failed; the skill's aim holds)
     skill: str
     segment: int
     checks: tuple[str, ...]

@@ -123,15 +123,7 @@ class InSituAdapter:
         skill = executor.grounded.skill
         if not self.insitu:
             return None
-        names, obs = executor.namespace, executor.session.obs
-        verdicts = [
-            ("state_reached", *state_reached(e, names.get(e.parameter), obs)) for e in self.state_effects.get(skill, ())
-        ] + [
-            ("placement_reached", *placement_reached(p, names.get(p.parameter), names.get(p.over), obs))
-            for p in self.placements.get(skill, ())
-        ]
-        for check, met, observation in verdicts:
-            self.emit(CheckVerdict(skill, len(executor.segments) - 1, check, met, observation))
+        verdicts = self._effect_verdicts(executor, len(executor.segments) - 1)
         unmet = [(check, observation) for check, met, observation in verdicts if not met]
         if not unmet:
             return None
@@ -153,6 +145,42 @@ class InSituAdapter:
         for copy, original in zip(executor.segments[at:], body, strict=False):  # one statement each
             copy.guards, copy.effects, copy.checked = original.guards, original.effects, False
         return None
+
+    def achieved(self, executor: SkillExecutor, failure: SkillFailure) -> bool:
+        """A step failed, yet what the skill is for already holds as perceived: every object state
+        and placement it declares (it declares at least one), with nothing left in the hand. The
+        skill ends there, recorded, instead of repairing a step whose purpose is met: a block pushed
+        off the closed lid fell into the box it was to be carried to, and three grasps of it,
+        wedged against the wall, failed the task."""
+        if not self.insitu or executor.session.obs.held() is not None:
+            return False
+        verdicts = self._effect_verdicts(executor, failure.segment)
+        if not verdicts or not all(met for _, met, _ in verdicts):
+            return False
+        observation = f"{failure.message}; what {executor.grounded.skill} is for holds: " + "; ".join(
+            text for _, _, text in verdicts
+        )
+        checks = tuple(dict.fromkeys(check for check, _, _ in verdicts))
+        segment = executor.segments[failure.segment]
+        self.events.append(
+            AdaptationEvent(
+                "achieved", executor.grounded.skill, failure.segment, checks, observation, segment.source, None, 0
+            )
+        )
+        return True
+
+    def _effect_verdicts(self, executor: SkillExecutor, index: int) -> list[tuple[str, bool, str]]:
+        """The skill's declared effects as perception reads them now (each emitted as a verdict at segment ``index``)."""
+        skill, names, obs = executor.grounded.skill, executor.namespace, executor.session.obs
+        verdicts = [
+            ("state_reached", *state_reached(e, names.get(e.parameter), obs)) for e in self.state_effects.get(skill, ())
+        ] + [
+            ("placement_reached", *placement_reached(p, names.get(p.parameter), names.get(p.over), obs))
+            for p in self.placements.get(skill, ())
+        ]
+        for check, met, observation in verdicts:
+            self.emit(CheckVerdict(skill, index, check, met, observation))
+        return verdicts
 
     def before_segment(self, executor: SkillExecutor, index: int) -> None:
         segment = executor.segments[index]

@@ -143,7 +143,8 @@ def move_to(
     nearer = float(np.linalg.norm(goal - trail[0]) - np.linalg.norm(goal - trail[-1]))
     stalled = stalled or (reach > MAX_STEP and nearer < STALL_STEPS * SETTLED)
     blocked, load = session.obs.eef_contact, session.obs.held()
-    if stalled and (blocked or load):  # pressing on something, or carrying a load that rests on something
+    resting = load is not None and not load_hangs(session)
+    if stalled and (blocked or resting):  # pressing on something, or carrying a load that rests on something
         near = session.obs.in_contact()
         why = (
             f"held up by contact{' with ' + near[0] if near else ''}"
@@ -156,7 +157,8 @@ def move_to(
     if stalled:
         raise PrimitiveFailure(
             "cannot_track",
-            f"the arm stopped {err * 100:.1f} cm short of {np.round(goal, 3).tolist()} and does not move on "
+            f"the arm stopped {err * 100:.1f} cm short of {np.round(goal, 3).tolist()}"
+            f"{f', {load} hanging free in hand,' if load else ''} and does not move on "
             f"(its calibrated steady-state error is {session.calibration.tracking_error_m * 1000:.1f} mm)",
         )
     raise PrimitiveFailure(
@@ -189,9 +191,15 @@ def _breakaway(session: RobotSession, reach: float) -> float:
     it commands overcomes its joints' friction (an arm with high joint friction, folded by a sweep,
     stalls under the force a MAX_STEP setpoint commands, and stalls again as soon as the force
     drops back). Near the goal the error, not the reach, sets the step. Touching something
-    (the hand, or a finger pad on the table) or carrying a load, it is back to ``MAX_STEP``: there
-    a stop is contact, and pushing harder would press into it."""
-    if session.obs.eef_contact or any(session.obs.finger_contact) or session.obs.held() is not None:
+    (the hand, or an empty hand's finger pad on the table) or carrying a load that may rest on
+    something (:func:`load_hangs`: not clear of every box below it), it is back to ``MAX_STEP``:
+    there a stop is contact, and pushing harder would press into it. A load hanging free is no
+    contact: an arm carrying a block stalls on its friction as an empty one does."""
+    if session.obs.eef_contact:
+        return MAX_STEP
+    if session.obs.held() is None and any(session.obs.finger_contact):
+        return MAX_STEP
+    if session.obs.held() is not None and not load_hangs(session):
         return MAX_STEP
     return min(reach * BREAKAWAY_GROWTH, POS_SCALE)
 
