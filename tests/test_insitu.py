@@ -34,6 +34,7 @@ from lerobot_policy_recent.recent_plugin.insitu.checks import (
     object_unmoved,
     placed_at_target,
     placement_reached,
+    push_start_clear,
     pushed_to_goal,
     target_clear,
     within_reach,
@@ -440,6 +441,46 @@ def test_the_open_fingers_reach_along_the_jaws_closing_axis_and_a_quarter_turn_c
     wall = check(with_box, box=[0.09, 0.0, 0.80])
     assert wall.statements == ("rotate_gripper(env, task, angle=1.5708)",) and "box (" in wall.observation
     assert check(with_box, box=[0.09, 0.09, 0.80]) is None  # as near the turned jaw: nothing gained, nothing to sweep
+
+
+PANDA = load_api_spec(api_spec_path("panda"))
+
+
+def test_a_push_whose_hand_comes_down_on_a_wall_behind_its_start_turns_a_quarter_first():
+    """push_then_clear, dev seed 11, mix: the cube was pushed off its spot to 6 cm in front of the bin,
+    and the push again from behind it came down with the Panda's hand (21 cm along its closing axis,
+    along the push) on the bin's wall, and stopped above the start, three times. Turned a quarter, the
+    hand clears the wall, and turns back once the push is done. What lies on the push's line is what
+    it pushes; what lies lower than the grip site (a plate) meets only the fingertips."""
+    sizes = {"cube": (0.045, 0.045, 0.045), "bin": (0.1, 0.1, 0.08), "plate": (0.1, 0.1, 0.012)}
+    scene = SceneFacts(frozenset({"cube"}), sizes, hand_half_xy=(0.1055, 0.0315))  # observed(): grip x = world x
+    push = {"start_pos": [-0.06, 0.0, 0.822], "target_pos": [0.2, 0.0, 0.822]}
+
+    def check(scene=scene, **at):
+        inp = CheckInput(observed(cube=[0.0, 0.0, 0.822], **at), push, PANDA.get("push").parameters,
+                         frozenset({"cube"}), {}, scene, PANDA)  # fmt: skip
+        return push_start_clear(inp)
+
+    assert check() is None  # the cube lies on the line: it is what the push acts on
+    wall = check(bin=[-0.2, 0.0, 0.84])
+    assert wall.check == "push_start_clear" and wall.observation.startswith("bin lies where the hand comes down")
+    assert wall.statements == ("align_two_axes(env, task, yaw=1.5708)",)
+    assert wall.after == ("align_two_axes(env, task, yaw=-1.5708)",)
+    assert check(plate=[-0.2, 0.0, 0.806]) is None  # lower than the grip site: under the hand, not against it
+    assert check(bin=[-0.2, 0.0, 0.84], plate=[-0.06, 0.09, 0.84]) is None  # turned, it would meet this one
+    assert check(replace(scene, hand_half_xy=None), bin=[-0.2, 0.0, 0.84]) is None  # no footprint known
+
+
+@pytest.mark.slow
+def test_the_push_beside_the_bin_turns_the_hand_and_the_task_succeeds(ontology):
+    """The episode the unit test above is taken from, on the Panda's own skills (the ceiling's row)."""
+    agent = RecentAgent(
+        RecentSettings(infiller=RuleConfig(), method=method_named("source")), infiller=RuleInfiller(), ontology=ontology
+    )
+    result = run_episode(agent, "kinematic/push_then_clear", "Panda", seed=11, variations="mix")
+    assert result.success
+    turned = [e for e in result.adaptations if e.checks == ("push_start_clear",)]
+    assert turned and turned[0].after.startswith("align_two_axes(env, task, yaw=1.5708)")
 
 
 @pytest.mark.slow

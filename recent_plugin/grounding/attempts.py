@@ -171,7 +171,9 @@ def infill_until_valid(
 class AdaptationEvent:
     """One run-time decision: a check that failed, and the patch (or none) that answered it."""
 
-    kind: str  # "revise" (a check failed before it), "repair" (it failed), "achieved" (it failed; the skill's aim holds)
+    # "revise" (a check failed before the segment), "repair" (the segment failed), "achieved" (it
+    # failed, and what the skill is for already holds: the skill ends there)
+    kind: str
     skill: str
     segment: int
     checks: tuple[str, ...]

@@ -23,7 +23,14 @@ from robosuite.utils.transform_utils import quat2mat
 
 from lerobot_policy_recent.ontology.specs import PATH_ROLE, WORLD_FRAME, ApiSpec, ParameterSpec, Waypoint
 from lerobot_policy_recent.robosuite_envs.observation import POSITION_SIGMA, ObjectState, Observation
-from lerobot_policy_recent.robosuite_envs.primitives.clearance import FINGER_DEPTH, boxes, object_at
+from lerobot_policy_recent.robosuite_envs.primitives.clearance import (
+    FINGER_DEPTH,
+    Box,
+    across_table,
+    boxes,
+    object_at,
+    segment_meets,
+)
 from lerobot_policy_recent.robosuite_envs.primitives.frames import WORLD_AT_ORIGIN, Frame, argument_for, world_point
 from lerobot_policy_recent.skills.repository import Placement, StateEffect
 
@@ -87,6 +94,7 @@ class SceneFacts:
     table_reach: float = float("inf")  # metres from the base (table plane) the hand gets down to the table (calibrated)
     table_top: float = float("-inf")  # world height of the table top (the workcell's, as calibration measured it)
     closing_axis: tuple[float, float, float] | None = None  # grip-site frame, one pad to the other (calibrated)
+    hand_half_xy: tuple[float, float] | None = None  # metres, the open hand's half footprint along the grip site's x, y
 
 
 @dataclass(frozen=True)
@@ -346,9 +354,7 @@ def _quarter_turn(inp: CheckInput, jaw: Jaw, target: np.ndarray, held: set[str])
     from everything else than the jaw is now; else nothing. (Beside a box's wall, perception's noise
     leaves the turned fingers' few millimetres of room uncertain, where the wall in the jaw as it is
     is certain: farther is the test, not clear.)"""
-    turn = inp.api.providing("rotate_end_effector")
-    angle = None if turn is None else turn.by_role("yaw_angle")
-    if angle is None or inp.scene.closing_axis is None or jaw.reach == jaw.width:
+    if inp.scene.closing_axis is None or jaw.reach == jaw.width or not (turn := _turn_calls(inp)):
         return ()
     turned = jaw.turned()
     if any(_in_jaw(turned, inp, name, target) for name, _ in _strangers(inp, held)):
@@ -362,7 +368,63 @@ def _quarter_turn(inp: CheckInput, jaw: Jaw, target: np.ndarray, held: set[str])
     ]
     if any(float(np.asarray(extents(inp, n)[:2]) @ np.abs(jaw.across)) > JAW_STROKE for n in grasped):
         return ()
+    return turn
+
+
+def _turn_calls(inp: CheckInput) -> tuple[str, ...]:
+    """The robot's own calls that turn the hand a quarter turn about the vertical and back; none
+    where its API has no yaw turn."""
+    turn = inp.api.providing("rotate_end_effector")
+    angle = None if turn is None else turn.by_role("yaw_angle")
+    if angle is None:
+        return ()
     return tuple(f"{turn.name}(env, task, {angle.name}={sign * math.pi / 2:.4f})" for sign in (1, -1))
+
+
+def push_start_clear(inp: CheckInput) -> Violation | None:
+    """A push's hand, come down at its start, would stand on or against what the push does not act
+    on (the wall of a bin behind the cube: a long hand across the push reaches 10 cm back), and stop
+    above its start: turn it a quarter turn first where that clears it, and back once the push is
+    done. What the push acts on lies on its line, from the start to the goal. The hand's footprint
+    is the calibrated one, as it is turned now, and it meets what stands up above the grip site
+    there (a wall); what lies lower (a plate, a zone) meets only the fingertips, which come down on
+    the line. Where no footprint is known, or no turn clears it, the push runs as written (and a
+    stop is repaired as ever)."""
+    start, goal = _by_role(inp, "push_start"), _by_role(inp, "push_goal")
+    if start is None or goal is None or inp.scene.hand_half_xy is None or not (turn := _turn_calls(inp)):
+        return None
+    half = np.asarray(across_table(inp.scene.hand_half_xy, inp.obs.eef_quat), dtype=float)
+    held = _held(inp)
+    perceived = [
+        Box(name, np.asarray(state.pos, dtype=float), np.asarray(extents(inp, name), dtype=float) / 2)
+        for name, state in sorted(inp.obs.objects.items())
+        if name not in held
+    ]
+    walls = [box for box in perceived if box.top > start[2] and not _on_line(box, start, goal)]
+    met = [box for box in walls if _footprint_meets(box, start, half)]
+    if not met or any(_footprint_meets(box, start, half[::-1]) for box in walls):
+        return None
+    names = ", ".join(box.name for box in met)
+    return Violation(
+        "push_start_clear",
+        f"{names} lies where the hand comes down at the push's start {_fmt(start)}: "
+        f"{100 * 2 * half[0]:.0f} x {100 * 2 * half[1]:.0f} cm across the table as it is turned, clear turned a quarter",
+        turn[:1],
+        "turn the hand a quarter turn first: " + turn[0],
+        cue=f"{names} where the hand comes down to push, and not once it is turned",
+        after=turn[1:],
+    )
+
+
+def _on_line(box: Box, start: np.ndarray, goal: np.ndarray) -> bool:
+    """The push's line, on the table plane, passes over the box's footprint: what it pushes."""
+    low, high = box.centre[:2] - box.half[:2], box.centre[:2] + box.half[:2]
+    return segment_meets(start[:2], goal[:2], low, high)
+
+
+def _footprint_meets(box: Box, point: np.ndarray, half: np.ndarray) -> bool:
+    """The hand's footprint (``half`` across the table) centred at ``point`` overlaps the box's."""
+    return bool(np.all(np.abs(box.centre[:2] - point[:2]) < box.half[:2] + half))
 
 
 def _clearance(jaw: Jaw, inp: CheckInput, target: np.ndarray, held: set[str]) -> float:
@@ -781,4 +843,5 @@ CHECKS: dict[str, Check] = {
     "object_held": object_held,
     "pushed_to_goal": pushed_to_goal,
     "placed_at_target": placed_at_target,
+    "push_start_clear": push_start_clear,
 }

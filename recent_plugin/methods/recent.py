@@ -54,6 +54,7 @@ class Recent(Method):
             table_top=a.calibration.table_top_z,
             push_path=a.ontology.path_of("push_object"),
             closing_axis=a.calibration.closing_axis,
+            hand_half_xy=a.calibration.hand_half_xy,
         )
         skills = {step.skill: a.skill(step.skill) for step in a.task.plan}
         return InSituAdapter(

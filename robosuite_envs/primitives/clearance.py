@@ -115,7 +115,7 @@ class Sweep:
             top = LOAD_CLEARANCE if index and over_solid else -SLIDE_DEPTH  # parts[0]: the hand
             low = box.centre - box.half - part.offset - part.half
             high = box.centre + box.half - part.offset + part.half + [0.0, 0.0, top]
-            if _segment_meets(start, end, low, high):
+            if segment_meets(start, end, low, high):
                 return True
         return False
 
@@ -183,12 +183,12 @@ def path_over(start, goal, obstacles: list[Box], sweep: Sweep) -> list[np.ndarra
     return [p for p in (rise, across) if np.linalg.norm(p - start) > 1e-4 and np.linalg.norm(p - goal) > 1e-4] + [goal]
 
 
-def _segment_meets(start: np.ndarray, end: np.ndarray, low: np.ndarray, high: np.ndarray) -> bool:
-    """Whether the segment touches the axis-aligned box [low, high] (slab test)."""
+def segment_meets(start: np.ndarray, end: np.ndarray, low: np.ndarray, high: np.ndarray) -> bool:
+    """Whether the segment touches the axis-aligned box [low, high] (slab test), in space or on a plane."""
     start, end = np.asarray(start, dtype=float), np.asarray(end, dtype=float)
     direction = end - start
     enter, leave = 0.0, 1.0
-    for axis in range(3):
+    for axis in range(len(start)):
         if abs(direction[axis]) < 1e-12:
             if not low[axis] <= start[axis] <= high[axis]:
                 return False
