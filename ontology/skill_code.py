@@ -591,16 +591,21 @@ def dependency_indices(earlier: list[ast.stmt], node: ast.AST, primitives: set[s
     return chosen[::-1]
 
 
-def recomputed_indices(earlier: list[ast.stmt], node: ast.AST, primitives: set[str]) -> list[int]:
+def recomputed_indices(
+    earlier: list[ast.stmt], node: ast.AST, primitives: set[str], kept: frozenset[str] = frozenset()
+) -> list[int]:
     """Of :func:`dependency_indices`, the statements that may compute another value when run again:
     those that call something (a task query reads the world as it is now) and those that read what
     such a statement assigns. The rest would compute what they hold already from the same values
     (an unrolled loop's ``name, dx, dy = [first, -0.045, -0.045]``, a ``lift += 0.01`` that would add
     its offset twice). A name assigned on some paths only, or augmented, is read as well: its old
-    value goes on."""
+    value goes on. A statement that assigns only ``kept`` names is not run again: its value stands
+    (where the held tool lay when it was read, not where the hand carries it now)."""
     chosen, changed = [], set()
     for index in dependency_indices(earlier, node, primitives):
         stmt = earlier[index]
+        if stores(stmt) and stores(stmt) <= kept:
+            continue
         reads = loads(stmt) | (stores(stmt) - always_assigned([stmt]))
         if any(isinstance(n, ast.Call) for n in ast.walk(stmt)) or reads & changed:
             chosen.append(index)

@@ -56,6 +56,15 @@ def test_segments_unroll_literal_loops_and_data_flow_finds_what_a_call_needs():
     nodes = [node for node, _ in segment_statements(code, entry_function(code, "g"))]
     assert dependency_indices(nodes[:-1], nodes[-1], {"pick"}) == [0, 1, 2, 3]
     assert recomputed_indices(nodes[:-1], nodes[-1], {"pick"}) == [2, 3]
+    # a read the hand now holds the object of is kept (where the tool lay, not where it is carried),
+    # and what derives from it alone computes what it holds already
+    code = (
+        "def h(env, task):\n    tool_pos = task.get_object_position('rake')\n    grip_z = tool_pos[2] + 0.025\n"
+        "    obj_pos = task.get_object_position('cube')\n    move(env, task, target_pos=[obj_pos[0], obj_pos[1], grip_z])\n"
+    )
+    nodes = [node for node, _ in segment_statements(code, entry_function(code, "h"))]
+    assert recomputed_indices(nodes[:-1], nodes[-1], {"move"}) == [0, 1, 2]
+    assert recomputed_indices(nodes[:-1], nodes[-1], {"move"}, frozenset({"tool_pos"})) == [2]
 
 
 def test_calls_are_counted_as_the_paper_counts_them():

@@ -291,19 +291,19 @@ class InSituAdapter:
         their guards (a copied place is held to the same reach and clearance as the original); the copy
         is checked again once it completes, up to ``max_repairs`` times per skill.
         """
-        primitives = set(executor.primitives)
+        primitives, kept = set(executor.primitives), held_reads(executor)
         earlier = executor.segments[: segment.index]
         grasp = self._latest_grasp(earlier) if regrasp else None
         redo: tuple[str, ...] = ()
         copied: list[tuple[int, Segment]] = []  # (offset in redo, the statement it copies)
         if grasp is not None:
-            redo = (*recomputation(earlier[: grasp.index], grasp.node, primitives), grasp.source)
+            redo = (*recomputation(earlier[: grasp.index], grasp.node, primitives, kept), grasp.source)
             copied.append((len(redo) - 1, grasp))
         traced = self._traced_span(executor.grounded.skill, segment)
-        reads = (s for t in traced for s in recomputation(earlier, t.node, primitives))
+        reads = (s for t in traced for s in recomputation(earlier, t.node, primitives, kept))
         redo += (*dict.fromkeys(reads), *(t.source for t in traced[:-1]))
         copied += [(len(redo) - len(traced) + 1 + i, t) for i, t in enumerate(traced[:-1])]
-        redo += (*recomputation(earlier, segment.node, primitives), segment.source)
+        redo += (*recomputation(earlier, segment.node, primitives, kept), segment.source)
         copied.append((len(redo) - 1, segment))
         self._insert_copy(executor, segment, at, redo, checks, observation, shown=(segment.source, *redo))
         for offset, original in copied:
@@ -351,7 +351,9 @@ class InSituAdapter:
         # Worded as an object_unmoved check's patch is ("read obj_pos again"): a small model writes
         # the recomputation from this wording more reliably than from "recompute ... before retrying",
         # or from one that also shows the unrolled loop's constants (docs/history.md, "Run-time patches").
-        statements = recomputation(executor.segments[: failure.segment], segment.node, set(executor.primitives))
+        statements = recomputation(
+            executor.segments[: failure.segment], segment.node, set(executor.primitives), held_reads(executor)
+        )
         return self._patch(
             executor,
             segment,
@@ -379,7 +381,9 @@ class InSituAdapter:
         moved = [f"{name} moved since {var} was read" for var, name, _, _ in reads]
         # what may compute another value, as a repair recomputes: not an unrolled loop's constants, nor a
         # `lift += 0.01` that would add its offset twice
-        redo = recomputation(executor.segments[: segment.index], segment.node, set(executor.primitives))
+        redo = recomputation(
+            executor.segments[: segment.index], segment.node, set(executor.primitives), held_reads(executor)
+        )
         if not moved or not redo:
             return False
         observation = f"{_bare(segment.source, executor).split('(')[0]} failed ({failure.message}); {'; '.join(moved)}"
@@ -583,10 +587,24 @@ def _value(node: ast.expr, executor: SkillExecutor) -> object | None:
     return None if value is UNKNOWN else value
 
 
-def recomputation(earlier: list[Segment], node: ast.AST, primitives: set[str]) -> tuple[str, ...]:
+def recomputation(
+    earlier: list[Segment], node: ast.AST, primitives: set[str], kept: frozenset[str] = frozenset()
+) -> tuple[str, ...]:
     """What to run again before the statement, in order: of its :func:`dependencies`, those whose value
-    may have changed (``skill_code.recomputed_indices``)."""
-    return tuple(earlier[i].source for i in recomputed_indices([s.node for s in earlier], node, primitives))
+    may have changed (``skill_code.recomputed_indices``), the ``kept`` names' reads left as they are."""
+    return tuple(earlier[i].source for i in recomputed_indices([s.node for s in earlier], node, primitives, kept))
+
+
+def held_reads(executor: SkillExecutor) -> frozenset[str]:
+    """The variables that hold a position read of the object the hand holds now. Read again, it is
+    where the hand carries it: a rake's home, re-read in a drag's repair, became the spot beside the
+    zone, and the rake was put back over the cube the next skill was to pick up."""
+    held = executor.session.obs.held()
+    if held is None:
+        return frozenset()
+    return frozenset(
+        var for var, (name, _) in _position_reads(executor, set(executor.namespace)).items() if name == held
+    )
 
 
 def dependencies(earlier: list[Segment], node: ast.AST, primitives: set[str]) -> list[Segment]:
