@@ -451,9 +451,17 @@ def test_a_push_whose_hand_comes_down_on_a_wall_behind_its_start_turns_a_quarter
     and the push again from behind it came down with the Panda's hand (21 cm along its closing axis,
     along the push) on the bin's wall, and stopped above the start, three times. Turned a quarter, the
     hand clears the wall, and turns back once the push is done. What lies on the push's line is what
-    it pushes; what lies lower than the grip site (a plate) meets only the fingertips."""
-    sizes = {"cube": (0.045, 0.045, 0.045), "bin": (0.1, 0.1, 0.08), "plate": (0.1, 0.1, 0.012)}
-    scene = SceneFacts(frozenset({"cube"}), sizes, hand_half_xy=(0.1055, 0.0315))  # observed(): grip x = world x
+    it pushes; what lies lower than the grip site (a plate) meets only the fingertips; a loose tool's
+    box is not its shape, and is no wall."""
+    sizes = {
+        "cube": (0.045, 0.045, 0.045),
+        "bin": (0.1, 0.1, 0.08),
+        "plate": (0.1, 0.1, 0.012),
+        "rake": (0.27, 0.16, 0.07),
+    }
+    scene = SceneFacts(
+        frozenset({"cube", "rake"}), sizes, hand_half_xy=(0.1055, 0.0315)
+    )  # observed(): grip x = world x
     push = {"start_pos": [-0.06, 0.0, 0.822], "target_pos": [0.2, 0.0, 0.822]}
 
     def check(scene=scene, **at):
@@ -463,12 +471,15 @@ def test_a_push_whose_hand_comes_down_on_a_wall_behind_its_start_turns_a_quarter
 
     assert check() is None  # the cube lies on the line: it is what the push acts on
     wall = check(bin=[-0.2, 0.0, 0.84])
-    assert wall.check == "push_start_clear" and wall.observation.startswith("bin lies where the hand comes down")
+    assert wall.check == "push_start_clear" and wall.observation.startswith(
+        "bin stands where the hand, 21 x 6 cm across the table"
+    )
     assert wall.statements == ("align_two_axes(env, task, yaw=1.5708)",)
     assert wall.after == ("align_two_axes(env, task, yaw=-1.5708)",)
     assert check(plate=[-0.2, 0.0, 0.806]) is None  # lower than the grip site: under the hand, not against it
     assert check(bin=[-0.2, 0.0, 0.84], plate=[-0.06, 0.09, 0.84]) is None  # turned, it would meet this one
     assert check(replace(scene, hand_half_xy=None), bin=[-0.2, 0.0, 0.84]) is None  # no footprint known
+    assert check(rake=[-0.2, 0.0, 0.835]) is None  # loose: its box is not its shape (wipe_panel_drag s11, on)
 
 
 @pytest.mark.slow

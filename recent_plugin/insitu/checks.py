@@ -386,29 +386,29 @@ def push_start_clear(inp: CheckInput) -> Violation | None:
     on (the wall of a bin behind the cube: a long hand across the push reaches 10 cm back), and stop
     above its start: turn it a quarter turn first where that clears it, and back once the push is
     done. What the push acts on lies on its line, from the start to the goal. The hand's footprint
-    is the calibrated one, as it is turned now, and it meets what stands up above the grip site
-    there (a wall); what lies lower (a plate, a zone) meets only the fingertips, which come down on
-    the line. Where no footprint is known, or no turn clears it, the push runs as written (and a
-    stop is repaired as ever)."""
+    is the calibrated one, as it is turned now, and it meets the workcell's walls (what is fixed to
+    the table and stands up above the grip site there); what lies lower (a plate, a zone) meets
+    only the fingertips, which come down on the line. A loose object's box is not its shape: a
+    rake's covers the table between its crossbar and its handle, and the hand, turned for it, came
+    down where nothing lay. Where no footprint is known, or no turn clears it, the push runs as
+    written (and a stop is repaired as ever)."""
     start, goal = _by_role(inp, "push_start"), _by_role(inp, "push_goal")
     if start is None or goal is None or inp.scene.hand_half_xy is None or not (turn := _turn_calls(inp)):
         return None
     half = np.asarray(across_table(inp.scene.hand_half_xy, inp.obs.eef_quat), dtype=float)
-    held = _held(inp)
-    perceived = [
-        Box(name, np.asarray(state.pos, dtype=float), np.asarray(extents(inp, name), dtype=float) / 2)
-        for name, state in sorted(inp.obs.objects.items())
-        if name not in held
+    fixed = [
+        Box(name, np.asarray(inp.obs.objects[name].pos, dtype=float), np.asarray(extents(inp, name), dtype=float) / 2)
+        for name in _fixed(inp)
     ]
-    walls = [box for box in perceived if box.top > start[2] and not _on_line(box, start, goal)]
+    walls = [box for box in fixed if box.top > start[2] and not _on_line(box, start, goal)]
     met = [box for box in walls if _footprint_meets(box, start, half)]
     if not met or any(_footprint_meets(box, start, half[::-1]) for box in walls):
         return None
     names = ", ".join(box.name for box in met)
     return Violation(
         "push_start_clear",
-        f"{names} lies where the hand comes down at the push's start {_fmt(start)}: "
-        f"{100 * 2 * half[0]:.0f} x {100 * 2 * half[1]:.0f} cm across the table as it is turned, clear turned a quarter",
+        f"{names} stands where the hand, {100 * 2 * half[0]:.0f} x {100 * 2 * half[1]:.0f} cm across the table as it "
+        f"is turned now, comes down at the push's start {_fmt(start)}; turned a quarter, it is clear",
         turn[:1],
         "turn the hand a quarter turn first: " + turn[0],
         cue=f"{names} where the hand comes down to push, and not once it is turned",
