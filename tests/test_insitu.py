@@ -383,11 +383,12 @@ def test_an_obstacle_beside_the_grasp_is_swept_away_from_the_object_first():
 
 @pytest.mark.slow
 def test_the_slab_a_push_shoved_beside_the_cube_is_swept_away_before_the_grasp(ontology):
-    """bench_routine on UR5e, seed 0: without the sweep, every grasp of the cube stopped on the slab."""
+    """bench_routine on UR5e, seed 0: without the sweep, every grasp of the cube stopped on the slab.
+    (The push before it ends once the cube is over the zone, so the cube's read is taken again too.)"""
     agent = RecentAgent(RecentSettings(infiller=RuleConfig()), infiller=RuleInfiller(), ontology=ontology)
     result = run_episode(agent, "kinematic/bench_routine", "UR5e", seed=0, variations="on")
     assert result.success
-    (sweep,) = [e for e in result.adaptations if e.checks == ("fingers_clear",)]
+    (sweep,) = [e for e in result.adaptations if "fingers_clear" in e.checks]
     assert sweep.skill == "place_on_plate" and sweep.after.splitlines()[0].startswith("ur5_push_to(env, task, ")
 
 
