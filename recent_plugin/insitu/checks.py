@@ -383,7 +383,7 @@ def _turn_calls(inp: CheckInput) -> tuple[str, ...]:
 
 def push_start_clear(inp: CheckInput) -> Violation | None:
     """A push's hand, come down at its start, would stand on or against what the push does not act
-    on (the wall of a bin behind the cube: a long hand across the push reaches 10 cm back), and stop
+    on (the wall of a bin behind the cube: a hand long along the push reaches 10 cm back), and stop
     above its start: turn it a quarter turn first where that clears it, and back once the push is
     done. What the push acts on lies on its line, from the start to the goal. The hand's footprint
     is the calibrated one, as it is turned now, and it meets the workcell's walls (what is fixed to
