@@ -44,6 +44,9 @@ SEAL_CONTACTS = 3  # contact points between cup and face that make a vacuum seal
 LEAK_AFTER_STEPS = 30  # seal_failure: policy steps (1.5 s) a seal holds the object before it leaks
 WIPE_GRID = 4  # a wipe area is WIPE_GRID x WIPE_GRID cells
 WIPE_HEIGHT = 0.035  # the grip site counts as wiping below this height above the table
+SINK_TOLERANCE = 0.001  # metres one object may overlap another where a displaced one is set down
+LIFT_STEP = 0.002  # a displaced object that would sink into another is raised in these steps ...
+LIFT_MAX = 0.3  # ... up to this far, to fall from there onto what is under it
 
 
 class RecentTabletopEnv(ManipulationEnv):
@@ -176,6 +179,26 @@ class RecentTabletopEnv(ManipulationEnv):
             self.sim.data.set_joint_qpos(obj.joints[0], np.concatenate([pos, [1.0, 0.0, 0.0, 0.0]]))
             self.sim.data.set_joint_qvel(obj.joints[0], np.zeros(6))
 
+    def _set_down(self, name: str, pos: np.ndarray) -> None:
+        """Place ``name`` at ``pos`` or, where it would sink into another object there (a lid
+        displaced onto a button's base), just above that object, to fall onto it: a displaced object
+        lies on what is under it, never jammed inside it."""
+        own = {geom for geom, owner in self._geom_owner.items() if owner == name}
+        for lift in np.arange(0.0, LIFT_MAX, LIFT_STEP):
+            self._place(name, pos + np.array([0.0, 0.0, lift]))
+            self.sim.forward()
+            if not self._sinks_into_another(own):
+                return
+
+    def _sinks_into_another(self, own: set[int]) -> bool:
+        data = self.sim.data
+        for contact in data.contact[: data.ncon]:
+            pair = {contact.geom1, contact.geom2}
+            other = pair - own
+            if len(other) == 1 and pair & own and other.pop() in self._geom_owner and contact.dist < -SINK_TOLERANCE:
+                return True
+        return False
+
     def _apply_material_variations(self) -> None:
         model = self.sim.model
         model.geom_friction[:] = self._defaults["friction"]
@@ -244,7 +267,7 @@ class RecentTabletopEnv(ManipulationEnv):
         if plan.perturb_object and step == plan.perturb_step and not self.holds(plan.perturb_object):
             pos = np.array(self.sim.data.body_xpos[self._root_ids[plan.perturb_object]])
             pos[:2] = np.clip(pos[:2] + plan.perturb_offset, -0.35, 0.35)
-            self._place(plan.perturb_object, pos)
+            self._set_down(plan.perturb_object, pos)
         if plan.obstacle_target and step == plan.obstacle_step:
             target = np.array(self.sim.data.body_xpos[self._body_ids[plan.obstacle_target]])
             self._parked.discard(OBSTACLE)

@@ -214,6 +214,26 @@ def test_pose_perturbation_moves_the_object_after_planning_before_the_grasp():
     env.close()
 
 
+def test_a_displaced_object_comes_to_rest_on_what_it_lands_over_never_inside_it():
+    """assembly_panel, seed 7: the lid is displaced onto the volume button's base. It falls onto the
+    base and rests there, tilted, instead of being set inside it, jammed (its grasp kept slipping)."""
+    env = RecentEnv(task="kinematic/assembly_panel", robot="Panda", render_mode="none", variations="pose_perturbation")
+    env.reset(seed=7)
+    inner = env._env
+    flat_z = inner.observe().objects["lid"].pos[2]
+    _run_idle(env, inner.plan.perturb_step + 40)
+    lid = {g for g, owner in inner._geom_owner.items() if owner == "lid"}
+    deepest = {}
+    for contact in inner.sim.data.contact[: inner.sim.data.ncon]:
+        pair = {contact.geom1, contact.geom2}
+        if pair & lid and len(pair - lid) == 1:
+            other = inner._geom_owner.get((pair - lid).pop(), "table")
+            deepest[other] = min(deepest.get(other, 0.0), contact.dist)
+    assert "volume" in deepest and deepest["volume"] > -0.002  # on the base, not 5 mm into it
+    assert inner.observe().objects["lid"].pos[2] > flat_z + 0.005
+    env.close()
+
+
 def test_sensing_noise_perturbs_what_is_observed_not_the_world():
     env = RecentEnv(task="kinematic/cube_on_plate", robot="Panda", render_mode="none", variations="sensing_noise")
     obs, _ = env.reset(seed=0)
