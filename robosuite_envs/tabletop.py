@@ -14,6 +14,7 @@ from lerobot_policy_recent.robosuite_envs import runtime  # noqa: F401  (headles
 from collections import Counter
 from dataclasses import replace
 
+import mujoco
 import numpy as np
 from robosuite.environments.manipulation.manipulation_env import ManipulationEnv
 from robosuite.models.arenas import TableArena
@@ -184,9 +185,13 @@ class RecentTabletopEnv(ManipulationEnv):
         displaced onto a button's base), just above that object, to fall onto it: a displaced object
         lies on what is under it, never jammed inside it."""
         own = {geom for geom, owner in self._geom_owner.items() if owner == name}
+        model, data = self.sim.model._model, self.sim.data._data
         for lift in np.arange(0.0, LIFT_MAX, LIFT_STEP):
             self._place(name, pos + np.array([0.0, 0.0, lift]))
-            self.sim.forward()
+            # poses and contacts only: a full forward pass would also move the solver's warm start,
+            # and every episode whose object lands clear must run on exactly as before
+            mujoco.mj_kinematics(model, data)
+            mujoco.mj_collision(model, data)
             if not self._sinks_into_another(own):
                 return
 
