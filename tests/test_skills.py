@@ -87,6 +87,15 @@ def test_validate_runs_the_skill_on_panda_over_the_seeds_and_records_why():
     assert set(record.seconds) == {"0", "1"} and not record.failures
 
 
+def test_validate_says_why_a_skill_it_could_not_run_failed(library_copy):
+    """A skill the security gate refuses as written (here, a docstring over its 200-character limit)
+    fails validation with the gate's reason, not with "the success predicate never held"."""
+    path = library_copy / "press_button.py"
+    path.write_text(path.read_text().replace('"""', '"""' + "Press it. " * 25, 1))
+    record = validate(load_skill("press_button", library_copy), seeds=(0,))
+    assert not record.passed and "string literal too long" in record.failures["0"]
+
+
 def test_skills_list_json_has_the_documented_fields(capsys):
     from lerobot_policy_recent.scripts.cli import main
 

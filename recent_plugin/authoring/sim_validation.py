@@ -74,6 +74,9 @@ def _validate_once(skill: Skill, agent, env: RecentEnv, task_id: str, seed: int,
         if check and not check(first, objects):
             return f"precondition {condition} does not hold at the start"
     result = run_episode(agent, task_id, skill.source_embodiment, seed=seed, env=env, to_completion=True)
+    refused = next((g for g in result.grounding.skills if not g.valid), None)
+    if refused is not None:  # nothing ran: say why, not that the predicate never held
+        return f"not run: {refused.verdict.message if refused.verdict else 'its code was refused before execution'}"
     if result.failures:
         failure = result.failures[0]
         return f"[{failure.category}] line {failure.line}: {failure.message}"
