@@ -192,16 +192,17 @@ class RecentTabletopEnv(ManipulationEnv):
             # and every episode whose object lands clear must run on exactly as before
             mujoco.mj_kinematics(model, data)
             mujoco.mj_collision(model, data)
-            if not self._sinks_into_another(own):
+            if not self._sinks_into_another(own, data):
                 return
 
-    def _sinks_into_another(self, own: set[int]) -> bool:
-        data = self.sim.data
+    def _sinks_into_another(self, own: set[int], data: mujoco.MjData) -> bool:
+        """Whether one of ``own``'s geoms lies deeper than SINK_TOLERANCE inside another object's."""
         for contact in data.contact[: data.ncon]:
-            pair = {contact.geom1, contact.geom2}
-            other = pair - own
-            if len(other) == 1 and pair & own and other.pop() in self._geom_owner and contact.dist < -SINK_TOLERANCE:
-                return True
+            a, b = int(contact.geom1), int(contact.geom2)
+            other = b if a in own else a if b in own else None
+            if other is not None and other not in own and other in self._geom_owner:
+                if contact.dist < -SINK_TOLERANCE:
+                    return True
         return False
 
     def _apply_material_variations(self) -> None:
