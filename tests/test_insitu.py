@@ -990,6 +990,52 @@ def test_a_copied_place_keeps_its_guards_and_refuses_a_target_read_off_the_table
     assert failure.message.startswith("refused: release target [") and "left the table" in failure.message
 
 
+GRASP_BY_NAME = '''def fill_box(env, task, obj="blue", box="box"):
+    """Grasps the block by name: the test knocks it off the table while the hand comes down."""
+    open_gripper(env, task)
+    pick(env, task, obj_name=obj)
+'''
+
+
+def test_a_grasp_whose_object_left_the_table_while_it_ran_is_refused_by_name_not_retried(ontology, tmp_path):
+    """pantry_routine, dev seed 11, mix (EPYC): the ball rolled off the table during the Franka Hand's
+    grasp by name. Its guards had passed before the grasp ran, and the retry went for the ball on the
+    floor (out_of_workspace, twice). A retry is held to its guards in the scene as it is now: refused."""
+    from lerobot_policy_recent.robosuite_envs.gym_env import RecentEnv
+    from lerobot_policy_recent.robosuite_envs.suites import validation_task
+
+    method = method_named("recent")
+    method.offline_validation = False  # the scripted skill was never validated
+    settings = RecentSettings(
+        infiller=RuleConfig(), method=method, skill_library=library_with(tmp_path, "fill_box", GRASP_BY_NAME)
+    )
+    agent = RecentAgent(settings, infiller=RuleInfiller(), ontology=ontology)
+    task_id = validation_task("fill_box").task_id
+    env = RecentEnv(task=task_id, robot="FrankaHand")
+    try:
+        raw, _ = env.reset(seed=0)
+        names = env.spec_task.object_names()
+
+        def sensed() -> Observation:
+            return Observation.decode(raw["agent_pos"], raw["environment_state"], names)
+
+        executor, _ = agent.start_episode(task_id, "FrankaHand", sensed(), seed=0)
+        grasping = 0
+        for _ in range(400):
+            grasping += executor.current is not None and executor.current.cursor == 1
+            if grasping == 5:  # the grasp has begun: its guards have passed
+                env._env._place("blue", np.array([0.1, 1.3, 0.05]))  # on the floor beside the table
+            raw, *_ = env.step(executor.act(sensed()))
+            if executor.finished:
+                break
+    finally:
+        env.close()
+    (failure,) = executor.failures
+    assert failure.category == "unreachable_object" and failure.skill == "fill_box"
+    assert failure.message.startswith("refused: grasp target [") and "left the table" in failure.message
+    assert not [e for e in executor.adapter.events if e.kind == "repair"]  # never sent after it
+
+
 def test_a_pose_the_ontology_rendered_is_read_by_the_checks_but_a_primitive_is_never_called():
     """A URScript pose is ``task.to_frame(p, 'base') + quat_to_rotvec(...)``: a check reads it as it
     reads a position. A call of a primitive inside an argument is not made to read it."""

@@ -342,9 +342,11 @@ class InSituAdapter:
     # ------------------------------------------------------------------ repair
     def repair(self, executor: SkillExecutor, failure: SkillFailure) -> bool:
         """Replace the failed segment with a repaired one; it then runs again from the current state."""
+        segment = executor.segments[failure.segment]
+        if self.insitu and self._refused_on_retry(executor, segment):
+            return True
         if not self._budget.take(executor, failure):
             return False
-        segment = executor.segments[failure.segment]
         if self.insitu and self._rerun_if_stale(executor, segment, failure):
             return True
         # The usual cause is a world that moved on: recompute what the statement uses, then retry it.
@@ -365,6 +367,19 @@ class InSituAdapter:
             f"{_bare(segment.source, executor).split('(')[0]} failed ({failure.message})",
             statements,
         )
+
+    def _refused_on_retry(self, executor: SkillExecutor, segment: Segment) -> bool:
+        """A retry runs in the scene as it is now. Where a guard of the failed statement finds it
+        infeasible there (the ball it grasps rolled off the table), the skill is refused by name
+        instead of retried. Only refusals count: the guards' patches ran before the first try."""
+        refused = [v for w in segment.guards if (v := self._evaluate(executor, segment, w)) is not None and v.refuse]
+        for violation in refused:
+            self.emit(
+                CheckVerdict(executor.grounded.skill, segment.index, violation.check, False, violation.observation)
+            )
+        if refused:
+            executor.refuse("; ".join(v.observation for v in refused))
+        return bool(refused)
 
     def _rerun_if_stale(self, executor: SkillExecutor, segment: Segment, failure: SkillFailure) -> bool:
         """A failed statement whose positions were read before the object moved: the observation
