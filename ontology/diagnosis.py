@@ -282,6 +282,10 @@ def _conflict(
     by_name = candidates and not any(c.by_role(RELEASE_POINT) for c in candidates)  # a place that takes no point
     if by_name and (back := _put_back(original, site, names, held)):
         return _put_back_conflict(onto, site, original, robot, back)
+    if by_name and (beside := _beside(original, site, names)) and (moves := tracing_moves(onto.api(robot), original)):
+        traced = _path_conflict(onto, site, original, moves[0], robot)
+        why = f"{site.name} lets go beside {beside}'s centre, where a place by name would not"
+        return replace(traced, reason=f"{why}; trace its path with {moves[0].name}")
     tracers = onto.path_tracers(source, site.name, robot) if not candidates else []
     if tracers:
         return _path_conflict(onto, site, original, tracers[0], robot)
@@ -575,6 +579,18 @@ def _put_back_conflict(onto: Ontology, site: CallSite, original: PrimitiveSpec, 
         return _refused(site, f"{why}; {robot} places only onto a named object and has no move to trace the place with")
     traced = _path_conflict(onto, site, original, moves[0], robot)
     return replace(traced, reason=f"{why}; trace its path with {moves[0].name}")
+
+
+def _beside(original: PrimitiveSpec, site: CallSite, names: PositionNames) -> str | None:
+    """The object whose position places the call's release point beside, not straight over, its
+    centre (:meth:`PositionNames.beside`: one corner of the bin each); None otherwise. A place by
+    name lets go over the named object's centre, so it would drop that offset: four objects meant
+    for four corners end in one pile in the middle. Where the robot has moves, the place is traced
+    with them; else it stays a place by name."""
+    point = original.by_role(RELEASE_POINT)
+    if point is None or point.type != "position":
+        return None
+    return names.beside(dict(site.arguments).get(point.name))
 
 
 def _put_back(

@@ -171,6 +171,7 @@ class PositionNames:
     # points the skill's metadata names where no one position places them: a place's release point,
     # where the skill declares the object the hand holds there ends over one object (see ``diagnose``)
     declared: dict[str, str] = field(default_factory=dict)
+    points: dict[str, str] = field(default_factory=dict)  # a variable computed from one position: its expression
 
     def of(self, expression: str | None) -> str | None:
         """The object the position ``expression`` (an argument's source) names, or None."""
@@ -178,6 +179,16 @@ class PositionNames:
         if node is None:
             return None
         return placed_by(node, self.variables, self.constants) or self.declared.get(expression)
+
+    def beside(self, expression: str | None) -> str | None:
+        """The object whose position alone places the point ``expression`` (inline, or a variable
+        computed from it) beside, not straight over, its centre (``[bin_pos[0] + dx, bin_pos[1] + dy,
+        ...]``, a corner of the bin); None for a point over the centre, or one no position places."""
+        node = parse_expression(self.points.get(expression or "", expression))
+        if node is None or isinstance(node, ast.Name):
+            return None
+        named = placed_by(node, self.variables, self.constants)
+        return named if named is not None and self.straight_over(node) is None else None
 
     def straight_over(self, node: ast.expr) -> str | None:
         """The object a point ``[P[0], P[1], <a height>]`` lies straight over (``P`` its position
@@ -291,7 +302,7 @@ def position_names(code: str) -> PositionNames:
                 found[read[0]] = ast.unparse(name)
     read_once = {var: name for var, name in found.items() if writes.get(var) == 1}
     constants = frozenset(var for var in writes if var not in assigned) | _parameters(tree)
-    derived = {}
+    derived, points = {}, {}
     for node in ast.walk(tree):
         if (
             isinstance(node, ast.Assign)
@@ -303,7 +314,8 @@ def position_names(code: str) -> PositionNames:
             and (name := placed_by(node.value, read_once, constants)) is not None
         ):
             derived[node.targets[0].id] = name
-    return PositionNames({**read_once, **derived}, constants)
+            points[node.targets[0].id] = ast.unparse(node.value)
+    return PositionNames({**read_once, **derived}, constants, points=points)
 
 
 def _parameters(tree: ast.Module) -> frozenset[str]:

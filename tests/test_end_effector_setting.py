@@ -149,6 +149,50 @@ def test_a_drop_point_placed_by_one_object_names_it_for_a_name_based_place(
     assert places and all(("pick" not in line and "attach" not in line) for line in places)
 
 
+@pytest.mark.parametrize("robot", ["Robotiq85", "Suction", "FrankaHand"])
+def test_a_drop_point_beside_the_receptacles_centre_is_traced_not_named(ontology, rule_infiller, robot):
+    """clear_into_bin lets go of each object over one corner of the bin (``bin_pos[0] + dx``). A place
+    by name lets go over the bin's centre: the four objects ended in one pile in the middle (0/4 on
+    each name-based hand, and valid). The place is traced with the robot's moves at the corner."""
+    grounded = ground_skill(load_skill("clear_into_bin"), ontology.target(robot), ontology, rule_infiller)
+    assert grounded.valid and grounded.generated_tokens == 0
+    lines = _lines(grounded.code)
+    assert not [line for line in lines if "obj_name=receptacle" in line]
+    corner = [line for line in lines if "bin_pos[0] + dx, bin_pos[1] + dy, bin_pos[2] + 0.005]" in line]
+    assert corner and all(line.startswith("move_to_position(") for line in corner)
+    (place,) = (c for c in grounded.diagnosis.conflicts if c.original == "place")
+    assert place.span_type == "path_tracing" and "lets go beside receptacle's centre" in place.reason
+
+
+def test_a_point_is_beside_its_object_only_where_an_offset_moves_it_off_the_centre():
+    from lerobot_policy_recent.ontology.skill_code import position_names
+
+    names = position_names(
+        "def skill(env, task, bin='bin'):\n"
+        "    bin_pos = task.get_object_position(bin)\n"
+        "    drop = [bin_pos[0], bin_pos[1], bin_pos[2] + 0.1]\n"
+        "    for dx in [-0.04, 0.04]:\n"
+        "        corner = [bin_pos[0] + dx, bin_pos[1], bin_pos[2] + 0.05]\n"
+    )
+    assert [names.beside(e) for e in ("drop", "corner", "bin_pos", "[bin_pos[0], bin_pos[1] - 0.06, 0.9]")] == [
+        None,
+        "bin",
+        None,
+        "bin",
+    ]
+    assert names.beside("[bin_pos[0], bin_pos[1], 0.9]") is None and names.beside(None) is None
+
+
+@pytest.mark.slow
+def test_clear_into_bin_on_the_franka_hand_puts_one_object_in_each_corner(panda_agent):
+    """The traced corner places run: the four objects end in the bin, none on another."""
+    from lerobot_policy_recent.recent_plugin.episode import run_episode
+    from lerobot_policy_recent.robosuite_envs.splits import DEV_SEEDS
+
+    result = run_episode(panda_agent, "kinematic/clear_counter", "FrankaHand", seed=DEV_SEEDS[0])
+    assert result.success, result.failures
+
+
 def test_a_point_names_an_object_only_where_that_object_alone_places_it():
     from lerobot_policy_recent.ontology.skill_code import position_names
 
