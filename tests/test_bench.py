@@ -468,6 +468,34 @@ def test_the_ceiling_row_runs_the_source_robot_on_the_targets_episodes(bench_dir
     assert "## Failures no check noticed" in report  # recent-no-insitu failed: whether anyone noticed is counted
 
 
+def test_one_ceiling_run_serves_every_target_of_its_suite():
+    """The source robot runs the same episode whichever target labels it: a ceiling run with
+    ``--target UR5e`` sets Sawyer's episodes against it too, and an episode it did not run stays out."""
+    from lerobot_policy_recent.evaluation.report.tables import ceiling_lines
+
+    def record(method, target, seed, success):
+        return {
+            "method": method,
+            "suite": "kinematic",
+            "target": target,
+            "task_id": "t",
+            "seed": seed,
+            "success": success,
+        }
+
+    records = [
+        record("source", "UR5e", 3, True),
+        record("source", "UR5e", 7, False),
+        record("recent", "UR5e", 3, True),
+        record("recent", "Sawyer", 3, False),
+        record("recent", "Sawyer", 7, False),
+        record("recent", "Sawyer", 11, True),  # no ceiling episode: not counted
+    ]
+    lines = ceiling_lines(records)
+    assert "| recent | kinematic | Sawyer | 2 | 0 % | 50 % | 0.00 |" in lines
+    assert "| recent | kinematic | UR5e | 1 | 100 % | 100 % | 1.00 |" in lines
+
+
 def test_the_report_counts_the_failures_no_check_noticed():
     from lerobot_policy_recent.evaluation.report.tables import unnoticed_lines
 

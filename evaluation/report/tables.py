@@ -408,8 +408,11 @@ CEILING = "source"  # the sanity row whose success is the ceiling (evaluation/ab
 def ceiling_lines(records: list[dict]) -> list[str]:
     """Each method's SR as a share of the ceiling's (``source``: the task's source robot on its own
     reference skills) on the episodes both ran, per suite and target: how much of what the world
-    allows the grounding keeps, and how much of a target's failure is the world's."""
-    ceiling = {episode_key(r): r for r in records if r["method"] == CEILING}
+    allows the grounding keeps, and how much of a target's failure is the world's. The source robot
+    runs the same episode whichever target labels it, so one ceiling run (``--target UR5e``) serves
+    every target of its suite, and a report of several runs (``recent bench report A B``) sets
+    each target's episodes against it."""
+    ceiling = {_source_episode(r): r for r in records if r["method"] == CEILING}
     if not ceiling:
         return []
     lines = [
@@ -418,13 +421,18 @@ def ceiling_lines(records: list[dict]) -> list[str]:
         "| method | suite | target | episodes | SR | ceiling SR | ÷ ceiling |",
         "|---|---|---|---:|---:|---:|---:|",
     ]
-    rows = group([r for r in records if r["method"] != CEILING and episode_key(r) in ceiling], _ceiling_key)
+    rows = group([r for r in records if r["method"] != CEILING and _source_episode(r) in ceiling], _ceiling_key)
     for (method, suite, target), rs in sorted(rows.items(), key=lambda kv: (_rank(kv[0][0]), kv[0][1:])):
         sr = 100.0 * sum(bool(r["success"]) for r in rs) / len(rs)
-        top = 100.0 * sum(bool(ceiling[episode_key(r)]["success"]) for r in rs) / len(rs)
+        top = 100.0 * sum(bool(ceiling[_source_episode(r)]["success"]) for r in rs) / len(rs)
         share = f"{sr / top:.2f}" if top else "–"
         lines.append(f"| {method} | {suite} | {target} | {len(rs)} | {sr:.0f} % | {top:.0f} % | {share} |")
     return [*lines, ""]
+
+
+def _source_episode(record: dict) -> tuple:
+    """What the source robot's episode depends on: suite, task and seed, not the target's name."""
+    return record["suite"], record["task_id"], record["seed"]
 
 
 UNNOTICED = "subtask_failed"  # the plan ran to its end, no step failed, and a subtask's predicate does not hold
