@@ -281,11 +281,14 @@ def _conflict(
         )
     by_name = candidates and not any(c.by_role(RELEASE_POINT) for c in candidates)  # a place that takes no point
     if by_name and (back := _put_back(original, site, names, held)):
-        return _put_back_conflict(onto, site, original, robot, back)
-    if by_name and (beside := _beside(original, site, names)) and (moves := tracing_moves(onto.api(robot), original)):
-        traced = _path_conflict(onto, site, original, moves[0], robot)
+        why = f"{site.name} puts {back} back at its own earlier point, where no object is to put it on by name"
+        return _traced_place(onto, site, original, robot, why) or _refused(
+            site, f"{why}; {robot} places only onto a named object and has no move to trace the place with"
+        )
+    if by_name and (beside := _beside(original, site, names)):
         why = f"{site.name} lets go beside {beside}'s centre, where a place by name would not"
-        return replace(traced, reason=f"{why}; trace its path with {moves[0].name}")
+        if traced := _traced_place(onto, site, original, robot, why):
+            return traced  # else the place by name stays: over the centre is the nearest it gets
     tracers = onto.path_tracers(source, site.name, robot) if not candidates else []
     if tracers:
         return _path_conflict(onto, site, original, tracers[0], robot)
@@ -569,14 +572,12 @@ def _refused(site: CallSite, reason: str) -> Conflict:
     return Conflict(span=site.span, span_type="api_substitution", original=site.name, substitute=None, reason=reason)
 
 
-def _put_back_conflict(onto: Ontology, site: CallSite, original: PrimitiveSpec, robot: str, back: str) -> Conflict:
-    """A release at the held object's own earlier point names no receptacle for a place by name:
-    the place's path traced with the robot's moves and its opening, or, with no move to trace it,
-    refused by name."""
-    why = f"{site.name} puts {back} back at its own earlier point, where no object is to put it on by name"
+def _traced_place(onto: Ontology, site: CallSite, original: PrimitiveSpec, robot: str, why: str) -> Conflict | None:
+    """A place whose release point no place by name can keep (a put-back, a corner of the bin),
+    traced with the robot's moves and its opening; None where it has no move to trace it with."""
     moves = tracing_moves(onto.api(robot), original)
     if not moves:
-        return _refused(site, f"{why}; {robot} places only onto a named object and has no move to trace the place with")
+        return None
     traced = _path_conflict(onto, site, original, moves[0], robot)
     return replace(traced, reason=f"{why}; trace its path with {moves[0].name}")
 

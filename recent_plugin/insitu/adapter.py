@@ -377,8 +377,7 @@ class InSituAdapter:
             self.emit(
                 CheckVerdict(executor.grounded.skill, segment.index, violation.check, False, violation.observation)
             )
-        if refused:
-            executor.refuse("; ".join(v.observation for v in refused))
+        self._answer(executor, segment, refused, at=segment.index)  # refusals only: the skill ends, named
         return bool(refused)
 
     def _rerun_if_stale(self, executor: SkillExecutor, segment: Segment, failure: SkillFailure) -> bool:
