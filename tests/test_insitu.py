@@ -42,7 +42,9 @@ from lerobot_policy_recent.recent_plugin.insitu.checks import (
 from lerobot_policy_recent.recent_plugin.methods import method_named
 from lerobot_policy_recent.recent_plugin.refactoring.units import RefactoringUnit
 from lerobot_policy_recent.recent_plugin.settings import RecentSettings
+from lerobot_policy_recent.robosuite_envs.gym_env import RecentEnv
 from lerobot_policy_recent.robosuite_envs.observation import POSITION_SIGMA, ObjectState, Observation
+from lerobot_policy_recent.robosuite_envs.suites import validation_task
 
 
 class CountingInfiller(RuleInfiller):
@@ -1001,35 +1003,21 @@ def test_a_grasp_whose_object_left_the_table_while_it_ran_is_refused_by_name_not
     """pantry_routine, dev seed 11, mix (EPYC): the ball rolled off the table during the Franka Hand's
     grasp by name. Its guards had passed before the grasp ran, and the retry went for the ball on the
     floor (out_of_workspace, twice). A retry is held to its guards in the scene as it is now: refused."""
-    from lerobot_policy_recent.robosuite_envs.gym_env import RecentEnv
-    from lerobot_policy_recent.robosuite_envs.suites import validation_task
-
     method = method_named("recent")
     method.offline_validation = False  # the scripted skill was never validated
     settings = RecentSettings(
         infiller=RuleConfig(), method=method, skill_library=library_with(tmp_path, "fill_box", GRASP_BY_NAME)
     )
     agent = RecentAgent(settings, infiller=RuleInfiller(), ontology=ontology)
-    task_id = validation_task("fill_box").task_id
-    env = RecentEnv(task=task_id, robot="FrankaHand")
-    try:
-        raw, _ = env.reset(seed=0)
-        names = env.spec_task.object_names()
+    grasping = 0
 
-        def sensed() -> Observation:
-            return Observation.decode(raw["agent_pos"], raw["environment_state"], names)
+    def drop_blue(env, executor) -> None:
+        nonlocal grasping
+        grasping += executor.current is not None and executor.current.cursor == 1
+        if grasping == 5:  # the grasp has begun: its guards have passed
+            env._env._place("blue", np.array([0.1, 1.3, 0.05]))  # on the floor beside the table
 
-        executor, _ = agent.start_episode(task_id, "FrankaHand", sensed(), seed=0)
-        grasping = 0
-        for _ in range(400):
-            grasping += executor.current is not None and executor.current.cursor == 1
-            if grasping == 5:  # the grasp has begun: its guards have passed
-                env._env._place("blue", np.array([0.1, 1.3, 0.05]))  # on the floor beside the table
-            raw, *_ = env.step(executor.act(sensed()))
-            if executor.finished:
-                break
-    finally:
-        env.close()
+    executor, _ = _meddled_episode(agent, validation_task("fill_box").task_id, "FrankaHand", 400, drop_blue)
     (failure,) = executor.failures
     assert failure.category == "unreachable_object" and failure.skill == "fill_box"
     assert failure.message.startswith("refused: grasp target [") and "left the table" in failure.message
@@ -1139,3 +1127,63 @@ def test_inside_a_marking_is_where_the_centre_reads_and_held_up_over_a_support_i
     assert read(-0.02, z=0.835, over="plate", support=plate)[0]  # down on it
     met, said = read(-0.02, z=0.859, over="plate", support=plate)
     assert not met and "2.4 cm above plate's top: resting on something else" in said
+
+
+@pytest.mark.slow
+def test_a_cube_moved_while_the_rake_is_picked_is_read_again_before_the_drag_goes_beyond_it(ontology):
+    """tool_panel, dev seed 7, on: the cube was displaced 5 cm away from the robot after the skill
+    read it, and the crossbar came down on its top (waypoint_blocked, 1.4 cm short). The drag's first
+    move beyond the cube is the read's first use after the rake's pick (``target_unmoved``): the
+    cube is read again there, and the drag brings it into the zone. Its later moves are not guarded:
+    there the rake moves the cube itself."""
+    agent = RecentAgent(RecentSettings(infiller=RuleConfig()), infiller=RuleInfiller(), ontology=ontology)
+    moved = False
+
+    def move_cube(env, executor) -> None:
+        nonlocal moved
+        current = executor.current
+        running = current.segments[current.cursor].source if current and current.cursor < len(current.segments) else ""
+        if not moved and "grasp_at" in running:  # the rake's pick: obj_pos was read before it
+            env._env._place("cube", env._env.observe().objects["cube"].pos + [0.05, 0.0, 0.0])
+            moved = True
+
+    executor, success = _meddled_episode(agent, validation_task("drag_with_tool").task_id, "UR5e", 1500, move_cube)
+    unmoved = [e for e in executor.adapter.events if e.checks == ("object_unmoved",)]
+    assert len(unmoved) == 1 and unmoved[0].observation.startswith("cube moved 5.")
+    assert unmoved[0].after.splitlines()[0] == "obj_pos = task.get_object_position('cube')"
+    assert unmoved[0].after.splitlines()[1].startswith("ur5_move_to(env, task, target_pos=[obj_pos[0] + 0.06 - 0.13")
+    assert success and not executor.failures
+
+
+@pytest.mark.slow
+def test_a_sawyer_whose_hand_came_down_on_the_slabs_edge_sweeps_it_from_farther_back(ontology):
+    """stack_zone_bin_lift, dev seed 3, on: the slab landed on the zone, and the sweep's start,
+    written for the carried cube's face, put the Sawyer's leading finger on the slab's edge (held up
+    1.1 cm short, and the same on the repair). The push comes down again farther back, once
+    (``control._behind``), sweeps the slab off, and the task succeeds."""
+    agent = RecentAgent(RecentSettings(infiller=RuleConfig()), infiller=RuleInfiller(), ontology=ontology)
+    result = run_episode(agent, "kinematic/stack_zone_bin_lift", "Sawyer", seed=3, variations="on")
+    assert [e.checks for e in result.adaptations if e.skill == "move_to_region"] == [("target_clear",)]
+    assert result.success, result.failures
+
+
+def _meddled_episode(agent, task_id: str, robot: str, steps: int, meddle) -> tuple:
+    """Run ``task_id`` on ``robot`` (seed 0, no variation) for at most ``steps``, with ``meddle(env,
+    executor)`` before each step (a test's hand in the world); the executor, and whether the task succeeded."""
+    env = RecentEnv(task=task_id, robot=robot)
+    try:
+        raw, _ = env.reset(seed=0)
+        names = env.spec_task.object_names()
+
+        def sensed() -> Observation:
+            return Observation.decode(raw["agent_pos"], raw["environment_state"], names)
+
+        executor, _ = agent.start_episode(task_id, robot, sensed(), seed=0)
+        for _ in range(steps):
+            meddle(env, executor)
+            raw, _, terminated, *_ = env.step(executor.act(sensed()))
+            if terminated or executor.finished:
+                break
+        return executor, bool(env._env._check_success())
+    finally:
+        env.close()

@@ -96,6 +96,38 @@ def _carrying(eef: np.ndarray, hanging: float, *, quat=(0.0, 0.0, 0.0, 1.0), hol
     )
 
 
+def test_a_load_dragged_along_the_table_is_pushed_harder_where_it_stalls_but_never_pressed_down():
+    """tool_panel s3 on Sawyer: the rake's crossbar dragged the cube towards the zone and the arm
+    stopped 1.3 cm short, held by the friction of what it drags (a load resting on the table: no
+    breakaway before). Where what is left of the move lies along the table, the setpoint's reach
+    grows, and near the goal it scales the error, so the arm pushes harder than the error alone
+    commands; a move that would press the load down into what it rests on keeps the 2 cm."""
+    eef = np.array([-0.09, 0.16, 0.842])
+    session = RobotSession("Sawyer", _carrying(eef, hanging=0.01))  # the block's underside on the table top
+    assert session.obs.held() == "load" and not control.load_hangs(session)
+    along = eef + [-0.012, 0.0, -0.003]
+    grown = control._breakaway(session, control.MAX_STEP, along)
+    assert grown > control.MAX_STEP
+    assert control._breakaway(session, control.MAX_STEP, eef + [-0.005, 0.0, -0.02]) == control.MAX_STEP
+    pushed, plain = control.servo_action(session, along, grown), control.servo_action(session, along)
+    assert abs(pushed[0]) > abs(plain[0]) == pytest.approx(0.012 / control.POS_SCALE)
+
+
+def test_a_push_start_whose_hand_came_down_on_an_edge_moves_back_by_half_the_hands_length_along_the_push():
+    """stack_zone_bin_lift s3 on Sawyer: the sweep's start was written for the carried cube's face, and
+    the Sawyer's fingers, closed along the push, lead it: the hand came down on the slab's edge,
+    held up 1.1 cm short, twice. Blocked there, the push comes down again farther back, by half the
+    hand's calibrated footprint along the push as the hand is turned now (10 cm along its closing axis)."""
+    from lerobot_policy_recent.robosuite_envs.calibration import Nominal
+
+    start, goal = np.array([-0.046, -0.382, 0.83]), np.array([-0.046, -0.182, 0.83])
+    along_y = np.array([0.0, 0.0, np.sin(np.pi / 4), np.cos(np.pi / 4)])  # the grip site's x along the world's y
+    session = RobotSession("Sawyer", _carrying(start, 0.0, quat=along_y), Nominal(hand_half_xy=(0.05, 0.033)))
+    assert control._behind(session, start, goal) == pytest.approx([-0.046, -0.407, 0.83])
+    across = RobotSession("Sawyer", _carrying(start, 0.0), Nominal(hand_half_xy=(0.05, 0.033)))
+    assert control._behind(across, start, goal) == pytest.approx([-0.046, -0.3985, 0.83])
+
+
 def _observation(positions: dict[str, list[float]]) -> Observation:
     return Observation(
         eef_pos=np.zeros(3),

@@ -184,6 +184,20 @@ def test_suction_warnings_say_what_to_check_and_where(ontology, put_in_bin):
     assert flat.check == "flat_top" and "environment_state" in flat.observation and flat.phase == "before"
 
 
+def test_a_move_is_guarded_where_it_first_uses_a_read_made_before_the_robot_moved(ontology):
+    """The drag's first move beyond the cube uses ``obj_pos``, read before the rake was picked: the cube
+    may have moved in between (``target_unmoved``, checked as ``object_unmoved``), and so does the drag
+    (the first use of ``region_pos``). The descent and the lift use reads already used since the
+    robot moved, where the rake itself moves the cube: not guarded, on any robot, the Panda too."""
+    from lerobot_policy_recent.skills.repository import load_skill
+
+    drag = load_skill("drag_with_tool")
+    for robot in ("Panda", "UR5e", "Kinova3"):
+        guarded = [w for w in diagnose(ontology, drag.name, drag.code, robot).warnings if w.kind == "target_unmoved"]
+        assert [w.span.text(drag.code).split("[")[1] for w in guarded] == ["obj_pos", "region_pos"], robot
+        assert guarded[0].check == "object_unmoved" and guarded[0].phase == "before"
+
+
 def test_query_exposes_the_robot_conditioned_interface_and_gaps(ontology, put_in_bin):
     from lerobot_policy_recent.ontology.query import query
 

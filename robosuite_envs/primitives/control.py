@@ -46,9 +46,11 @@ SQUEEZE_STEPS = 10  # control steps a closing gripper keeps closing on what it h
 
 def servo_action(session: RobotSession, target_pos: np.ndarray, reach: float = MAX_STEP) -> Action:
     """One P-step towards ``target_pos`` holding the session's orientation, with its gripper command.
-    ``reach``: how far ahead of the grip site the step's setpoint may lie, per axis (metres)."""
+    ``reach``: how far ahead of the grip site the step's setpoint may lie, per axis (metres); a
+    reach grown past ``MAX_STEP`` (:func:`_breakaway`) scales the error by as much, so that an arm
+    stalled near its goal, where the error and not the reach sets the step, is pushed harder too."""
     obs = session.obs
-    delta = np.clip(target_pos - obs.eef_pos, -reach, reach)
+    delta = np.clip((target_pos - obs.eef_pos) * max(1.0, reach / MAX_STEP), -reach, reach)
     rot = rotation_error(session)
     if np.linalg.norm(rot) < ROT_DEADBAND:
         rot = np.zeros(3)  # small tilts are harmless; fighting them stalls arms near singular postures
@@ -133,7 +135,7 @@ def move_to(
             return
         last = session.obs.eef_pos.copy()
         if err > tol and ((still and reach > MAX_STEP) or _creeping(trail)):
-            reach = _breakaway(session, reach)
+            reach = _breakaway(session, reach, goal)
         yield servo_action(session, towards(session.obs.eef_pos), reach)
     err = float(np.linalg.norm(goal - session.obs.eef_pos))
     if settle and err < tol:
@@ -183,7 +185,7 @@ def _creeping(trail: Sequence[np.ndarray]) -> bool:
     return len(trail) > STALL_STEPS and float(np.linalg.norm(trail[-1] - trail[0])) < STALL_STEPS * SETTLED
 
 
-def _breakaway(session: RobotSession, reach: float) -> float:
+def _breakaway(session: RobotSession, reach: float, goal: np.ndarray) -> float:
     """The setpoint reach for a free arm that creeps or has stopped short of its goal (under SETTLED
     a step on average over the last STALL_STEPS steps: not an arm at rest as the move begins, nor
     one that slows for a step), and then for each step it is still: grown by BREAKAWAY_GROWTH up to
@@ -199,9 +201,16 @@ def _breakaway(session: RobotSession, reach: float) -> float:
         return MAX_STEP
     if session.obs.held() is None and any(session.obs.finger_contact):
         return MAX_STEP
-    if session.obs.held() is not None and not load_hangs(session):
+    if session.obs.held() is not None and not load_hangs(session) and not _slides(session, goal):
         return MAX_STEP
     return min(reach * BREAKAWAY_GROWTH, POS_SCALE)
+
+
+def _slides(session: RobotSession, goal: np.ndarray) -> bool:
+    """What is left of the move is mostly along the surface: a load resting on it is dragged, and
+    more force overcomes its friction instead of pressing it down."""
+    error = goal - session.obs.eef_pos
+    return float(np.linalg.norm(error[:2])) > abs(float(error[2]))
 
 
 def _planned(session: RobotSession, goal: np.ndarray, timeout_s: float, final: dict) -> Steps:
@@ -458,10 +467,33 @@ def push_to(session: RobotSession, start: Sequence[float], goal: Sequence[float]
     """Put the closed gripper at ``start`` (from above) and slide it along the table to ``goal``."""
     begin, end = as_position(start, "push start"), as_position(goal, "push goal")
     yield from actuate_gripper(session, 1.0, duration_s=0.2, max_duration_s=1.0)
-    yield from move_to(session, begin + np.array([0.0, 0.0, APPROACH_HEIGHT]), timeout_s=timeout_s, settle=True)
-    yield from move_to(session, begin, timeout_s=timeout_s / 2, settle=True)  # a push needs contact, not mm
+    above = np.array([0.0, 0.0, APPROACH_HEIGHT])
+    yield from move_to(session, begin + above, timeout_s=timeout_s, settle=True)
+    try:
+        yield from move_to(session, begin, timeout_s=timeout_s / 2, settle=True)  # a push needs contact, not mm
+    except PrimitiveFailure as failure:
+        if failure.kind != "waypoint_blocked":
+            raise
+        begin = _behind(session, begin, end)  # came down on the edge of what it is to push: farther back, once
+        yield from move_to(session, begin + above, timeout_s=timeout_s, settle=True)
+        yield from move_to(session, begin, timeout_s=timeout_s / 2, settle=True)
     yield from move_to(session, end, timeout_s=timeout_s, tol=0.015, straight=True, plan=False)
     yield from move_to(session, end + np.array([0.0, 0.0, APPROACH_HEIGHT]), timeout_s=timeout_s / 2, tol=0.02)
+
+
+def _behind(session: RobotSession, start: np.ndarray, goal: np.ndarray) -> np.ndarray:
+    """``start`` moved back from ``goal`` along the table by half the hand's footprint along the push,
+    as the hand is turned now: a start written for the load's face (or the source's fist) lets a hand
+    whose fingers lead it, closed along the push (a Sawyer's 10 cm), come down on the edge of what it
+    is to push."""
+    line = np.r_[goal[:2] - start[:2], 0.0]
+    length = float(np.linalg.norm(line))
+    if length < 1e-6:
+        return start
+    direction = line / length
+    half_xy = session.calibration.hand_half_xy or (clearance.HAND_RADIUS, clearance.HAND_RADIUS)
+    reach = np.abs(direction[:2]) @ np.asarray(clearance.across_table(half_xy, session.obs.eef_quat))
+    return start - direction * float(reach) / 2
 
 
 def align_to(
