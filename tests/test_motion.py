@@ -101,14 +101,15 @@ def test_a_load_dragged_along_the_table_is_pushed_harder_where_it_stalls_but_nev
     stopped 1.3 cm short, held by the friction of what it drags (a load resting on the table: no
     breakaway before). Where what is left of the move lies along the table, the setpoint's reach
     grows, and near the goal it scales the error, so the arm pushes harder than the error alone
-    commands; a move that would press the load down into what it rests on keeps the 2 cm."""
+    commands; a move that would press the load down into what it rests on keeps the 2 cm, and so
+    does a straight line's slide (a push, whose fist on the cube rode over it pushed harder)."""
     eef = np.array([-0.09, 0.16, 0.842])
     session = RobotSession("Sawyer", _carrying(eef, hanging=0.01))  # the block's underside on the table top
     assert session.obs.held() == "load" and not control.load_hangs(session)
     along = eef + [-0.012, 0.0, -0.003]
-    grown = control._breakaway(session, control.MAX_STEP, along)
-    assert grown > control.MAX_STEP
-    assert control._breakaway(session, control.MAX_STEP, eef + [-0.005, 0.0, -0.02]) == control.MAX_STEP
+    assert control._slides(session, along) and not control._slides(session, eef + [-0.005, 0.0, -0.02])
+    grown = control._breakaway(session, control.MAX_STEP, drag=True)
+    assert grown > control.MAX_STEP == control._breakaway(session, control.MAX_STEP, drag=False)
     pushed, plain = control.servo_action(session, along, grown), control.servo_action(session, along)
     assert abs(pushed[0]) > abs(plain[0]) == pytest.approx(0.012 / control.POS_SCALE)
 

@@ -135,7 +135,7 @@ def move_to(
             return
         last = session.obs.eef_pos.copy()
         if err > tol and ((still and reach > MAX_STEP) or _creeping(trail)):
-            reach = _breakaway(session, reach, goal)
+            reach = _breakaway(session, reach, drag=not straight and _slides(session, goal))
         yield servo_action(session, towards(session.obs.eef_pos), reach)
     err = float(np.linalg.norm(goal - session.obs.eef_pos))
     if settle and err < tol:
@@ -185,23 +185,28 @@ def _creeping(trail: Sequence[np.ndarray]) -> bool:
     return len(trail) > STALL_STEPS and float(np.linalg.norm(trail[-1] - trail[0])) < STALL_STEPS * SETTLED
 
 
-def _breakaway(session: RobotSession, reach: float, goal: np.ndarray) -> float:
+def _breakaway(session: RobotSession, reach: float, *, drag: bool = False) -> float:
     """The setpoint reach for a free arm that creeps or has stopped short of its goal (under SETTLED
     a step on average over the last STALL_STEPS steps: not an arm at rest as the move begins, nor
     one that slows for a step), and then for each step it is still: grown by BREAKAWAY_GROWTH up to
     the controller's full delta (``POS_SCALE``) and kept for the rest of the move, so that the force
     it commands overcomes its joints' friction (an arm with high joint friction, folded by a sweep,
     stalls under the force a MAX_STEP setpoint commands, and stalls again as soon as the force
-    drops back). Near the goal the error, not the reach, sets the step. Touching something
-    (the hand, or an empty hand's finger pad on the table) or carrying a load that may rest on
-    something (:func:`load_hangs`: not clear of every box below it), it is back to ``MAX_STEP``:
-    there a stop is contact, and pushing harder would press into it. A load hanging free is no
-    contact: an arm carrying a block stalls on its friction as an empty one does."""
+    drops back); a grown reach scales the error too (:func:`servo_action`), so a stall near the
+    goal is pushed as well. Touching something (the hand, or an empty hand's finger pad on the
+    table) or carrying a load that may rest on something (:func:`load_hangs`: not clear of every
+    box below it), it is back to ``MAX_STEP``: there a stop is contact, and pushing harder would
+    press into it. A load hanging free is no contact: an arm carrying a block stalls on its
+    friction as an empty one does. ``drag``: a resting load is dragged along the table by a
+    planned move (:func:`_slides`: a rake's crossbar pulling a cube, held by its friction 1.3 cm
+    short); it grows too. Not on a straight line's slide: a push stalled with its fist on the cube
+    it pushes (read as held) rode over it when pushed harder, where pushing again from behind
+    brings it on."""
     if session.obs.eef_contact:
         return MAX_STEP
     if session.obs.held() is None and any(session.obs.finger_contact):
         return MAX_STEP
-    if session.obs.held() is not None and not load_hangs(session) and not _slides(session, goal):
+    if session.obs.held() is not None and not load_hangs(session) and not drag:
         return MAX_STEP
     return min(reach * BREAKAWAY_GROWTH, POS_SCALE)
 
