@@ -707,7 +707,12 @@ def _warnings(onto, site, original, target, source, robot, sites, bindings) -> l
 
 def _read_before_earlier_motion(site: CallSite, sites: list[CallSite], bindings) -> bool:
     used = [b for name, b in bindings.items() if any(_mentions(text, name) for _, text in site.arguments)]
-    return any(s.span.start > b.offset and s.span.start < site.span.start for b in used for s in sites)
+    return any(_calls_between(b, site, sites) for b in used)
+
+
+def _calls_between(binding, site: CallSite, sites: list[CallSite]) -> list[CallSite]:
+    """The calls that run after ``binding``'s read and before ``site``."""
+    return [s for s in sites if binding.offset < s.span.start < site.span.start]
 
 
 def _first_use_after_motion(site: CallSite, sites: list[CallSite], bindings) -> bool:
@@ -717,7 +722,7 @@ def _first_use_after_motion(site: CallSite, sites: list[CallSite], bindings) -> 
     for name, binding in bindings.items():
         if not any(_mentions(text, name) for _, text in site.arguments):
             continue
-        between = [s for s in sites if binding.offset < s.span.start < site.span.start]
+        between = _calls_between(binding, site, sites)
         if between and not any(_mentions(text, name) for s in between for _, text in s.arguments):
             return True
     return False

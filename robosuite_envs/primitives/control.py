@@ -198,8 +198,8 @@ def _breakaway(session: RobotSession, reach: float, *, drag: bool = False) -> fl
     box below it), it is back to ``MAX_STEP``: there a stop is contact, and pushing harder would
     press into it. A load hanging free is no contact: an arm carrying a block stalls on its
     friction as an empty one does. ``drag``: a resting load is dragged along the table by a
-    planned move (:func:`_slides`: a rake's crossbar pulling a cube, held by its friction 1.3 cm
-    short); it grows too. Not on a straight line's slide: a push stalled with its fist on the cube
+    planned move (:func:`_slides`: a rake's crossbar pulling a cube, held short by its friction);
+    it grows too. Not on a straight line's slide: a push stalled with its fist on the cube
     it pushes (read as held) rode over it when pushed harder, where pushing again from behind
     brings it on."""
     if session.obs.eef_contact:
