@@ -23,6 +23,7 @@ from robosuite.utils.transform_utils import quat2mat
 
 from lerobot_policy_recent.ontology.specs import PATH_ROLE, WORLD_FRAME, ApiSpec, ParameterSpec, Waypoint
 from lerobot_policy_recent.robosuite_envs.observation import POSITION_SIGMA, ObjectState, Observation
+from lerobot_policy_recent.robosuite_envs.primitives import squaring
 from lerobot_policy_recent.robosuite_envs.primitives.clearance import (
     FINGER_DEPTH,
     Box,
@@ -293,7 +294,7 @@ def fingers_clear(inp: CheckInput) -> Violation | None:
     if target is None:
         return None
     held = _held(inp)
-    jaw = _jaw(inp)
+    jaw = _jaw(inp, target)
     loose = [name for name, _ in _strangers(inp, held)]
     blocking = [name for name in [*loose, *_fixed(inp)] if _in_jaw(jaw, inp, name, target)]
     if not blocking:
@@ -434,12 +435,17 @@ def _clearance(jaw: Jaw, inp: CheckInput, target: np.ndarray, held: set[str]) ->
     return min((_gap(jaw, inp, n, target) for n in obstacles if _reaches_fingers(inp, n, target)), default=math.inf)
 
 
-def _jaw(inp: CheckInput) -> Jaw:
-    """The open fingers' rectangle, along the closing axis as the hand is turned now (a square without one)."""
+def _jaw(inp: CheckInput, target: np.ndarray) -> Jaw:
+    """The open fingers' rectangle around a grasp at ``target``, along the closing axis as the hand is
+    turned now and then squared to what it grasps, as the grasp squares it (a square without an axis)."""
     axis = inp.scene.closing_axis
     if axis is not None:
         along = (quat2mat(np.asarray(inp.obs.eef_quat, dtype=float)) @ np.asarray(axis, dtype=float))[:2]
         if np.linalg.norm(along) > 0.5:  # pointing down: the closing axis lies near the table plane
+            grasped = squaring.grasped(inp.obs, target)
+            if grasped is not None:
+                turn = squaring.square_turn(inp.obs.eef_quat, inp.obs.objects[grasped].quat)
+                along = np.array([[math.cos(turn), -math.sin(turn)], [math.sin(turn), math.cos(turn)]]) @ along
             along = along / np.linalg.norm(along)
             return Jaw(along, np.array([-along[1], along[0]]), FINGER_SPAN, FINGER_ACROSS)
     return Jaw(np.array([1.0, 0.0]), np.array([0.0, 1.0]), FINGER_SPAN, FINGER_SPAN)

@@ -17,7 +17,7 @@ import numpy as np
 from robosuite.utils.transform_utils import mat2quat, quat2axisangle, quat2mat, quat_multiply
 
 from lerobot_policy_recent.robosuite_envs.observation import ACTION_DIM
-from lerobot_policy_recent.robosuite_envs.primitives import clearance
+from lerobot_policy_recent.robosuite_envs.primitives import clearance, squaring
 from lerobot_policy_recent.robosuite_envs.primitives.session import CONTROL_FREQ, PrimitiveFailure, RobotSession
 from lerobot_policy_recent.robosuite_envs.table import TABLE_OFFSET
 
@@ -41,6 +41,7 @@ GRIPPER_WAIT_S = 3.0  # longest a gripper command is held by default (a slower c
 OPEN_ENOUGH = 0.8  # fraction of its calibrated stroke a gripper must open to let go
 STROKE_MARGIN = 1.5  # a full stroke may take this multiple of its calibrated time (under load, against friction)
 UNFOLD_SHORT = 0.05  # metres short of its goal a stopped arm counts as trapped, not off by its tracking error
+SQUARE_S = 2.0  # longest a grasp turns its jaw square to the object before it descends anyway
 SQUEEZE_STEPS = 10  # control steps a closing gripper keeps closing on what it holds before its command is held
 
 
@@ -415,17 +416,46 @@ def stroke_seconds(session: RobotSession, command: float) -> float:
 def grasp_at(
     session: RobotSession, position: Sequence[float], *, timeout_s: float = 10.0, object_name: str | None = None
 ) -> Steps:
-    """Open, approach from above, descend, close, and lift; fail with ``grasp_lost`` if nothing is held."""
-    target = grip_site_for(session, as_position(position, "grasp position"))
+    """Open, approach from above, turn the jaw square to the object, descend, close, and lift; fail
+    with ``grasp_lost`` if nothing is held."""
+    point = as_position(position, "grasp position")
+    target = grip_site_for(session, point)
     above = target + np.array([0.0, 0.0, APPROACH_HEIGHT])
     yield from actuate_gripper(session, -1.0)
     yield from move_to(session, above, timeout_s=timeout_s, settle=True)
+    free_yaw = not session.hold_yaw
+    if (yield from square_to(session, object_name or squaring.grasped(session.obs, point))):
+        target = grip_site_for(session, point)  # the pads' offset from the grip site turned with the hand
     yield from move_to(session, target, timeout_s=timeout_s / 2, tol=0.006)
     yield from actuate_gripper(session, 1.0)
     yield from move_to(session, above, timeout_s=timeout_s / 2, settle=True)
+    if free_yaw:
+        session.hold_yaw = False  # squared for the grasp only: later moves keep the yaw free, as before
     held = session.obs.held()
     if held is None or (object_name is not None and held != object_name):
         raise PrimitiveFailure("grasp_lost", f"nothing is held after grasping at {np.round(target, 3).tolist()}")
+
+
+def square_to(session: RobotSession, name: str | None) -> Generator[Action, None, bool]:
+    """Turn a jaw about the vertical until it closes square to ``name``'s perceived faces (the least
+    turn), and hold that yaw; True where it turned. A cup has no closing axis, and an object without
+    orientation, or one the jaw is square to within the controller's deadband, needs no turn. Best
+    effort: the descent goes on holding the yaw where the turn runs out of time."""
+    state = None if name is None else session.obs.objects.get(name)
+    if session.calibration.closing_axis is None or state is None:
+        return False
+    turn = squaring.square_turn(session.obs.eef_quat, state.quat)
+    if abs(turn) < ROT_DEADBAND:
+        return False
+    yaw = squaring.yaw_of(session.obs.eef_quat) + turn - squaring.yaw_of(session.hold_quat)
+    about_z = np.array([0.0, 0.0, np.sin(yaw / 2), np.cos(yaw / 2)])
+    session.hold_quat, session.hold_yaw = quat_multiply(about_z, session.hold_quat), True  # the tool axis, turned
+    hold = np.array(session.obs.eef_pos)
+    for _ in range(int(SQUARE_S * CONTROL_FREQ)):
+        if orientation_error(session) < ROT_DEADBAND:
+            break
+        yield servo_action(session, hold)
+    return True
 
 
 def grip_site_for(session: RobotSession, point: np.ndarray) -> np.ndarray:

@@ -1,0 +1,49 @@
+"""A parallel jaw closes square to the faces of what it grasps.
+
+Closed at a slant to a box's faces, the pads turn the box until its faces lie flat on them, and a
+turned tool moves its working end: a Sawyer took the rake 11 degrees off its handle, the rake
+turned 10 degrees in its grip while carried, and its crossbar pushed the cube it dragged sideways,
+out of the zone. The grasp and the check that predicts where the fingers come down both turn the
+jaw by the same least turn, from perception (the box's orientation), never the simulator's state.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from robosuite.utils.transform_utils import quat2mat
+
+from lerobot_policy_recent.robosuite_envs.observation import Observation
+
+
+def yaw_of(quat_xyzw) -> float:
+    """Radians about the vertical of a frame's horizontal axis (the one of x and y lying flatter)."""
+    turn = quat2mat(np.asarray(quat_xyzw, dtype=float))
+    x, y = turn[:, 0], turn[:, 1]
+    axis = x if np.linalg.norm(x[:2]) >= np.linalg.norm(y[:2]) else y
+    return math.atan2(float(axis[1]), float(axis[0]))
+
+
+def square_turn(hand_quat, box_quat) -> float:
+    """The least turn about the vertical (radians, within a quarter turn's half either way) that lays
+    the hand's horizontal axes on the box's: 0 where the box has no orientation."""
+    if not np.any(np.asarray(box_quat, dtype=float)):
+        return 0.0
+    slant = yaw_of(box_quat) - yaw_of(hand_quat)
+    return (slant + math.pi / 4) % (math.pi / 2) - math.pi / 4
+
+
+def grasped(obs: Observation, point) -> str | None:
+    """The object a grasp at ``point`` closes on, by perception: the one (not held) whose box holds the
+    point, the nearest centre where several do (a cube in a bin); None where none does."""
+    point = np.asarray(point, dtype=float)
+    held = obs.held()
+    inside = [
+        (float(np.linalg.norm(np.asarray(state.pos, dtype=float) - point)), name)
+        for name, state in obs.objects.items()
+        if name != held
+        and np.any(state.size)
+        and np.all(np.abs(np.asarray(state.pos, dtype=float) - point) <= np.asarray(state.size, dtype=float) / 2)
+    ]
+    return min(inside)[1] if inside else None
