@@ -124,6 +124,7 @@ class Nominal:
     zero_holds: bool = False  # unknown: a closing gripper keeps being told to close
     grasp_point: tuple[float, float, float] = (0.0, 0.0, 0.0)
     hand_half_xy: tuple[float, float] | None = None  # unknown: the planner's nominal hand
+    closing_axis: tuple[float, float, float] | None = None  # unknown: a grasp is not turned square to its object
     tracking_error_m: float = 0.0
     unreached: tuple = ()
     table_reach_m: float = float("inf")

@@ -444,6 +444,14 @@ def test_the_open_fingers_reach_along_the_jaws_closing_axis_and_a_quarter_turn_c
     wall = check(with_box, box=[0.09, 0.0, 0.80])
     assert wall.statements == ("rotate_gripper(env, task, angle=1.5708)",) and "box (" in wall.observation
     assert check(with_box, box=[0.09, 0.09, 0.80]) is None  # as near the turned jaw: nothing gained, nothing to sweep
+    # blue perceived turned 40 degrees: the grasp squares the jaw to it, and the check judges that jaw,
+    # whose fingers come down on green, across the jaw as the hand is turned now
+    turned = observed(blue=[0.0, 0.0, 0.82], green=[0.0, 0.0615, 0.82])
+    blue = replace(turned.objects["blue"], quat=np.array([0, 0, math.sin(math.radians(20)), math.cos(math.radians(20))]),
+                   size=np.full(3, 0.04))  # fmt: skip
+    inp = CheckInput(replace(turned, objects={**turned.objects, "blue": blue}), {"obj_name": "blue"}, params,
+                     frozenset({"blue"}), {}, scene, FRANKA_HAND)  # fmt: skip
+    assert fingers_clear(inp) is not None
 
 
 PANDA = load_api_spec(api_spec_path("panda"))
