@@ -444,6 +444,17 @@ def test_the_open_fingers_reach_along_the_jaws_closing_axis_and_a_quarter_turn_c
     wall = check(with_box, box=[0.09, 0.0, 0.80])
     assert wall.statements == ("rotate_gripper(env, task, angle=1.5708)",) and "box (" in wall.observation
     assert check(with_box, box=[0.09, 0.09, 0.80]) is None  # as near the turned jaw: nothing gained, nothing to sweep
+
+    # green named by the skill (arrange_in_row's third block, line_up_then_stack s3 on Robotiq85):
+    # along the jaw it is turned away from, as a stranger is, but never swept
+    def named(**at):
+        inp = CheckInput(observed(blue=[0.0, 0.0, 0.82], **at), {"obj_name": "blue"}, params,
+                         frozenset({"blue", "green"}), {}, scene, FRANKA_HAND)  # fmt: skip
+        return fingers_clear(inp)
+
+    assert named(green=[0.0615, 0.0, 0.82]).statements == ("rotate_gripper(env, task, angle=1.5708)",)
+    assert named(green=[0.0, 0.0615, 0.82]) is None
+    assert named(green=[0.0615, 0.0, 0.82], red=[0.0, -0.065, 0.82]) is None  # no turn clears it: left as it is
     # blue perceived turned 40 degrees: the grasp squares the jaw to it, and the check judges that jaw,
     # whose fingers come down on green, across the jaw as the hand is turned now
     turned = observed(blue=[0.0, 0.0, 0.82], green=[0.0, 0.0615, 0.82])

@@ -289,6 +289,8 @@ def fingers_clear(inp: CheckInput) -> Violation | None:
     yaw), so a block beside the object across that axis is clear of them. Judged in every direction, a
     block across the jaw was swept; a block along it was swept too where a turn cleared it, and the
     sweep ran the hand into the cabinet. Without a calibrated axis the jaw may reach out anywhere.
+    The task's own objects are in the way as much as clutter is, but only a turn keeps the fingers
+    off them: they are never swept.
     """
     target = _by_role(inp, "grasp_target")
     if target is None:
@@ -296,7 +298,9 @@ def fingers_clear(inp: CheckInput) -> Violation | None:
     held = _held(inp)
     jaw = _jaw(inp, target)
     loose = [name for name, _ in _strangers(inp, held)]
-    blocking = [name for name in [*loose, *_fixed(inp)] if _in_jaw(jaw, inp, name, target)]
+    blocking = [
+        name for name in [*loose, *_fixed(inp), *_neighbours(inp, held, target)] if _in_jaw(jaw, inp, name, target)
+    ]
     if not blocking:
         return None
     turn = _quarter_turn(inp, jaw, target, held)
@@ -325,6 +329,20 @@ def fingers_clear(inp: CheckInput) -> Violation | None:
         "push it away first: " + "; then ".join(statements),
         cue=f"{what} where the open fingers come down",
     )
+
+
+def _neighbours(inp: CheckInput, held: set[str], target: np.ndarray) -> list[str]:
+    """Loose objects the task or the skill names, other than the one grasped at ``target`` and what the
+    hand holds: never swept (they are the task's), but a quarter turn may keep the fingers off them. A
+    Robotiq 2F-85, whose open jaw reaches 4.3 cm either side, came down with a finger on the block the
+    skill would place third, 6.2 cm from the one it grasped, and held that one 2.4 cm off its centre."""
+    return [
+        name
+        for name in sorted((inp.named | inp.scene.task_objects) - held)
+        if name in inp.scene.loose
+        and name in inp.obs.objects
+        and not np.all(np.abs(inp.obs.objects[name].pos[:2] - target[:2]) <= np.asarray(extents(inp, name)[:2]) / 2)
+    ]
 
 
 def _fixed(inp: CheckInput) -> list[str]:
@@ -358,7 +376,10 @@ def _quarter_turn(inp: CheckInput, jaw: Jaw, target: np.ndarray, held: set[str])
     if inp.scene.closing_axis is None or jaw.reach == jaw.width or not (turn := _turn_calls(inp)):
         return ()
     turned = jaw.turned()
-    if any(_in_jaw(turned, inp, name, target) for name, _ in _strangers(inp, held)):
+    if any(
+        _in_jaw(turned, inp, name, target)
+        for name in [*(n for n, _ in _strangers(inp, held)), *_neighbours(inp, held, target)]
+    ):
         return ()
     if _clearance(turned, inp, target, held) <= _clearance(jaw, inp, target, held):
         return ()
@@ -431,7 +452,7 @@ def _footprint_meets(box: Box, point: np.ndarray, half: np.ndarray) -> bool:
 def _clearance(jaw: Jaw, inp: CheckInput, target: np.ndarray, held: set[str]) -> float:
     """Metres from the jaw to the nearest obstacle, loose or fixed, that reaches up to where the fingers
     come down (negative: one lies in it)."""
-    obstacles = [*(n for n, _ in _strangers(inp, held)), *_fixed(inp)]
+    obstacles = [*(n for n, _ in _strangers(inp, held)), *_fixed(inp), *_neighbours(inp, held, target)]
     return min((_gap(jaw, inp, n, target) for n in obstacles if _reaches_fingers(inp, n, target)), default=math.inf)
 
 
