@@ -367,6 +367,8 @@ def test_a_jaw_is_turned_the_least_way_square_to_a_boxs_faces():
     """A Sawyer's hand at 101 degrees over the rake (0) turns back 11; a quarter turn either way is as
     square; a box without orientation asks for no turn. The object a grasp closes on is the one whose
     box holds the point, the nearest centre where several do (a cube in a bin)."""
+    from robosuite.utils.transform_utils import axisangle2quat, quat_multiply
+
     from lerobot_policy_recent.robosuite_envs.primitives import squaring
 
     def about_z(degrees: float) -> np.ndarray:
@@ -377,6 +379,10 @@ def test_a_jaw_is_turned_the_least_way_square_to_a_boxs_faces():
     assert np.degrees(squaring.square_turn(about_z(0), about_z(50))) == pytest.approx(-40)
     assert np.degrees(squaring.square_turn(about_z(10), about_z(-170))) == pytest.approx(0, abs=1e-6)
     assert squaring.square_turn(about_z(30), np.zeros(4)) == 0.0
+    # a hand pointing down, tilted 1 degree: its yaw is its x axis's, whichever of x and y lies flatter
+    # (read by the flatter axis, the hand and its held orientation differed by a quarter turn)
+    down = quat_multiply(about_z(100), quat_multiply(np.array([1.0, 0.0, 0.0, 0.0]), axisangle2quat([0, 0.017, 0])))
+    assert np.degrees(squaring.yaw_of(down)) == pytest.approx(100, abs=0.5)
     cube = ObjectState(np.array([0.0, 0.0, 0.84]), about_z(20), np.array([0.04, 0.04, 0.04]))
     bin_ = ObjectState(np.array([0.01, 0.0, 0.86]), about_z(0), np.array([0.2, 0.2, 0.08]))
     obs = dataclasses.replace(_observation({}), objects={"cube": cube, "bin": bin_})

@@ -18,10 +18,12 @@ from lerobot_policy_recent.robosuite_envs.observation import Observation
 
 
 def yaw_of(quat_xyzw) -> float:
-    """Radians about the vertical of a frame's horizontal axis (the one of x and y lying flatter)."""
+    """Radians about the vertical of a frame's x axis, or of its y axis where x stands steeper than
+    60 degrees (a box on its side). Always x for a hand pointing down, whose x and y both lie flat: a
+    choice by which lies flatter flipped between two reads of one hand, and a grasp turned 100 degrees."""
     turn = quat2mat(np.asarray(quat_xyzw, dtype=float))
     x, y = turn[:, 0], turn[:, 1]
-    axis = x if np.linalg.norm(x[:2]) >= np.linalg.norm(y[:2]) else y
+    axis = x if np.linalg.norm(x[:2]) > 0.5 else y
     return math.atan2(float(axis[1]), float(axis[0]))
 
 
