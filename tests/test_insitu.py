@@ -446,8 +446,11 @@ def test_the_open_fingers_reach_along_the_jaws_closing_axis_and_a_quarter_turn_c
     assert check(with_box, box=[0.09, 0.09, 0.80]) is None  # as near the turned jaw: nothing gained, nothing to sweep
 
     # green named by the skill (arrange_in_row's third block, line_up_then_stack s3 on Robotiq85):
-    # along the jaw it is turned away from, as a stranger is, but never swept
-    def named(**at):
+    # along the jaw it is turned away from, as a stranger is, but never swept; nor turned from where
+    # the turned palm (21 cm along the closing axis) would come down on a wall (open_both_fill s7)
+    palm = replace(with_box, hand_half_xy=(0.105, 0.03))
+
+    def named(scene=palm, **at):
         inp = CheckInput(observed(blue=[0.0, 0.0, 0.82], **at), {"obj_name": "blue"}, params,
                          frozenset({"blue", "green"}), {}, scene, FRANKA_HAND)  # fmt: skip
         return fingers_clear(inp)
@@ -455,6 +458,8 @@ def test_the_open_fingers_reach_along_the_jaws_closing_axis_and_a_quarter_turn_c
     assert named(green=[0.0615, 0.0, 0.82]).statements == ("rotate_gripper(env, task, angle=1.5708)",)
     assert named(green=[0.0, 0.0615, 0.82]) is None
     assert named(green=[0.0615, 0.0, 0.82], red=[0.0, -0.065, 0.82]) is None  # no turn clears it: left as it is
+    assert named(green=[0.0615, 0.0, 0.82], box=[0.0, 0.15, 0.80]) is None  # the turned palm meets the box
+    assert named(scene, green=[0.0615, 0.0, 0.82]) is None  # no footprint known: no turn for the task's own
     # blue perceived turned 40 degrees: the grasp squares the jaw to it, and the check judges that jaw,
     # whose fingers come down on green, across the jaw as the hand is turned now
     turned = observed(blue=[0.0, 0.0, 0.82], green=[0.0, 0.0615, 0.82])

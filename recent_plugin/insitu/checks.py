@@ -298,12 +298,13 @@ def fingers_clear(inp: CheckInput) -> Violation | None:
     held = _held(inp)
     jaw = _jaw(inp, target)
     loose = [name for name, _ in _strangers(inp, held)]
-    blocking = [
-        name for name in [*loose, *_fixed(inp), *_neighbours(inp, held, target)] if _in_jaw(jaw, inp, name, target)
-    ]
+    neighbours = _neighbours(inp, held, target)
+    blocking = [name for name in [*loose, *_fixed(inp), *neighbours] if _in_jaw(jaw, inp, name, target)]
     if not blocking:
         return None
     turn = _quarter_turn(inp, jaw, target, held)
+    if turn and set(blocking) <= set(neighbours) and _palm_meets_wall(inp, jaw.turned(), target):
+        return None  # turned for the task's own block, the palm would come down on a wall: left as it was
     name = blocking[0] if turn else next((n for n in blocking if n in loose), None)
     if name is None:
         return None  # only what is fixed to the table, and no turn clears it: nothing sweeps it
@@ -329,6 +330,22 @@ def fingers_clear(inp: CheckInput) -> Violation | None:
         "push it away first: " + "; then ".join(statements),
         cue=f"{what} where the open fingers come down",
     )
+
+
+def _palm_meets_wall(inp: CheckInput, jaw: Jaw, target: np.ndarray) -> bool:
+    """The hand's calibrated footprint, its long side along ``jaw``'s closing axis (a parallel jaw's palm
+    and fingers lie along it), centred over ``target``, meets a wall of the workcell that stands above
+    the grasp (True where no footprint is known). A Franka Hand turned a quarter for a block beside blue
+    (open_both_fill s7) came down with its 21 cm palm on the hinged box's wall."""
+    if inp.scene.hand_half_xy is None:
+        return True
+    long, short = max(inp.scene.hand_half_xy), min(inp.scene.hand_half_xy)
+    half = np.abs(jaw.along) * long + np.abs(jaw.across) * short
+    walls = [
+        Box(name, np.asarray(inp.obs.objects[name].pos, dtype=float), np.asarray(extents(inp, name), dtype=float) / 2)
+        for name in _fixed(inp)
+    ]
+    return any(box.top > target[2] and _footprint_meets(box, target, half) for box in walls)
 
 
 def _neighbours(inp: CheckInput, held: set[str], target: np.ndarray) -> list[str]:
