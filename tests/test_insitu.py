@@ -460,14 +460,16 @@ def test_the_open_fingers_reach_along_the_jaws_closing_axis_and_a_quarter_turn_c
     assert named(green=[0.0615, 0.0, 0.82], red=[0.0, -0.065, 0.82]) is None  # no turn clears it: left as it is
     assert named(green=[0.0615, 0.0, 0.82], box=[0.0, 0.15, 0.80]) is None  # the turned palm meets the box
     assert named(scene, green=[0.0615, 0.0, 0.82]) is None  # no footprint known: no turn for the task's own
-    # blue perceived turned 40 degrees: the grasp squares the jaw to it, and the check judges that jaw,
-    # whose fingers come down on green, across the jaw as the hand is turned now
+    # blue perceived turned 40 degrees: a block, the pads turn flat as they close, so the jaw is judged
+    # as the hand is turned now; were blue a tool 20 cm long, the grasp squares the jaw to it first,
+    # and the squared fingers come down on green, across the jaw as the hand is turned now
     turned = observed(blue=[0.0, 0.0, 0.82], green=[0.0, 0.0615, 0.82])
-    blue = replace(turned.objects["blue"], quat=np.array([0, 0, math.sin(math.radians(20)), math.cos(math.radians(20))]),
-                   size=np.full(3, 0.04))  # fmt: skip
-    inp = CheckInput(replace(turned, objects={**turned.objects, "blue": blue}), {"obj_name": "blue"}, params,
-                     frozenset({"blue"}), {}, scene, FRANKA_HAND)  # fmt: skip
-    assert fingers_clear(inp) is not None
+    slant = np.array([0, 0, math.sin(math.radians(20)), math.cos(math.radians(20))])
+    for size, blocked in ((0.04, False), (0.2, True)):
+        blue = replace(turned.objects["blue"], quat=slant, size=np.array([size, 0.04, 0.04]))
+        inp = CheckInput(replace(turned, objects={**turned.objects, "blue": blue}), {"obj_name": "blue"}, params,
+                         frozenset({"blue"}), {}, scene, FRANKA_HAND)  # fmt: skip
+        assert (fingers_clear(inp) is not None) is blocked, size
 
 
 PANDA = load_api_spec(api_spec_path("panda"))

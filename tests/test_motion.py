@@ -365,7 +365,7 @@ def test_a_release_point_stands_for_the_object_whose_own_position_it_is():
 
 def test_a_jaw_is_turned_the_least_way_square_to_a_boxs_faces():
     """A Sawyer's hand at 101 degrees over the rake (0) turns back 11; a quarter turn either way is as
-    square; a box without orientation asks for no turn. The object a grasp closes on is the one whose
+    square; a box without orientation asks for no turn, and a grasp squares only a long object. The object a grasp closes on is the one whose
     box holds the point, the nearest centre where several do (a cube in a bin)."""
     from robosuite.utils.transform_utils import axisangle2quat, quat_multiply
 
@@ -379,6 +379,10 @@ def test_a_jaw_is_turned_the_least_way_square_to_a_boxs_faces():
     assert np.degrees(squaring.square_turn(about_z(0), about_z(50))) == pytest.approx(-40)
     assert np.degrees(squaring.square_turn(about_z(10), about_z(-170))) == pytest.approx(0, abs=1e-6)
     assert squaring.square_turn(about_z(30), np.zeros(4)) == 0.0
+    block = ObjectState(np.zeros(3), about_z(20), np.array([0.05, 0.05, 0.05]))  # the pads turn it as they close
+    rake = ObjectState(np.zeros(3), about_z(20), np.array([0.27, 0.16, 0.07]))  # it resists, and turns later
+    assert squaring.grasp_turn(about_z(0), block) == 0.0
+    assert np.degrees(squaring.grasp_turn(about_z(0), rake)) == pytest.approx(20)
     # a hand pointing down, tilted 1 degree: its yaw is its x axis's, whichever of x and y lies flatter
     # (read by the flatter axis, the hand and its held orientation differed by a quarter turn)
     down = quat_multiply(about_z(100), quat_multiply(np.array([1.0, 0.0, 0.0, 0.0]), axisangle2quat([0, 0.017, 0])))

@@ -482,7 +482,7 @@ def _jaw(inp: CheckInput, target: np.ndarray) -> Jaw:
         if np.linalg.norm(along) > 0.5:  # pointing down: the closing axis lies near the table plane
             grasped = squaring.grasped(inp.obs, target)
             if grasped is not None:
-                turn = squaring.square_turn(inp.obs.eef_quat, inp.obs.objects[grasped].quat)
+                turn = squaring.grasp_turn(inp.obs.eef_quat, inp.obs.objects[grasped])
                 along = np.array([[math.cos(turn), -math.sin(turn)], [math.sin(turn), math.cos(turn)]]) @ along
             along = along / np.linalg.norm(along)
             return Jaw(along, np.array([-along[1], along[0]]), FINGER_SPAN, FINGER_ACROSS)

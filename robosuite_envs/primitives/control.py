@@ -438,13 +438,14 @@ def grasp_at(
 
 def square_to(session: RobotSession, name: str | None) -> Generator[Action, None, bool]:
     """Turn a jaw about the vertical until it closes square to ``name``'s perceived faces (the least
-    turn), and hold that yaw; True where it turned. A cup has no closing axis, and an object without
-    orientation, or one the jaw is square to within the controller's deadband, needs no turn. Best
-    effort: the descent goes on holding the yaw where the turn runs out of time."""
+    turn; a long object's only, ``squaring.grasp_turn``), and hold that yaw; True where it turned. A
+    cup has no closing axis, and an object without orientation, or one the jaw is square to within
+    the controller's deadband, needs no turn. Best effort: the descent goes on holding the yaw where
+    the turn runs out of time."""
     state = None if name is None else session.obs.objects.get(name)
     if session.calibration.closing_axis is None or state is None:
         return False
-    turn = squaring.square_turn(session.obs.eef_quat, state.quat)
+    turn = squaring.grasp_turn(session.obs.eef_quat, state)
     if abs(turn) < ROT_DEADBAND:
         return False
     yaw = squaring.yaw_of(session.obs.eef_quat) + turn - squaring.yaw_of(session.hold_quat)

@@ -14,7 +14,9 @@ import math
 import numpy as np
 from robosuite.utils.transform_utils import quat2mat
 
-from lerobot_policy_recent.robosuite_envs.observation import Observation
+from lerobot_policy_recent.robosuite_envs.observation import ObjectState, Observation
+
+LONG_OBJECT = 0.15  # metres across the table above which a grasp squares the jaw first (the rake: 0.27)
 
 
 def yaw_of(quat_xyzw) -> float:
@@ -34,6 +36,18 @@ def square_turn(hand_quat, box_quat) -> float:
         return 0.0
     slant = yaw_of(box_quat) - yaw_of(hand_quat)
     return (slant + math.pi / 4) % (math.pi / 2) - math.pi / 4
+
+
+def grasp_turn(hand_quat, state: ObjectState) -> float:
+    """The turn a grasp takes before it descends onto ``state``'s object: square to it where the object
+    is longer than ``LONG_OBJECT`` across the table, else none. A block under the pads turns flat
+    against them as they close, before the lift, and leaves the hand square to the world; squared to
+    its own yaw instead, a block carried turned caught the block already in the drawer it was lowered
+    into (open_both_fill s7, Robotiq85). A tool's ends rest on the table and resist, so it turns
+    later, while it is carried."""
+    if float(np.max(np.asarray(state.size, dtype=float)[:2])) <= LONG_OBJECT:
+        return 0.0
+    return square_turn(hand_quat, state.quat)
 
 
 def grasped(obs: Observation, point) -> str | None:
