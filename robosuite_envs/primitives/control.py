@@ -416,8 +416,8 @@ def stroke_seconds(session: RobotSession, command: float) -> float:
 def grasp_at(
     session: RobotSession, position: Sequence[float], *, timeout_s: float = 10.0, object_name: str | None = None
 ) -> Steps:
-    """Open, approach from above, turn the jaw square to the object, descend, close, and lift; fail
-    with ``grasp_lost`` if nothing is held."""
+    """Open, approach from above, turn the jaw square to a long object, descend, close, and lift;
+    fail with ``grasp_lost`` if nothing is held."""
     point = as_position(position, "grasp position")
     target = grip_site_for(session, point)
     above = target + np.array([0.0, 0.0, APPROACH_HEIGHT])

@@ -1,10 +1,11 @@
-"""A parallel jaw closes square to the faces of what it grasps.
+"""A parallel jaw closes square to the faces of a long object it grasps.
 
-Closed at a slant to a box's faces, the pads turn the box until its faces lie flat on them, and a
-turned tool moves its working end: a Sawyer took the rake 11 degrees off its handle, the rake
-turned 10 degrees in its grip while carried, and its crossbar pushed the cube it dragged sideways,
-out of the zone. The grasp and the check that predicts where the fingers come down both turn the
-jaw by the same least turn, from perception (the box's orientation), never the simulator's state.
+Closed at a slant to a box's faces, the pads turn the box until its faces lie flat on them. A
+block turns as they close; a tool, whose ends rest on the table, turns later, while carried, and
+moves its working end: a Sawyer took the rake 11 degrees off its handle, the rake turned 10 degrees
+in its grip, and its crossbar pushed the cube it dragged sideways, out of the zone. The grasp and
+the check that predicts where the fingers come down both turn the jaw by the same turn, from
+perception (the box's orientation and extents), never the simulator's state.
 """
 
 from __future__ import annotations
