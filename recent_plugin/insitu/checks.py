@@ -335,8 +335,8 @@ def fingers_clear(inp: CheckInput) -> Violation | None:
 def _palm_meets_wall(inp: CheckInput, jaw: Jaw, target: np.ndarray) -> bool:
     """The hand's calibrated footprint, its long side along ``jaw``'s closing axis (a parallel jaw's palm
     and fingers lie along it), centred over ``target``, meets a wall of the workcell that stands above
-    the grasp (True where no footprint is known). A Franka Hand turned a quarter for a block beside blue
-    (open_both_fill s7) came down with its 21 cm palm on the hinged box's wall."""
+    the grasp (True where no footprint is known): a hand turned a quarter for a block beside the one it
+    grasps can bring its long palm down on a box's wall, where the grasp as written was clear."""
     if inp.scene.hand_half_xy is None:
         return True
     long, short = max(inp.scene.hand_half_xy), min(inp.scene.hand_half_xy)
@@ -351,15 +351,18 @@ def _palm_meets_wall(inp: CheckInput, jaw: Jaw, target: np.ndarray) -> bool:
 def _neighbours(inp: CheckInput, held: set[str], target: np.ndarray) -> list[str]:
     """Loose objects the task or the skill names, other than the one grasped at ``target`` and what the
     hand holds: never swept (they are the task's), but a quarter turn may keep the fingers off them. A
-    Robotiq 2F-85, whose open jaw reaches 4.3 cm either side, came down with a finger on the block the
-    skill would place third, 6.2 cm from the one it grasped, and held that one 2.4 cm off its centre."""
+    finger that comes down on a neighbouring block slides the hand off the one it grasps, which is
+    then held off centre and set down off its spot."""
     return [
         name
         for name in sorted((inp.named | inp.scene.task_objects) - held)
-        if name in inp.scene.loose
-        and name in inp.obs.objects
-        and not np.all(np.abs(inp.obs.objects[name].pos[:2] - target[:2]) <= np.asarray(extents(inp, name)[:2]) / 2)
+        if name in inp.scene.loose and name in inp.obs.objects and not _under(inp, name, target)
     ]
+
+
+def _under(inp: CheckInput, name: str, target: np.ndarray) -> bool:
+    """``target`` lies over ``name``'s footprint: it is the object a grasp there closes on."""
+    return bool(np.all(np.abs(inp.obs.objects[name].pos[:2] - target[:2]) <= np.asarray(extents(inp, name)[:2]) / 2))
 
 
 def _fixed(inp: CheckInput) -> list[str]:
@@ -400,11 +403,7 @@ def _quarter_turn(inp: CheckInput, jaw: Jaw, target: np.ndarray, held: set[str])
         return ()
     if _clearance(turned, inp, target, held) <= _clearance(jaw, inp, target, held):
         return ()
-    grasped = [
-        n
-        for n in _moved_objects(inp)
-        if np.all(np.abs(inp.obs.objects[n].pos[:2] - target[:2]) <= np.asarray(extents(inp, n)[:2]) / 2)
-    ]
+    grasped = [n for n in _moved_objects(inp) if _under(inp, n, target)]
     if any(float(np.asarray(extents(inp, n)[:2]) @ np.abs(jaw.across)) > JAW_STROKE for n in grasped):
         return ()
     return turn

@@ -2,8 +2,8 @@
 
 Closed at a slant to a box's faces, the pads turn the box until its faces lie flat on them. A
 block turns as they close; a tool, whose ends rest on the table, turns later, while carried, and
-moves its working end: a Sawyer took the rake 11 degrees off its handle, the rake turned 10 degrees
-in its grip, and its crossbar pushed the cube it dragged sideways, out of the zone. The grasp and
+moves its working end: a rake taken at a slant turns in the grip, and its crossbar pushes what it
+drags sideways. The grasp and
 the check that predicts where the fingers come down both turn the jaw by the same turn, from
 perception (the box's orientation and extents), never the simulator's state.
 """
@@ -23,7 +23,7 @@ LONG_OBJECT = 0.15  # metres across the table above which a grasp squares the ja
 def yaw_of(quat_xyzw) -> float:
     """Radians about the vertical of a frame's x axis, or of its y axis where x stands steeper than
     60 degrees (a box on its side). Always x for a hand pointing down, whose x and y both lie flat: a
-    choice by which lies flatter flipped between two reads of one hand, and a grasp turned 100 degrees."""
+    choice by which lies flatter can flip between two reads of one hand, a quarter turn apart."""
     turn = quat2mat(np.asarray(quat_xyzw, dtype=float))
     x, y = turn[:, 0], turn[:, 1]
     axis = x if np.linalg.norm(x[:2]) > 0.5 else y
@@ -42,10 +42,9 @@ def square_turn(hand_quat, box_quat) -> float:
 def grasp_turn(hand_quat, state: ObjectState) -> float:
     """The turn a grasp takes before it descends onto ``state``'s object: square to it where the object
     is longer than ``LONG_OBJECT`` across the table, else none. A block under the pads turns flat
-    against them as they close, before the lift, and leaves the hand square to the world; squared to
-    its own yaw instead, a block carried turned caught the block already in the drawer it was lowered
-    into (open_both_fill s7, Robotiq85). A tool's ends rest on the table and resist, so it turns
-    later, while it is carried."""
+    against them as they close, before the lift, and so ends square to the hand and the world, as a
+    drawer or a bin wants it; squared to its own yaw instead, it is carried turned. A tool's ends rest
+    on the table and resist, so it turns later, while it is carried."""
     if float(np.max(np.asarray(state.size, dtype=float)[:2])) <= LONG_OBJECT:
         return 0.0
     return square_turn(hand_quat, state.quat)
