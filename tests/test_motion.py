@@ -235,6 +235,32 @@ def test_a_move_whose_line_runs_through_a_perceived_block_goes_over_it(arm):
     assert moved_or_blocked or np.linalg.norm(arm.position("cube") - block) > 0.02
 
 
+def test_a_planned_move_set_down_behind_a_block_pushes_it_along_its_line():
+    """A sweep's fist, set down 6 cm behind a block, is sent past it on a slant (the lane of a pen's
+    mouth). The planner passes through what the hand lies against, and the move keeps to the line:
+    the block ends on it. Each axis closing its own error, the UR5e's hand reached the lane first,
+    sideswiped the block, and it ended 3.6 cm off the line."""
+    from lerobot_policy_recent.robosuite_envs.calibrate import calibration
+
+    arm = _Arm("kinematic/drag_cube", "UR5e")
+    arm.session = RobotSession("UR5e", arm.session.obs, calibration("UR5e"))
+    try:
+        cube = arm.position("cube")
+        start, goal = cube + [-0.06, -0.01, -0.005], cube + [0.14, 0.03, -0.005]
+        seen = clearance.boxes(arm.session.obs)
+        arm.run(control.actuate_gripper(arm.session, 1.0))
+        arm.run(control.move_to(arm.session, start + [0.0, 0.0, 0.1], timeout_s=6.0, settle=True))
+        arm.run(control.move_to(arm.session, start, timeout_s=6.0, settle=True))
+        sweep = clearance.Sweep.of(arm.session.obs, arm.session.calibration.hand_half_xy)
+        assert [box.name for box in clearance.pushed(arm.session.obs.eef_pos, goal, seen, sweep)] == ["cube"]
+        arm.run(control.move_to(arm.session, goal, timeout_s=6.0, settle=True))
+        moved = arm.position("cube") - cube
+        assert moved[0] > 0.12  # pushed along, not passed over
+        assert abs(moved[1] - 0.03) < 0.015, moved  # on the line's lane
+    finally:
+        arm.env.close()
+
+
 def test_a_press_aimed_inside_the_button_ends_where_the_fingertips_meet_it_pressed(arm):
     """A goal read low lies inside the button: the descent stops on the cap, bottomed out, instead of
     failing as a blocked waypoint; the button reads pressed."""
@@ -420,6 +446,25 @@ def test_a_sawyer_takes_the_rake_square_to_its_handle_and_it_does_not_turn_in_th
         turned = abs(np.degrees(squaring.square_turn(arm.session.obs.objects["rake"].quat, start)))
         deadband = np.degrees(control.ROT_DEADBAND)  # the slant the controller leaves
         assert turned < deadband if squared else turned > 2 * deadband, turned
+    finally:
+        arm.env.close()
+
+
+def test_a_grasp_that_turned_for_a_tool_and_then_failed_leaves_the_yaw_free():
+    """A grasp turns the jaw square to the rake, then its descent is refused (a point given below the
+    table): the moves after it keep the yaw free again, as after a grasp that ended."""
+    from lerobot_policy_recent.robosuite_envs.calibrate import calibration
+
+    arm = _Arm("kinematic/drag_cube", "Sawyer")
+    arm.session = RobotSession("Sawyer", arm.session.obs, calibration("Sawyer"))
+    try:
+        below = arm.position("rake") * [1.0, 1.0, 0.0] + [0.0, 0.0, TABLE_Z - 0.02]
+        arm.run(control.move_to(arm.session, below + [0.0, 0.0, 0.14], timeout_s=6.0, settle=True))
+        arm.run(control.rotate_about_z(arm.session, np.radians(12)))
+        arm.session.hold_yaw = False
+        with pytest.raises(PrimitiveFailure, match="below the table"):
+            arm.run(control.grasp_at(arm.session, below, object_name="rake"))
+        assert not arm.session.hold_yaw
     finally:
         arm.env.close()
 

@@ -183,6 +183,18 @@ def path_over(start, goal, obstacles: list[Box], sweep: Sweep) -> list[np.ndarra
     return [p for p in (rise, across) if np.linalg.norm(p - start) > 1e-4 and np.linalg.norm(p - goal) > 1e-4] + [goal]
 
 
+def pushed(start, goal, obstacles: list[Box], sweep: Sweep) -> list[Box]:
+    """The boxes a move from ``start`` pushes along: the hand or its load is against them at the start
+    and the line to ``goal`` runs it through them (a fist set down behind a block to sweep it), the
+    goal's own box aside. :func:`path_over` passes through them; the move is to keep to its line."""
+    start, goal = np.asarray(start, dtype=float), np.asarray(goal, dtype=float)
+    return [
+        box
+        for box in obstacles
+        if not box.contains(goal, GOAL_MARGIN) and sweep.against(box, start) and sweep.blocks(box, start, goal)
+    ]
+
+
 def segment_meets(start: np.ndarray, end: np.ndarray, low: np.ndarray, high: np.ndarray) -> bool:
     """Whether the segment touches the axis-aligned box [low, high] (slab test), in space or on a plane."""
     start, end = np.asarray(start, dtype=float), np.asarray(end, dtype=float)

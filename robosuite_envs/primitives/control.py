@@ -224,8 +224,15 @@ def _planned(session: RobotSession, goal: np.ndarray, timeout_s: float, final: d
     over what the hand or its load meets there and plan again from above it; stopped far short with
     nothing in the way, go back by the table's middle and plan again, once (failing so again, the
     first stop is the failure named: beyond reach stays ``cannot_track``). Each leg (climb, pass,
-    descent) has the move's ``timeout_s``: a detour is never cut short by a budget set for a line."""
+    descent) has the move's ``timeout_s``: a detour is never cut short by a budget set for a line.
+    An empty hand that starts against a box its line runs through pushes it (:func:`clearance.pushed`):
+    it keeps to the line, as the end-effector APIs' moves do, and never climbs over what it pushes."""
     sweep = clearance.Sweep.of(session.obs, session.calibration.hand_half_xy)
+    pushing: list[clearance.Box] = []
+    if session.obs.held() is None:  # an empty hand set down behind what it sweeps (a carried tool's drag bends)
+        pushing = clearance.pushed(session.obs.eef_pos, goal, clearance.boxes(session.obs), sweep)
+    if pushing:  # bent, a sweep's fist sideswiped its block and climbed over it when the block stalled
+        final = {**final, "straight": True}
     climbed, trapped = False, None
     while True:
         path = clearance.path_over(session.obs.eef_pos, goal, clearance.boxes(session.obs), sweep)
@@ -245,7 +252,7 @@ def _planned(session: RobotSession, goal: np.ndarray, timeout_s: float, final: d
                 trapped = failure
                 yield from _unfold(session, goal, timeout_s, sweep)
                 continue
-            climb = None if climbed or failure.kind != "waypoint_blocked" else _climb(session, goal, sweep)
+            climb = None if climbed or failure.kind != "waypoint_blocked" else _climb(session, goal, sweep, pushing)
             if climb is None:
                 raise
             climbed = True
@@ -274,14 +281,18 @@ def _unfold(session: RobotSession, goal: np.ndarray, timeout_s: float, sweep: cl
         return
 
 
-def _climb(session: RobotSession, goal: np.ndarray, sweep: clearance.Sweep) -> np.ndarray | None:
+def _climb(
+    session: RobotSession, goal: np.ndarray, sweep: clearance.Sweep, pushing: Sequence[clearance.Box] = ()
+) -> np.ndarray | None:
     """Straight above the grip site, just high enough for the hand and its load to clear the perceived
-    boxes it meets where it stopped (not the goal's own); None where perception shows nothing there."""
+    boxes it meets where it stopped (not the goal's own, nor one the move pushes: climbed over, a
+    stalled sweep left its block behind); None where perception shows nothing there."""
     here = np.asarray(session.obs.eef_pos, dtype=float)
+    pushed = {box.name for box in pushing}
     met = [
         box
         for box in clearance.boxes(session.obs)
-        if not box.contains(goal, clearance.GOAL_MARGIN) and sweep.against(box, here)
+        if not box.contains(goal, clearance.GOAL_MARGIN) and box.name not in pushed and sweep.against(box, here)
     ]
     if not met:
         return None
@@ -424,13 +435,15 @@ def grasp_at(
     yield from actuate_gripper(session, -1.0)
     yield from move_to(session, above, timeout_s=timeout_s, settle=True)
     free_yaw = not session.hold_yaw
-    if (yield from square_to(session, object_name or squaring.grasped(session.obs, point))):
-        target = grip_site_for(session, point)  # the pads' offset from the grip site turned with the hand
-    yield from move_to(session, target, timeout_s=timeout_s / 2, tol=0.006)
-    yield from actuate_gripper(session, 1.0)
-    yield from move_to(session, above, timeout_s=timeout_s / 2, settle=True)
-    if free_yaw:
-        session.hold_yaw = False  # squared for the grasp only: later moves keep the yaw free, as before
+    try:
+        if (yield from square_to(session, object_name or squaring.grasped(session.obs, point))):
+            target = grip_site_for(session, point)  # the pads' offset from the grip site turned with the hand
+        yield from move_to(session, target, timeout_s=timeout_s / 2, tol=0.006)
+        yield from actuate_gripper(session, 1.0)
+        yield from move_to(session, above, timeout_s=timeout_s / 2, settle=True)
+    finally:
+        if free_yaw:  # squared for the grasp only, whether it held or failed: later moves keep the yaw free
+            session.hold_yaw = False
     held = session.obs.held()
     if held is None or (object_name is not None and held != object_name):
         raise PrimitiveFailure("grasp_lost", f"nothing is held after grasping at {np.round(target, 3).tolist()}")
