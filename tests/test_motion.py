@@ -374,6 +374,23 @@ def test_a_release_point_inside_a_block_puts_the_load_onto_it():
         arm.env.close()
 
 
+def test_a_move_pushes_what_the_hand_starts_against_and_runs_into_not_what_it_starts_in():
+    """A fist 5.5 cm behind a 4 cm cube, sent past it, pushes it; the same fist pressed on the cube's
+    side and sent away pushes nothing, nor does one lifted off it, one that starts at the box's centre
+    (a hand on a drawer's knob, which the drawer's box is centred on, pulling it), a move whose goal
+    lies in the cube, or one that passes beside it."""
+    seen = clearance.boxes(_observation({"cube": [0.0, 0.0, 0.82]}))
+    fist = clearance.Sweep((clearance.hand((0.02, 0.02)),))
+    behind, pressed = np.array([-0.055, 0.0, 0.82]), np.array([-0.03, 0.0, 0.82])
+    assert [box.name for box in clearance.pushed(behind, [0.2, 0.0, 0.82], seen, fist)] == ["cube"]
+    assert clearance.pushed(pressed, [-0.2, 0.0, 0.82], seen, fist) == []
+    assert clearance.pushed(pressed, [0.0, 0.0, 0.95], seen, fist) == []
+    assert clearance.pushed([0.004, 0.0, 0.82], [-0.12, 0.0, 0.825], seen, fist) == []
+    assert clearance.pushed([-0.004, 0.0, 0.82], [-0.12, 0.0, 0.825], seen, fist) == []
+    assert clearance.pushed(behind, [0.0, 0.0, 0.83], seen, fist) == []
+    assert clearance.pushed(behind, [-0.055, 0.2, 0.82], seen, fist) == []
+
+
 def test_a_release_point_stands_for_the_object_whose_own_position_it_is():
     """An object's own perceived position (within perception's noise) stands for the object; a
     point computed inside its box (a corner of a bin's floor) does not, nor does a point above it,

@@ -184,14 +184,25 @@ def path_over(start, goal, obstacles: list[Box], sweep: Sweep) -> list[np.ndarra
 
 
 def pushed(start, goal, obstacles: list[Box], sweep: Sweep) -> list[Box]:
-    """The boxes a move from ``start`` pushes along: the hand or its load is against them at the start
-    and the line to ``goal`` runs it through them (a fist set down behind a block to sweep it), the
-    goal's own box aside. :func:`path_over` passes through them; the move is to keep to its line."""
+    """The boxes a move from ``start`` pushes along: the move slides along the table, the grip site
+    starts behind the box (its centre farther along the move than the box reaches back), the hand
+    or its load is against it, and the line runs into it (a fist set down behind a block to sweep
+    it), the goal's own box aside. :func:`path_over` passes through them; the move is to keep to
+    its line. A hand at what it holds or presses on (a drawer's knob, whose box it starts in) and a
+    move up or away push nothing."""
     start, goal = np.asarray(start, dtype=float), np.asarray(goal, dtype=float)
+    along = goal - start
+    length = float(np.linalg.norm(along[:2]))
+    if length <= abs(float(along[2])):
+        return []  # mostly up or down: no slide
+    ahead = along[:2] / length
     return [
         box
         for box in obstacles
-        if not box.contains(goal, GOAL_MARGIN) and sweep.against(box, start) and sweep.blocks(box, start, goal)
+        if float(ahead @ (box.centre[:2] - start[:2])) > float(np.abs(ahead) @ box.half[:2])
+        and not box.contains(goal, GOAL_MARGIN)
+        and sweep.against(box, start)
+        and sweep.blocks(box, start, goal)
     ]
 
 
