@@ -188,8 +188,8 @@ def pushed(start, goal, obstacles: list[Box], sweep: Sweep) -> list[Box]:
     starts behind the box (its centre farther along the move than the box reaches back), the hand
     or its load is against it, and the line runs into it (a fist set down behind a block to sweep
     it), the goal's own box aside. :func:`path_over` passes through them; the move is to keep to
-    its line. A hand at what it holds or presses on (a drawer's knob, whose box it starts in) and a
-    move up or away push nothing."""
+    its line. A hand at what it holds or presses on (a drawer's knob, on which the drawer's
+    perceived box is centred) and a move up or away push nothing."""
     start, goal = np.asarray(start, dtype=float), np.asarray(goal, dtype=float)
     along = goal - start
     length = float(np.linalg.norm(along[:2]))

@@ -225,8 +225,9 @@ def _planned(session: RobotSession, goal: np.ndarray, timeout_s: float, final: d
     nothing in the way, go back by the table's middle and plan again, once (failing so again, the
     first stop is the failure named: beyond reach stays ``cannot_track``). Each leg (climb, pass,
     descent) has the move's ``timeout_s``: a detour is never cut short by a budget set for a line.
-    An empty hand that starts against a box its line runs through pushes it (:func:`clearance.pushed`):
-    it keeps to the line, as the end-effector APIs' moves do, and never climbs over what it pushes."""
+    An empty hand that slides from behind a box it is against into it pushes it
+    (:func:`clearance.pushed`): it keeps to the line, as the end-effector APIs' moves do, and never
+    climbs over what it pushes."""
     sweep = clearance.Sweep.of(session.obs, session.calibration.hand_half_xy)
     pushing: list[clearance.Box] = []
     if session.obs.held() is None:  # an empty hand set down behind what it sweeps (a carried tool's drag bends)
