@@ -40,20 +40,28 @@ PAR = 0.95  # a cell is at par where its successes are at least this share of th
 
 @dataclass
 class Execution:
-    """One cell under one variation setting: its successes and the source robot's on the same episodes."""
+    """One cell under one variation setting: its successes and the source robot's on the same episodes.
+    An episode a check refused by name as infeasible for this robot (a target it cannot reach) is kept
+    apart from the gaps: the cell is at par on the episodes it did not refuse."""
 
     variations: str
     episodes: int = 0
     successes: int = 0
     source_successes: int = 0
     gaps: list[str] = field(default_factory=list)  # "seed S: failure" where the source succeeded and it did not
+    refusals: list[str] = field(default_factory=list)  # "seed S: reason" where the source succeeded and it refused
+
+    @property
+    def feasible_source_successes(self) -> int:
+        """The source's successes on the episodes this robot did not refuse."""
+        return self.source_successes - len(self.refusals)
 
     @property
     def at_par(self) -> bool:
-        return self.successes >= PAR * self.source_successes
+        return self.successes >= PAR * self.feasible_source_successes
 
     def render(self) -> str:
-        return f"{self.successes}/{self.episodes}"
+        return f"{self.successes}/{self.episodes}" + (f" ({len(self.refusals)} refused)" if self.refusals else "")
 
 
 @dataclass

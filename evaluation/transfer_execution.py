@@ -9,7 +9,10 @@ same episodes, so every cell is read beside the world's own ceiling. The episode
 A cell's *gaps* are the episodes where the source robot succeeded and the cell's robot did not,
 each with the failure the record names. They are listed one by one, never averaged away: a gap on
 a validated grounding is what a reviewer reads first (the grounding may have been wrong while
-validation passed).
+validation passed). Where a check refused the episode by name as infeasible for the robot (a
+target nearer its base than its hand gets, beyond its reach), it is a *refusal*, listed apart with
+its reason: the cell is at par on the others, and a cell whose every such episode was refused
+counts as refused at run time, not at par.
 """
 
 from __future__ import annotations
@@ -18,6 +21,7 @@ from dataclasses import replace
 from pathlib import Path
 
 from lerobot_policy_recent.evaluation.jobs import BenchConfig, Job
+from lerobot_policy_recent.evaluation.metrics import refused
 from lerobot_policy_recent.evaluation.transfer import PAR, Cell, Execution, grid_lines
 from lerobot_policy_recent.recent_plugin.extras import pyplot
 from lerobot_policy_recent.robosuite_envs.suites import validation_task
@@ -83,7 +87,8 @@ def attach(cells: list[Cell], runs: dict[str, list[dict]], tasks: dict[str, str]
                 run.successes += bool(record["success"])
                 run.source_successes += bool(source and source["success"])
                 if source and source["success"] and not record["success"]:
-                    run.gaps.append(f"seed {record['seed']}: {_failure(record)}")
+                    into = run.refusals if refused(record) else run.gaps
+                    into.append(f"seed {record['seed']}: {_failure(record)}")
             cell.execution[setting] = run
 
 
@@ -95,31 +100,42 @@ def _failure(record: dict) -> str:
 
 
 def summary(cells: list[Cell]) -> dict[str, int]:
-    """Executed cells off the source, how many are at par with the source on every setting, and the gaps."""
+    """Executed cells off the source; those at par with the source in every setting on the episodes
+    they did not refuse; those that refused every episode the source succeeded on; gaps and refusals."""
     executed = [c for c in cells if c.execution and c.grounding != "source"]
+    refused_all = [c for c in executed if refused_in_execution(c)]
     return {
         "executed": len(executed),
-        "at_par": sum(all(run.at_par for run in c.execution.values()) for c in executed),
+        "at_par": sum(all(run.at_par for run in c.execution.values()) for c in executed if c not in refused_all),
+        "refused": len(refused_all),
         "gaps": sum(len(run.gaps) for c in executed for run in c.execution.values()),
+        "refusals": sum(len(run.refusals) for c in executed for run in c.execution.values()),
     }
+
+
+def refused_in_execution(cell: Cell) -> bool:
+    """Every episode the source succeeded on, this robot refused by name (none left to be at par on)."""
+    runs = cell.execution.values()
+    return any(run.refusals for run in runs) and not any(run.feasible_source_successes for run in runs)
 
 
 def per_robot_lines(cells: list[Cell], settings: list[str]) -> list[str]:
     """Per robot and setting: its cells' successes beside the source robots' on the same episodes."""
     lines = [
-        "| robot | variations | cells | successes | the source's, same episodes | cells at par |",
-        "|---|---|---:|---:|---:|---:|",
+        "| robot | variations | cells | successes | the source's, same episodes | refused as infeasible | cells at par |",
+        "|---|---|---:|---:|---:|---:|---:|",
     ]
     for robot in dict.fromkeys(c.robot for c in cells):
         ran = [c for c in cells if c.robot == robot and c.grounding != "source" and c.execution]
         for setting in settings:
-            runs = [c.execution[setting] for c in ran if setting in c.execution]
+            runs = [(c.execution[setting], refused_in_execution(c)) for c in ran if setting in c.execution]
             if not runs:
                 continue
-            episodes = sum(r.episodes for r in runs)
+            episodes = sum(r.episodes for r, _ in runs)
             lines.append(
-                f"| {robot} | {setting} | {len(runs)} | {sum(r.successes for r in runs)}/{episodes} | "
-                f"{sum(r.source_successes for r in runs)}/{episodes} | {sum(r.at_par for r in runs)} |"
+                f"| {robot} | {setting} | {len(runs)} | {sum(r.successes for r, _ in runs)}/{episodes} | "
+                f"{sum(r.source_successes for r, _ in runs)}/{episodes} | {sum(len(r.refusals) for r, _ in runs)} | "
+                f"{sum(r.at_par and not whole for r, whole in runs)} |"
             )
     return lines
 
@@ -143,8 +159,10 @@ def render_execution(cells: list[Cell]) -> str:
         "",
         f"Execution: successes per setting ({' / '.join(settings)}), the skill's single-subtask task; "
         f"{counts['executed']} cells ran off their source robot, {counts['at_par']} of them at "
-        f"≥ {PAR:.0%} of the source's successes on the same episodes in every setting; "
-        f"{counts['gaps']} episodes where the source succeeded and the cell did not (listed below). "
+        f"≥ {PAR:.0%} of the source's successes on the same episodes in every setting (on those not refused), "
+        f"{counts['refused']} refused at run time in every episode the source succeeded on; "
+        f"{counts['gaps']} episodes where the source succeeded and the cell did not, and {counts['refusals']} "
+        "where a check refused it by name as infeasible for the robot (both listed below). "
         "`*` marks the source robot.",
         "",
         *grid_lines(cells, text),
@@ -159,6 +177,14 @@ def render_execution(cells: list[Cell]) -> str:
         lines += [
             f"| `{c.skill}` | {c.robot} | {run.variations} | {c.grounding} | {'; '.join(run.gaps)} |" for c, run in gaps
         ]
+    refusals = [(c, run) for c in cells for run in c.execution.values() if run.refusals]
+    if refusals:
+        lines += [
+            "",
+            "| skill | robot | variations | refused as infeasible, where the source succeeded |",
+            "|---|---|---|---|",
+        ]
+        lines += [f"| `{c.skill}` | {c.robot} | {run.variations} | {'; '.join(run.refusals)} |" for c, run in refusals]
     return "\n".join(lines) + "\n"
 
 

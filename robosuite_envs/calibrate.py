@@ -23,6 +23,7 @@ from lerobot_policy_recent.robosuite_envs.calibration import CALIBRATION_VERSION
 from lerobot_policy_recent.robosuite_envs.observation import ACTION_DIM
 from lerobot_policy_recent.robosuite_envs.primitives import clearance, control
 from lerobot_policy_recent.robosuite_envs.primitives.session import CONTROL_FREQ, RobotSession
+from lerobot_policy_recent.robosuite_envs.table import TABLE_SIZE
 
 POSE_SECONDS = 8.0  # longest the arm servos to one calibration pose; it stops earlier once it is still
 GRIPPER_SECONDS = 10.0  # longest a gripper may take to close or open before calibration gives up on it
@@ -36,6 +37,10 @@ POSES = ((0.0, 0.0, 0.12), (-0.15, -0.25, 0.12), (0.15, -0.25, 0.12), (0.15, 0.2
 LOW_POSE = (0.0, -0.1, 0.03)  # near the table: where grasps happen
 REACH_STEP_M = 0.02  # how far out each probe of the reach at the table goes beyond the last
 REACHED_M = 0.01  # a probe the stopped grip site is within this of counts as reached (a sweep's margin)
+# heights above the table the inner reach is walked at (a grasp's, a carry's): the nearer is kept, so a
+# target refused there is out of reach at both (an iiwa's hand reaches 3 cm nearer low than 20 cm up)
+INNER_REACH_HEIGHTS_M = (TABLE_REACH_HEIGHT_M, 0.20)
+INNER_STEP_M = 0.01  # how far in each probe of the inner reach goes beyond the last
 
 
 def calibration(name: str, *, refresh: bool = False) -> Calibration:
@@ -92,14 +97,14 @@ def measure(name: str) -> Calibration:
     embodiment = get_embodiment(name)
     env = build_env(TaskSpec(f"calibration/{name}", "calibrate", (), ()), embodiment, seed=0)
     try:
-        env.reset()
-        probe = _Probe(env)
+        probe = _Probe(env, reset=True)
         arm = probe.arm_facts()
         gripper = probe.gripper_facts()
         tracking = probe.tracking()
-        env.reset()  # from the arm's home posture: after the tracking poses a 7-joint arm can sit folded where
-        probe = _Probe(env)  # the first probe stops short (Kinova3 read 0 m), and a reset may build a new sim
-        table_reach = probe.table_reach(arm["reach_m"])
+        # each walk from the arm's home posture: after the tracking poses a 7-joint arm can sit folded where
+        # the first probe stops short (Kinova3 read 0 m), and a reset may build a new sim
+        table_reach = _Probe(env, reset=True).table_reach(arm["reach_m"])
+        inner_reach = min(_Probe(env, reset=True).inner_reach(height) for height in INNER_REACH_HEIGHTS_M)
     finally:
         env.close()
     return Calibration(
@@ -110,6 +115,7 @@ def measure(name: str) -> Calibration:
         **gripper,
         **tracking,
         table_reach_m=table_reach,
+        inner_reach_m=inner_reach,
         table_top_z=round(float(env.table_top_z), 4),
         measured_with=f"robosuite {robosuite.__version__}, mujoco {mujoco.__version__}",
         seconds=round(time.perf_counter() - started, 2),
@@ -119,13 +125,16 @@ def measure(name: str) -> Calibration:
 class _Probe:
     """Drives one calibration env; each method measures one group of facts."""
 
-    def __init__(self, env):
+    def __init__(self, env, *, reset: bool = False):
+        if reset:
+            env.reset()
         self.env = env
         self.robot = env.robots[0]
         self.arm = self.robot.arms[0]
         self.gripper = self.robot.gripper[self.arm]
         self.model, self.data = env.sim.model, env.sim.data
         self.site = self.robot.eef_site_id[self.arm]
+        self._session = RobotSession("calibration", env.sensed())  # the reach walks': holds the pose it starts in
 
     # ---------------------------------------------------------------- the arm
     def arm_facts(self) -> dict:
@@ -279,17 +288,37 @@ class _Probe:
     def table_reach(self, stretched: float) -> float:
         """How far from the base, on the table plane, the grip site gets to TABLE_REACH_HEIGHT_M above the
         table: walked out from the table's centre, away from the base, until a probe stops short."""
-        session = RobotSession("calibration", self.env.sensed())
-        base = np.asarray(self.data.xpos[self.model.body_name2id(self.robot.robot_model.root_body)][:2], dtype=float)
-        out = -base / np.linalg.norm(base) if np.linalg.norm(base) > 1e-6 else np.array([1.0, 0.0])
-        height = self.env.table_top_z + TABLE_REACH_HEIGHT_M
+        base, out = self._table_line()
         reached, distance = 0.0, float(np.linalg.norm(base))
         while distance <= stretched:
-            goal = np.array([*(base + out * distance), height])
-            if self._servo(session, goal) > REACHED_M:
+            if not self._reaches(base + out * distance, TABLE_REACH_HEIGHT_M):
                 break
             reached, distance = distance, distance + REACH_STEP_M
         return round(reached, 3)
+
+    def inner_reach(self, height: float) -> float:
+        """How near the base, on the table plane, the grip site first stops short of a probe ``height``
+        above the table: walked in from the table's centre towards the base, down to the table's near
+        edge (0.0 where every probe was reached). A target nearer than that is out of reach pointing
+        down; one between it and the last probe reached is not known to be."""
+        base, out = self._table_line()
+        distance, near_edge = float(np.linalg.norm(base)), float(np.linalg.norm(base)) - TABLE_SIZE[0] / 2
+        while distance >= near_edge:
+            if not self._reaches(base + out * distance, height):
+                return round(distance, 3)
+            distance -= INNER_STEP_M
+        return 0.0
+
+    def _table_line(self) -> tuple[np.ndarray, np.ndarray]:
+        """The base on the table plane, and the unit direction from it through the table's centre."""
+        base = np.asarray(self.data.xpos[self.model.body_name2id(self.robot.robot_model.root_body)][:2], dtype=float)
+        out = -base / np.linalg.norm(base) if np.linalg.norm(base) > 1e-6 else np.array([1.0, 0.0])
+        return base, out
+
+    def _reaches(self, xy: np.ndarray, height: float) -> bool:
+        """The grip site, servoed pointing down to ``xy`` at ``height`` above the table, stops on it."""
+        goal = np.array([*xy, self.env.table_top_z + height])
+        return self._servo(self._session, goal) <= REACHED_M
 
     def _servo(self, session: RobotSession, goal: np.ndarray) -> float:
         """Servo the grip site to ``goal`` until it stops (what is left is the steady-state error); how far off."""

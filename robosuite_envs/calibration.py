@@ -20,7 +20,7 @@ from __future__ import annotations
 import json
 from dataclasses import asdict, dataclass
 
-CALIBRATION_VERSION = 7
+CALIBRATION_VERSION = 8
 TABLE_REACH_HEIGHT_M = 0.03  # grip site above the table top for the reach at the table: a sweep's or grasp's height
 
 
@@ -57,6 +57,10 @@ class Calibration:
     settle_tol_m: float  # a stopped grip site within this of its goal has arrived
     unreached: tuple[tuple[float, float, float], ...] = ()  # calibration poses (world) it could not reach
     table_reach_m: float = float("inf")  # farthest grip site from the base (table plane) it servos to near the table
+    # nearest the base (table plane) a probe walking in from the table's centre first stopped short, pointing
+    # down, at every height walked (3 and 20 cm above the table): a long arm's elbow folds only so far (0: it
+    # reached the table's near edge)
+    inner_reach_m: float = 0.0
     table_top_z: float = float("-inf")  # world height of the table top it was measured at (what objects rest on)
     # how far the closed gripper (a fist) reaches below the grip site, pointing down: linkage fingers
     # swing lower as they close, parallel ones do not
@@ -102,8 +106,14 @@ class Calibration:
             f"unreached poses   {unreached}",
             f"reach at table    {self.table_reach_m:.3f} m from the base ({TABLE_REACH_HEIGHT_M * 100:.0f} cm above the "
             f"table top at z = {self.table_top_z:.3f} m, pointing down)",
+            f"dead zone         {self._dead_zone()}",
             f"measured with     {self.measured_with} in {self.seconds:.1f} s (calibration v{self.version})",
         ]
+
+    def _dead_zone(self) -> str:
+        if not self.inner_reach_m:
+            return "none: it reaches the table's near edge"
+        return f"within {self.inner_reach_m:.3f} m of the base (the grip site, pointing down, stops short 3 and 20 cm up)"
 
     def _hold_line(self) -> str:
         """What the close / open line says of a zero command (a cup is not asked)."""
@@ -128,6 +138,7 @@ class Nominal:
     tracking_error_m: float = 0.0
     unreached: tuple = ()
     table_reach_m: float = float("inf")
+    inner_reach_m: float = 0.0
     table_top_z: float = float("-inf")  # unknown: no floor under a fist
     fist_below_site_m: float = 0.0
     base_xyz: tuple[float, float, float] = (0.0, 0.0, 0.0)  # an API's base frame then sits at the world origin

@@ -44,6 +44,8 @@ def test_calibration_reads_the_arm_the_ontology_reads_and_measures_the_rest(name
     assert measured.tracking_error_m < measured.settle_tol_m <= 0.05 and not measured.unreached
     # at the table the arm reaches past the table's centre, and less far than stretched out in the air
     assert np.linalg.norm(measured.base_xyz[:2]) < measured.table_reach_m < measured.reach_m
+    # and pointing down it reaches the table's near half, where the tasks put objects (30 cm from the base)
+    assert measured.inner_reach_m < 0.3
 
 
 def test_the_hand_footprint_is_measured_from_the_grippers_own_geometry():
@@ -64,6 +66,8 @@ def test_every_embodiment_calibrates_consistently_with_the_ontology(name, ontolo
     assert measured.mechanism == ("suction" if name == "Suction" else "fingers")
     # measured from the home posture: after the tracking poses a folded Kinova3 read 0 m
     assert np.linalg.norm(measured.base_xyz[:2]) < measured.table_reach_m < measured.reach_m
+    # an iiwa's elbow folds to 120 degrees only: pointing down, its hand stops short 36 cm from its base
+    assert (measured.inner_reach_m > 0.3) == (name in ("IIWA", "IIWAKRL"))
 
 
 def test_a_tool_tip_a_robot_file_declares_is_the_one_the_calibration_measures(ontology):

@@ -95,10 +95,30 @@ def test_each_grounded_cell_runs_beside_its_source_and_a_gap_is_listed_not_avera
     assert (ur5e.successes, ur5e.source_successes, ur5e.gaps, ur5e.at_par) == (1, 1, [], True)
     assert suction.gaps == ["seed 3: [motion_planning] waypoint_blocked: held up by contact with bin"]
     assert not cells[2].execution
-    assert summary(cells) == {"executed": 2, "at_par": 2, "gaps": 1}  # 1 of 2 against the source's 1 of 2
+    assert summary(cells) == {"executed": 2, "at_par": 2, "refused": 0, "gaps": 1, "refusals": 0}  # 1 of 2, as the source
     table = render_execution(cells)
     assert "| `put_in_bin` | 1/2 | 1/2 |" in table
     assert "| `put_in_bin` | Suction | on | ontology | seed 3: [motion_planning]" in table
+
+
+def test_an_episode_refused_as_out_of_reach_is_listed_apart_and_never_counts_as_par():
+    """A target the robot cannot reach, refused by name, is not a gap; a cell that refused every
+    episode its source succeeded on is refused at run time, not at par by default."""
+    from lerobot_policy_recent.evaluation.transfer import Cell
+    from lerobot_policy_recent.evaluation.transfer_execution import attach, render_execution, summary
+
+    cells = [Cell("clear_into_bin", "IIWA", "ontology"), Cell("clear_into_bin", "UR5e", "ontology")]
+    tasks, sources = {"clear_into_bin": "kinematic/clear_counter"}, {"clear_into_bin": "Panda"}
+    task, why = "kinematic/clear_counter", "refused: motion target [-0.216, 0.006, 0.940] lies 0.34 m from the base"
+    refusal = {**_record(task, "IIWA", 3, False, why), "failure_category": "unreachable_object"}
+    records = [_record(task, "Panda", 3, True), refusal, _record(task, "UR5e", 3, False, "blocked")]
+    attach(cells, {"off": records}, tasks, sources)
+    iiwa = cells[0].execution["off"]
+    assert (iiwa.gaps, iiwa.feasible_source_successes, iiwa.render()) == ([], 0, "0/1 (1 refused)")
+    assert summary(cells) == {"executed": 2, "at_par": 0, "refused": 1, "gaps": 1, "refusals": 1}
+    table = render_execution(cells)
+    assert f"| `clear_into_bin` | IIWA | off | seed 3: [unreachable_object] {why} |" in table
+    assert "| IIWA | off | 1 | 0/1 | 1/1 | 1 | 0 |" in table  # refused, not at par
 
 
 @pytest.mark.slow

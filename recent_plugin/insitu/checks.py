@@ -93,6 +93,7 @@ class SceneFacts:
     reach: float = float("inf")  # metres: the arm's reach (the ontology's upper bound)
     push_path: tuple[Waypoint, ...] = ()  # a push as its hand's path, for robots without one (the ontology's)
     table_reach: float = float("inf")  # metres from the base (table plane) the hand gets down to the table (calibrated)
+    inner_reach: float = 0.0  # metres from the base (table plane) within which the hand, pointing down, stops short
     table_top: float = float("-inf")  # world height of the table top (the workcell's, as calibration measured it)
     closing_axis: tuple[float, float, float] | None = None  # grip-site frame, one pad to the other (calibrated)
     hand_half_xy: tuple[float, float] | None = None  # metres, the open hand's half footprint along the grip site's x, y
@@ -646,29 +647,29 @@ POSITION_ROLES = ("grasp_target", "release_target", "motion_target", "push_start
 
 
 def within_reach(inp: CheckInput) -> Violation | None:
-    """A target farther from the base (on the table plane) than the arm reaches, or below the table top,
-    cannot be attained: the skill is refused there, by name, before the arm is sent (no patch can move
-    the robot, or bring back what fell off the table)."""
+    """A target farther from the base (on the table plane) than the arm reaches, nearer to it than the
+    hand gets pointing down (a long arm's elbow folds only so far: calibrated), or below the table
+    top, cannot be attained: the skill is refused there, by name, before the arm is sent (no patch can
+    move the robot, or bring back what fell off the table)."""
     base = np.asarray(inp.scene.base_xy, dtype=float)
     for role in POSITION_ROLES:
         target = _by_role(inp, role)
         if target is None:
             continue
         distance = float(np.linalg.norm(target[:2] - base))
+        where = f"{role.replace('_', ' ')} {_fmt(target)} lies"
         if target[2] < inp.scene.table_top - OFF_TABLE:  # read from an object that left the table
-            return Violation(
-                "within_reach",
-                f"{role.replace('_', ' ')} {_fmt(target)} lies {inp.scene.table_top - target[2]:.2f} m below the "
-                "table top: what it was read from left the table",
-                refuse=True,
+            why = f"{inp.scene.table_top - target[2]:.2f} m below the table top: what it was read from left the table"
+        elif distance > inp.scene.reach:
+            why = f"{distance:.2f} m from the base, beyond the arm's {inp.scene.reach:.2f} m reach"
+        elif distance <= inp.scene.inner_reach:
+            why = (
+                f"{distance:.2f} m from the base, where the hand, pointing down, stops short (calibrated: within "
+                f"{inp.scene.inner_reach:.2f} m)"
             )
-        if distance > inp.scene.reach:
-            return Violation(
-                "within_reach",
-                f"{role.replace('_', ' ')} {_fmt(target)} lies {distance:.2f} m from the base, beyond the arm's "
-                f"{inp.scene.reach:.2f} m reach",
-                refuse=True,
-            )
+        else:
+            continue
+        return Violation("within_reach", f"{where} {why}", refuse=True)
     return None
 
 

@@ -51,6 +51,7 @@ class Recent(Method):
             base_xy=a.calibration.base_xyz[:2],  # where the mount puts this arm, measured
             reach=a.target.arm.reach,
             table_reach=a.calibration.table_reach_m,  # how far out the hand gets down to the table, measured
+            inner_reach=a.calibration.inner_reach_m,  # how near the base it stops short, measured
             table_top=a.calibration.table_top_z,
             push_path=a.ontology.path_of("push_object"),
             closing_axis=a.calibration.closing_axis,
