@@ -113,7 +113,9 @@ class Calibration:
     def _dead_zone(self) -> str:
         if not self.inner_reach_m:
             return "none: it reaches the table's near edge"
-        return f"within {self.inner_reach_m:.3f} m of the base (the grip site, pointing down, stops short 3 and 20 cm up)"
+        return (
+            f"within {self.inner_reach_m:.3f} m of the base (the grip site, pointing down, stops short 3 and 20 cm up)"
+        )
 
     def _hold_line(self) -> str:
         """What the close / open line says of a zero command (a cup is not asked)."""

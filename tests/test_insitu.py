@@ -261,10 +261,16 @@ def test_effect_and_reach_checks_read_the_observation():
     assert fallen.refuse and "0.68 m below the table top: what it was read from left the table" in fallen.observation
     assert within_reach(check_input([0, 0, 0], {"place_pos": [0.1, 0.0, 0.82]}, release)) is None
     long_arm = SceneFacts(frozenset({"cube"}), {"cube": (0.05, 0.05, 0.05)}, base_xy=(-0.56, 0.0), inner_reach=0.36)
-    near = CheckInput(observed(cube=[0, 0, 0]), {"place_pos": [-0.22, 0.0, 0.94]}, release, frozenset(), {}, long_arm, UR5E)
+    near = CheckInput(
+        observed(cube=[0, 0, 0]), {"place_pos": [-0.22, 0.0, 0.94]}, release, frozenset(), {}, long_arm, UR5E
+    )
     folded = within_reach(near)  # its elbow folds only so far: nearer the base than the hand gets pointing down
-    assert folded.refuse and "lies 0.34 m from the base, where the hand, pointing down, stops short" in folded.observation
-    near = CheckInput(observed(cube=[0, 0, 0]), {"place_pos": [-0.18, 0.0, 0.94]}, release, frozenset(), {}, long_arm, UR5E)
+    assert (
+        folded.refuse and "lies 0.34 m from the base, where the hand, pointing down, stops short" in folded.observation
+    )
+    near = CheckInput(
+        observed(cube=[0, 0, 0]), {"place_pos": [-0.18, 0.0, 0.94]}, release, frozenset(), {}, long_arm, UR5E
+    )
     assert within_reach(near) is None
 
 

@@ -95,7 +95,13 @@ def test_each_grounded_cell_runs_beside_its_source_and_a_gap_is_listed_not_avera
     assert (ur5e.successes, ur5e.source_successes, ur5e.gaps, ur5e.at_par) == (1, 1, [], True)
     assert suction.gaps == ["seed 3: [motion_planning] waypoint_blocked: held up by contact with bin"]
     assert not cells[2].execution
-    assert summary(cells) == {"executed": 2, "at_par": 2, "refused": 0, "gaps": 1, "refusals": 0}  # 1 of 2, as the source
+    assert summary(cells) == {
+        "executed": 2,
+        "at_par": 2,
+        "refused": 0,
+        "gaps": 1,
+        "refusals": 0,
+    }  # 1 of 2, as the source
     table = render_execution(cells)
     assert "| `put_in_bin` | 1/2 | 1/2 |" in table
     assert "| `put_in_bin` | Suction | on | ontology | seed 3: [motion_planning]" in table
