@@ -261,6 +261,41 @@ def test_a_planned_move_set_down_behind_a_block_pushes_it_along_its_line():
         arm.env.close()
 
 
+def test_an_arms_move_that_swings_a_lid_by_its_knob_arrives_where_the_hinge_holds_it():
+    """The Franka Hand's open_hinged_box on a UR5e: its 2F-85 holds the knob farther out than the
+    source's fingers, so the knob's arc is a wider one and the hinge stops each move 1-1.5 cm off the
+    goal, in contact (held up by contact, 0 of 4 episodes). A move that drives a mechanism arrives
+    within DRAG_TOL; the lid swings past upright."""
+    from lerobot_policy_recent.robosuite_envs.calibrate import calibration
+
+    arm = _Arm("end_effector/open_box", "UR5e")
+    arm.session = RobotSession("UR5e", arm.session.obs, calibration("UR5e"))
+    try:
+        base = arm.position("box")
+        hinge = base + [0.07, 0.0, 0.08]
+        knob = hinge + [-0.125, 0.0, 0.022]
+        arm.run(control.actuate_gripper(arm.session, -1.0))
+        arm.run(control.move_to(arm.session, knob + [0.0, 0.0, 0.08], timeout_s=3.0, settle=True))
+        arm.run(control.move_to(arm.session, knob, timeout_s=3.0, settle=True))
+        arm.run(control.actuate_gripper(arm.session, 1.0))
+        for dx, dz in [[-0.110, 0.063], [-0.082, 0.097], [-0.043, 0.119], [0.0, 0.127], [0.044, 0.119]]:
+            arm.run(control.move_to(arm.session, hinge + [dx, 0.0, dz], timeout_s=3.0, settle=True))
+        assert arm.session.obs.objects["box"].state > np.pi / 2  # past upright: it falls open
+    finally:
+        arm.env.close()
+
+
+def test_a_stall_in_contact_is_a_drag_only_where_a_mechanism_moved():
+    """Pressed on a cube that does not give, a stop short is a blocked waypoint, not an arrival."""
+    still = _observation({"box": [0.05, 0.16, 0.8]})
+    still.objects["box"] = dataclasses.replace(still.objects["box"], state=0.40)
+    session = RobotSession("UR5e", dataclasses.replace(still, eef_contact=True))
+    assert control.drives_mechanism(session, {"box": 0.30})  # the lid swung 0.1 rad under the hand
+    assert not control.drives_mechanism(session, {"box": 0.395})  # it did not
+    session.update(still)  # nothing touched: whatever moved, the hand did not drive it
+    assert not control.drives_mechanism(session, {"box": 0.30})
+
+
 def test_a_press_aimed_inside_the_button_ends_where_the_fingertips_meet_it_pressed(arm):
     """A goal read low lies inside the button: the descent stops on the cap, bottomed out, instead of
     failing as a blocked waypoint; the button reads pressed."""

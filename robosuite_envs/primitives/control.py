@@ -33,6 +33,10 @@ POS_TOL = 0.008
 VIA_TOL = 0.02  # metres within which a waypoint the planner put on the way counts as passed
 SETTLED = 0.001  # metres per control step below which a servoed grip site counts as stopped
 STALL_STEPS = 10  # control steps over which a grip site is judged stopped (a lowered load set down, an arm stalled)
+# A drag (a drawer pulled against its damping, a lid swung by its knob) stalls 1-2 cm short of its
+# goal: a settling move that has stopped within DRAG_TOL while it drives a mechanism has arrived.
+DRAG_TOL = 0.025
+DRIVEN = 0.01  # change of an object's perceived state (m, rad, share) that shows the hand drove its mechanism
 SET_DOWN_GAP = 0.02  # metres above its target a grip site may stop once the held object rests on the surface
 APPROACH_HEIGHT = 0.10
 TABLE_CLEARANCE = 0.805  # z below which the fingers would hit the table top (metres, world)
@@ -116,6 +120,7 @@ def move_to(
         return
     max_steps = max(1, int(timeout_s * CONTROL_FREQ))
     towards = _line_follower(session.obs.eef_pos, goal) if straight else (lambda _: goal)
+    states = {name: state.state for name, state in session.obs.objects.items()}  # as the move begins
     last, reach = None, MAX_STEP
     trail: deque[np.ndarray] = deque(maxlen=STALL_STEPS + 1)  # the grip site's latest positions
     for _ in range(max_steps):
@@ -127,7 +132,8 @@ def move_to(
             return
         still = last is not None and float(np.linalg.norm(session.obs.eef_pos - last)) < SETTLED
         if settle:
-            arrived = err < POS_TOL or (err < tol and still)
+            driven = err < DRAG_TOL and _creeping(trail) and drives_mechanism(session, states)
+            arrived = err < POS_TOL or (err < tol and still) or driven
         else:
             arrived = err < tol
         if arrived or (
@@ -179,6 +185,19 @@ def _fist_above_table(session: RobotSession, goal: np.ndarray) -> np.ndarray:
         return goal
     floor = session.calibration.table_top_z + session.calibration.fist_below_site_m + FIST_FLOOR
     return goal if goal[2] >= floor else np.r_[goal[:2], floor]
+
+
+def drives_mechanism(session: RobotSession, before: dict[str, float]) -> bool:
+    """The hand, touching something, has driven a mechanism since ``before``: an object's perceived
+    state (a lid's angle, a drawer's opening) changed by ``DRIVEN``. Its joint, not an obstacle, then
+    holds the hand: a knob's arc written for the source hand's grip is a wider one for a grip that
+    holds the knob farther out (a UR5e's 2F-85 stopped 1.4 cm off the arc, above it, while the lid
+    still swung), and a drawer at the end of its travel stops the pull."""
+    if not (session.obs.eef_contact or any(session.obs.finger_contact)):
+        return False
+    return any(
+        abs(state.state - before[name]) >= DRIVEN for name, state in session.obs.objects.items() if name in before
+    )
 
 
 def _creeping(trail: Sequence[np.ndarray]) -> bool:

@@ -13,9 +13,6 @@ import numpy as np
 from lerobot_policy_recent.robosuite_envs.primitives import control
 from lerobot_policy_recent.robosuite_envs.primitives.session import RobotSession, TaskContext
 
-# A drag (a drawer pulled against its damping) stalls 1-2 cm short of its goal. A move that has
-# stopped within DRAG_TOL has arrived; one still moving keeps going for POS_TOL.
-DRAG_TOL = 0.025
 _DIRECTIONS = {"x": (1, 0, 0), "-x": (-1, 0, 0), "y": (0, 1, 0), "-y": (0, -1, 0), "z": (0, 0, 1), "-z": (0, 0, -1)}
 
 
@@ -23,9 +20,12 @@ def move_to_position(
     env: RobotSession, task: TaskContext, pos: Sequence[float], pointing_to: str = "down"
 ) -> control.Steps:
     """Move the end effector to ``pos`` along a straight line, pointing ``pointing_to`` (only 'down' is
-    supported): a move that pushes something slides it along that line."""
+    supported): a move that pushes something slides it along that line. It arrives once stopped
+    within ``DRAG_TOL``, whatever stops it (a drawer pulled against its damping stalls 1-2 cm short);
+    one still moving keeps going for ``POS_TOL``. An arm's own move does so only while it drives a
+    mechanism (:func:`~.control.drives_mechanism`)."""
     check_pointing(pointing_to)
-    yield from control.move_to(env, pos, tol=DRAG_TOL, settle=True, straight=True, plan=False)
+    yield from control.move_to(env, pos, tol=control.DRAG_TOL, settle=True, straight=True, plan=False)
 
 
 def move_gripper_to(env: RobotSession, task: TaskContext, obj_name: str, pointing_to: str = "down") -> control.Steps:

@@ -8,7 +8,6 @@ import numpy as np
 
 from lerobot_policy_recent.robosuite_envs.primitives import control
 from lerobot_policy_recent.robosuite_envs.primitives.end_effector_moves import (
-    DRAG_TOL,
     check_pointing,
     move_gripper_to,
     move_parallel,
@@ -52,7 +51,7 @@ def move_to_position(
         goal = goal - np.array([*control.held_offset(env)[:2], 0.0])
     # sealed on a load that rests or slides on something, or pressed on a knob
     drag = (env.obs.object_detected or env.obs.eef_contact) and not hangs
-    yield from control.move_to(env, goal, tol=DRAG_TOL, settle=True, stop_on_contact=True, straight=not drag)
+    yield from control.move_to(env, goal, tol=control.DRAG_TOL, settle=True, stop_on_contact=True, straight=not drag)
 
 
 def attach_vacuum_handle(env: RobotSession, task: TaskContext, handle_name: str) -> control.Steps:
