@@ -285,6 +285,23 @@ def test_an_arms_move_that_swings_a_lid_by_its_knob_arrives_where_the_hinge_hold
         arm.env.close()
 
 
+def test_a_cup_comes_down_square_to_the_face_it_seals_on():
+    """The Panda holds its cup's axis 7 degrees off the vertical: coming down so, its edge met the
+    5 cm block on two contact points and it never sealed (clear_into_bin, the cup, every episode).
+    It descends along the face's normal and seals; its tilt is given back afterwards."""
+    from lerobot_policy_recent.robosuite_envs.calibrate import calibration
+
+    arm = _Arm("kinematic/clear_counter", "Suction")
+    arm.session = RobotSession("Suction", arm.session.obs, calibration("Suction"))
+    try:
+        started = arm.session.hold_quat.copy()
+        arm.run(control.suction_grasp_at(arm.session, arm.position("block")))
+        assert arm.session.obs.held() == "block"
+        assert np.allclose(arm.session.hold_quat, started)
+    finally:
+        arm.env.close()
+
+
 def test_a_stall_in_contact_is_a_drag_only_where_a_mechanism_moved():
     """Pressed on a cube that does not give, a stop short is a blocked waypoint, not an arrival."""
     still = _observation({"box": [0.05, 0.16, 0.8]})

@@ -14,7 +14,7 @@ from collections.abc import Generator, Sequence
 from dataclasses import replace
 
 import numpy as np
-from robosuite.utils.transform_utils import mat2quat, quat2axisangle, quat2mat, quat_multiply
+from robosuite.utils.transform_utils import axisangle2quat, mat2quat, quat2axisangle, quat2mat, quat_multiply
 
 from lerobot_policy_recent.robosuite_envs.observation import ACTION_DIM
 from lerobot_policy_recent.robosuite_envs.primitives import clearance, squaring
@@ -49,15 +49,18 @@ SQUARE_S = 2.0  # longest a grasp turns its jaw square to the object before it d
 SQUEEZE_STEPS = 10  # control steps a closing gripper keeps closing on what it holds before its command is held
 
 
-def servo_action(session: RobotSession, target_pos: np.ndarray, reach: float = MAX_STEP) -> Action:
+def servo_action(
+    session: RobotSession, target_pos: np.ndarray, reach: float = MAX_STEP, *, deadband: float = ROT_DEADBAND
+) -> Action:
     """One P-step towards ``target_pos`` holding the session's orientation, with its gripper command.
     ``reach``: how far ahead of the grip site the step's setpoint may lie, per axis (metres); a
     reach grown past ``MAX_STEP`` (:func:`_breakaway`) scales the error by as much, so that an arm
-    stalled near its goal, where the error and not the reach sets the step, is pushed harder too."""
+    stalled near its goal, where the error and not the reach sets the step, is pushed harder too.
+    ``deadband``: the orientation error left uncorrected (radians)."""
     obs = session.obs
     delta = np.clip((target_pos - obs.eef_pos) * max(1.0, reach / MAX_STEP), -reach, reach)
     rot = rotation_error(session)
-    if np.linalg.norm(rot) < ROT_DEADBAND:
+    if np.linalg.norm(rot) < deadband:
         rot = np.zeros(3)  # small tilts are harmless; fighting them stalls arms near singular postures
     action = np.zeros(ACTION_DIM)
     action[:3] = np.clip(delta / POS_SCALE, -1.0, 1.0)
@@ -506,9 +509,16 @@ def suction_grasp_at(session: RobotSession, position: Sequence[float], *, timeou
     above = target + np.array([0.0, 0.0, APPROACH_HEIGHT])
     yield from actuate_gripper(session, -1.0, duration_s=0.1, max_duration_s=0.2)
     yield from move_to(session, above, timeout_s=timeout_s, settle=True)
-    yield from descend_until_contact(session, target, timeout_s=timeout_s / 2)
-    yield from actuate_gripper(session, 1.0, duration_s=0.3, max_duration_s=0.5)
-    yield from move_to(session, above, timeout_s=timeout_s / 2, settle=True)
+    # A cup seals only flat on the face: its axis comes down along the face's normal (the world's
+    # vertical), not along the tool axis the arm started with (a Panda's, 7 degrees off it, and up
+    # to the rotation deadband more), whose edge met a 5 cm block on two points and never sealed.
+    started, session.hold_quat = session.hold_quat, vertical(session.obs.eef_quat)
+    try:
+        yield from descend_until_contact(session, target, timeout_s=timeout_s / 2, deadband=0.0)
+        yield from actuate_gripper(session, 1.0, duration_s=0.3, max_duration_s=0.5)
+        yield from move_to(session, above, timeout_s=timeout_s / 2, settle=True)
+    finally:
+        session.hold_quat = started
     if not session.obs.object_detected:  # the vacuum sensor reads no seal
         raise PrimitiveFailure(
             "grasp_lost",
@@ -517,10 +527,17 @@ def suction_grasp_at(session: RobotSession, position: Sequence[float], *, timeou
 
 
 def descend_until_contact(
-    session: RobotSession, target: np.ndarray, *, timeout_s: float = 5.0, overshoot: float = 0.01, press_steps: int = 3
+    session: RobotSession,
+    target: np.ndarray,
+    *,
+    timeout_s: float = 5.0,
+    overshoot: float = 0.01,
+    press_steps: int = 3,
+    deadband: float = ROT_DEADBAND,
 ) -> Steps:
     """Lower towards ``target`` (and ``overshoot`` below it) until the end effector's contact sensor fires,
-    then press on for ``press_steps`` so a cup's whole face comes down on the surface."""
+    then press on for ``press_steps`` so a cup's whole face comes down on the surface. ``deadband``:
+    the tilt left uncorrected on the way down (:func:`servo_action`)."""
     goal = np.array(target) - np.array([0.0, 0.0, overshoot])
     pressed = 0
     for _ in range(max(1, int(timeout_s * CONTROL_FREQ))):
@@ -528,7 +545,7 @@ def descend_until_contact(
             if pressed >= press_steps:
                 return
             pressed += 1
-        yield servo_action(session, goal)
+        yield servo_action(session, goal, deadband=deadband)
     raise PrimitiveFailure("unreachable", f"no contact while descending to {np.round(target, 3).tolist()}")
 
 
@@ -619,6 +636,20 @@ def rotation_error(session: RobotSession) -> np.ndarray:
     if sin < 1e-9:
         return np.zeros(3)
     return axis / sin * np.arctan2(sin, cos)
+
+
+def vertical(quat_xyzw: Sequence[float]) -> np.ndarray:
+    """``quat_xyzw`` turned the least that puts its z axis along the world's vertical (the way it
+    points, up or down): a tool pointing down, square to the table, its yaw kept."""
+    rotation = quat2mat(np.asarray(quat_xyzw, dtype=np.float64))
+    z_now = rotation[:, 2]
+    z_goal = np.array([0.0, 0.0, 1.0 if z_now[2] >= 0 else -1.0])
+    axis = np.cross(z_now, z_goal)
+    sin, cos = float(np.linalg.norm(axis)), float(np.dot(z_now, z_goal))
+    if sin < 1e-9:
+        return np.asarray(quat_xyzw, dtype=np.float64)
+    turn = axisangle2quat(axis / sin * np.arctan2(sin, cos))
+    return quat_multiply(turn, np.asarray(quat_xyzw, dtype=np.float64))
 
 
 def orientation_error(session: RobotSession) -> float:
