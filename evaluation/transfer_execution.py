@@ -167,25 +167,25 @@ def render_execution(cells: list[Cell]) -> str:
         "",
         *grid_lines(cells, text),
     ]
-    gaps = [(c, run) for c in cells for run in c.execution.values() if run.gaps]
-    if gaps:
-        lines += [
-            "",
-            "| skill | robot | variations | grounding | where the source succeeded |",
-            "|---|---|---|---|---|",
-        ]
-        lines += [
-            f"| `{c.skill}` | {c.robot} | {run.variations} | {c.grounding} | {'; '.join(run.gaps)} |" for c, run in gaps
-        ]
-    refusals = [(c, run) for c in cells for run in c.execution.values() if run.refusals]
-    if refusals:
-        lines += [
-            "",
-            "| skill | robot | variations | refused as infeasible, where the source succeeded |",
-            "|---|---|---|---|",
-        ]
-        lines += [f"| `{c.skill}` | {c.robot} | {run.variations} | {'; '.join(run.refusals)} |" for c, run in refusals]
+    runs = [(c, run) for c in cells for run in c.execution.values()]
+    lines += _listed(
+        "| skill | robot | variations | grounding | where the source succeeded |",
+        [
+            f"| `{c.skill}` | {c.robot} | {r.variations} | {c.grounding} | {'; '.join(r.gaps)} |"
+            for c, r in runs
+            if r.gaps
+        ],
+    )
+    lines += _listed(
+        "| skill | robot | variations | refused as infeasible, where the source succeeded |",
+        [f"| `{c.skill}` | {c.robot} | {r.variations} | {'; '.join(r.refusals)} |" for c, r in runs if r.refusals],
+    )
     return "\n".join(lines) + "\n"
+
+
+def _listed(header: str, rows: list[str]) -> list[str]:
+    """A markdown table of ``rows`` under ``header``, after a blank line; nothing without rows."""
+    return ["", header, "|" + "---|" * (header.count("|") - 1), *rows] if rows else []
 
 
 def plot_execution(cells: list[Cell], path: Path) -> Path | None:
