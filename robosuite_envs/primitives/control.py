@@ -630,9 +630,13 @@ def rotation_error(session: RobotSession) -> np.ndarray:
     current, held = quat2mat(session.obs.eef_quat), quat2mat(session.hold_quat)
     if session.hold_yaw:
         return quat2axisangle(mat2quat(held @ current.T))
-    z_now, z_goal = current[:, 2], held[:, 2]
+    return _turn_between(current[:, 2], held[:, 2])
+
+
+def _turn_between(z_now: np.ndarray, z_goal: np.ndarray) -> np.ndarray:
+    """Axis-angle (world frame) of the least rotation taking unit axis ``z_now`` onto ``z_goal``."""
     axis = np.cross(z_now, z_goal)
-    sin, cos = np.linalg.norm(axis), float(np.clip(np.dot(z_now, z_goal), -1.0, 1.0))
+    sin, cos = float(np.linalg.norm(axis)), float(np.clip(np.dot(z_now, z_goal), -1.0, 1.0))
     if sin < 1e-9:
         return np.zeros(3)
     return axis / sin * np.arctan2(sin, cos)
@@ -641,15 +645,10 @@ def rotation_error(session: RobotSession) -> np.ndarray:
 def vertical(quat_xyzw: Sequence[float]) -> np.ndarray:
     """``quat_xyzw`` turned the least that puts its z axis along the world's vertical (the way it
     points, up or down): a tool pointing down, square to the table, its yaw kept."""
-    rotation = quat2mat(np.asarray(quat_xyzw, dtype=np.float64))
-    z_now = rotation[:, 2]
-    z_goal = np.array([0.0, 0.0, 1.0 if z_now[2] >= 0 else -1.0])
-    axis = np.cross(z_now, z_goal)
-    sin, cos = float(np.linalg.norm(axis)), float(np.dot(z_now, z_goal))
-    if sin < 1e-9:
-        return np.asarray(quat_xyzw, dtype=np.float64)
-    turn = axisangle2quat(axis / sin * np.arctan2(sin, cos))
-    return quat_multiply(turn, np.asarray(quat_xyzw, dtype=np.float64))
+    quat = np.asarray(quat_xyzw, dtype=np.float64)
+    z_now = quat2mat(quat)[:, 2]
+    turn = _turn_between(z_now, np.array([0.0, 0.0, 1.0 if z_now[2] >= 0 else -1.0]))
+    return quat if not np.any(turn) else quat_multiply(axisangle2quat(turn), quat)
 
 
 def orientation_error(session: RobotSession) -> float:
