@@ -32,6 +32,7 @@ from lerobot_policy_recent.ontology.skill_code import (
 from lerobot_policy_recent.ontology.specs import (
     NAMED_BY_POINT,
     PATH_ROLE,
+    TIMEOUT_ROLE,
     ApiSpec,
     ParameterSpec,
     PrimitiveSpec,
@@ -102,6 +103,9 @@ class Conflict:
     # the call has no counterpart to make and is dropped (rendered as ``pass``): a hand closed only to
     # push with, on an end effector that takes no shape (see :func:`_shaping_only`)
     omitted: bool = False
+    # substitute parameters given a value the original call relied on without stating it: (name, literal),
+    # the time its motion had where the substitute's default gives less (see :func:`_time_kept`)
+    kept: tuple[tuple[str, str], ...] = ()
 
     @property
     def refused(self) -> bool:
@@ -167,6 +171,7 @@ class Diagnosis:
                         else {}
                     ),
                     **({"path": [p.render() for p in c.path]} if c.path else {}),
+                    **({"kept": dict(c.kept)} if c.kept else {}),
                 }
                 for c in self.conflicts
             ],
@@ -318,11 +323,12 @@ def _conflict(
     dropped = [name for name in dropped if name not in taken]
     # required and mapped from nothing, or from an argument that does not determine it (a position for a pose)
     undetermined = {m.target for m in mapping if m.conversion and not m.conversion.determined and m.source in given}
-    mapped = {m.target for m in mapping} - undetermined
+    kept = _time_kept(original, substitute, given)
+    mapped = ({m.target for m in mapping} - undetermined) | {name for name, _ in kept}
     unfilled = tuple(p.name for p in substitute.parameters if p.required and p.name not in mapped) + tuple(
         m.target for args in arguments for m in args if m.conversion and not m.conversion.determined
     )
-    translated = any((m.values or m.conversion) and m.source in given for m in mapping)
+    translated = kept or any((m.values or m.conversion) and m.source in given for m in mapping)
     if unfilled:
         span_type = "interface_rewiring"  # the new interface needs an argument the old call never had
     elif preparatory:
@@ -341,13 +347,29 @@ def _conflict(
         unfilled=unfilled,
         preparatory=preparatory,
         preparatory_arguments=arguments if any(arguments) else (),
+        kept=kept,
     )
     after = f", after {', '.join(_described(conflict))}" if preparatory else ""
     way = "lower" if pressed > 0 else "higher"
     deeper = (
         f"; its point {abs(pressed) * 1000:g} mm {way}: {robot}'s tool presses as deep as {source}'s" if lowered else ""
     )
-    return replace(conflict, reason=f"no {site.name}; use {substitute.name} (same effects){after}{deeper}")
+    time = "".join(f"; {name}={value}: the seconds {site.name} gave its motion" for name, value in kept)
+    return replace(conflict, reason=f"no {site.name}; use {substitute.name} (same effects){after}{deeper}{time}")
+
+
+def _time_kept(original: PrimitiveSpec, substitute: PrimitiveSpec, given: dict) -> tuple[tuple[str, str], ...]:
+    """The time the original call gave its motion, where the substitute's default gives less: the
+    skill's moves were written for that time (a Franka Hand's 31 cm sweep within its move's 6 s; a
+    UR5e's move gives up after 3 s, 1 cm short). A timeout the call states is mapped like any other
+    argument, and a substitute's longer default is left as it is (a slower arm keeps its own)."""
+    target, source = substitute.by_role(TIMEOUT_ROLE), original.by_role(TIMEOUT_ROLE)
+    allowed = original.time_allowed()
+    if target is None or allowed is None or (source is not None and source.name in given):
+        return ()
+    if isinstance(target.default, int | float) and allowed <= target.default:
+        return ()
+    return ((target.name, repr(float(allowed))),)
 
 
 def _pressed_deeper(onto: Ontology, source: str, robot: str, sites: Sequence[CallSite]) -> float:

@@ -13,6 +13,7 @@ from lerobot_policy_recent.descriptions.embodiments import read_yaml
 from lerobot_policy_recent.descriptions.frames import ARM_BASE, LENGTH_UNITS, WORLD
 
 PATH_CAPABILITY, PATH_ROLE = "cartesian_motion", "motion_target"  # a move to a point, and that point
+TIMEOUT_ROLE = "timeout"  # how long a call gives its motion before it fails
 PARAM_TYPES = ("position", "quaternion", "rotvec", "euler", "pose", "float", "int", "str", "bool", "object_name")
 # what a parameter is for: the ontology pairs a source call's argument with the target's parameter of the same
 # role, so a role outside this vocabulary would match nothing (a typo silently changes the grounding)
@@ -120,12 +121,22 @@ class PrimitiveSpec:
     # where the end effector goes, in order: a robot without a primitive of the same effects can
     # trace it with its Cartesian moves (a push is a path, whatever hand pushes)
     path: tuple[Waypoint, ...] = ()
+    # how long its motion runs before it fails where no parameter sets that (a Franka Hand's move: 6 s)
+    time_limit_s: float | None = None
 
     def parameter(self, name: str) -> ParameterSpec | None:
         return next((p for p in self.parameters if p.name == name), None)
 
     def by_role(self, role: str) -> ParameterSpec | None:
         return next((p for p in self.parameters if p.role == role), None)
+
+    def time_allowed(self) -> float | None:
+        """How long a call that states no timeout gives its motion: its timeout parameter's default,
+        else the limit the primitive declares (None where neither is known)."""
+        timeout = self.by_role(TIMEOUT_ROLE)
+        if timeout is not None and _number(timeout.default):
+            return float(timeout.default)
+        return self.time_limit_s
 
     def signature(self) -> str:
         """Typed signature, e.g. ``ur5_grasp_at(env, task, grasp_pos: position [m], timeout_s: float [s] = 5.0)``."""
@@ -377,7 +388,18 @@ def _parse_primitive(item: Any, embodiment: str, path: Path, where: str) -> Prim
         preconditions=frozenset(_str_list(item, "preconditions", path, where)),
         effects=frozenset(_str_list(item, "effects", path, where)),
         path=_parse_path(item, params, path, where),
+        time_limit_s=_time_limit(item, path, where),
     )
+
+
+def _time_limit(item: dict, path: Path, where: str) -> float | None:
+    """``time_limit_s``: optional, a positive number of seconds."""
+    value = item.get("time_limit_s")
+    if value is None:
+        return None
+    if not _number(value) or value <= 0:
+        raise SpecError(path, f"{where}.time_limit_s", f"must be a positive number of seconds, got {value!r}")
+    return float(value)
 
 
 def _point(prim: PrimitiveSpec) -> ParameterSpec | None:

@@ -248,6 +248,9 @@ def test_malformed_spec_names_file_and_field(tmp_path):
     bad.write_text("tool_tip_below_site_m: -0.01\n" + grab)
     with pytest.raises(SpecError, match=r"tool_tip_below_site_m: must be metres from 0 to 0.3, got -0.01"):
         load_api_spec(bad)
+    bad.write_text(grab + "    time_limit_s: -1\n")
+    with pytest.raises(SpecError, match=r"\(grab\)\.time_limit_s: must be a positive number of seconds, got -1"):
+        load_api_spec(bad)
     bad.write_text("embodiment: [unclosed\n")
     with pytest.raises(SpecError, match="not valid YAML"):
         load_api_spec(bad)
@@ -503,3 +506,41 @@ def test_a_tool_put_back_onto_a_robot_that_places_only_by_name_and_cannot_move_t
         "place puts tool back at its own earlier point, where no object is to put it on by name"
     )
     assert "Tongs places only onto a named object and has no move to trace the place with" in place.reason
+
+
+def _rendered(ontology, code: str, robot: str) -> list[str]:
+    from lerobot_policy_recent.recent_plugin.refactoring.substitution import render_substitute_call
+
+    result = diagnose(ontology, "moves", code, robot, source="FrankaHand" if "move_to_position" in code else "Panda")
+    return [render_substitute_call(c.span.text(code), c) for c in result.conflicts]
+
+
+def test_a_move_keeps_the_time_its_source_call_gave_it_where_the_target_gives_less(ontology):
+    """The Franka Hand's sweep pushed a block 31 cm within its move's 6 s; a UR5e's move gives up
+    after 3 s by default, 1 cm short (every sweep_into_pen episode on UR5e). The source's time is
+    kept; a timeout the call states is mapped as it is; an arm whose own default is longer keeps it."""
+    hand = "def moves(env, task):\n    move_to_position(env, task, pos=[0.1, 0.0, 0.9])\n"
+    assert _rendered(ontology, hand, "UR5e") == ["ur5_move_to(env, task, target_pos=[0.1, 0.0, 0.9], timeout_s=6.0)"]
+    assert _rendered(ontology, hand, "UR5eScript")[0].endswith("t=6.0)")
+    assert "timeout" not in _rendered(ontology, hand, "XArm7")[0]  # its own 10 s default: more than the source's
+    panda = "def moves(env, task):\n    move(env, task, target_pos=[0.1, 0.0, 0.9], timeout=4.0)\n"
+    assert _rendered(ontology, panda, "UR5e") == ["ur5_move_to(env, task, target_pos=[0.1, 0.0, 0.9], timeout_s=4.0)"]
+    [conflict] = diagnose(ontology, "moves", hand, "UR5e", source="FrankaHand").conflicts
+    assert (
+        conflict.kept == (("timeout_s", "6.0"),)
+        and "timeout_s=6.0: the seconds move_to_position gave" in conflict.reason
+    )
+
+
+def test_a_declared_time_limit_is_the_controllers_own():
+    """A move with no timeout parameter declares the limit its controller applies: what a target is
+    given in its place must be what the source had."""
+    import inspect
+
+    from lerobot_policy_recent.robosuite_envs.primitives import control
+
+    default = inspect.signature(control.move_to).parameters["timeout_s"].default
+    for robot in ("franka_hand", "robotiq85", "suction"):
+        api = load_api_spec(Path(__file__).parents[1] / "descriptions" / "robots" / f"{robot}.yaml")
+        limits = {p.name: p.time_limit_s for p in api.primitives if p.time_limit_s is not None}
+        assert limits == dict.fromkeys(("move_gripper_to", "move_to_position", "move_parallel"), default), robot

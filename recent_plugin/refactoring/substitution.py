@@ -30,12 +30,14 @@ def render_substitute_call(span: str, conflict: Conflict) -> str | None:
     first = [_preparatory_call(conflict, k, given) for k in range(len(conflict.preparatory))]
     if conflict.path:
         return "\n".join([*first, *_traced(conflict, given, targets)])
-    by_target = {m.target: m for m in conflict.mapping}
+    by_target, kept = {m.target: m for m in conflict.mapping}, dict(conflict.kept)
     arguments = ["env", "task"]
     for param in substitute.parameters:
         mapping = by_target.get(param.name)
         if mapping is not None and mapping.source in given:
             arguments.append(f"{param.name}={_bound(given[mapping.source], mapping)}")
+        elif param.name in kept:  # what the original relied on without stating it (its motion's time)
+            arguments.append(f"{param.name}={kept[param.name]}")
         elif param.required:
             arguments.append(f"{param.name}=<{param.type}>")
     return "\n".join([*first, f"{targets}{substitute.name}({', '.join(arguments)})"])
