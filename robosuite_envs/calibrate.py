@@ -19,7 +19,12 @@ from pathlib import Path
 import numpy as np
 
 from lerobot_policy_recent.descriptions.embodiments import Embodiment, get_embodiment, resolve_model_file
-from lerobot_policy_recent.robosuite_envs.calibration import CALIBRATION_VERSION, TABLE_REACH_HEIGHT_M, Calibration
+from lerobot_policy_recent.robosuite_envs.calibration import (
+    CALIBRATION_VERSION,
+    REACHED_M,
+    TABLE_REACH_HEIGHT_M,
+    Calibration,
+)
 from lerobot_policy_recent.robosuite_envs.observation import ACTION_DIM
 from lerobot_policy_recent.robosuite_envs.primitives import clearance, control
 from lerobot_policy_recent.robosuite_envs.primitives.session import CONTROL_FREQ, RobotSession
@@ -36,11 +41,12 @@ UNREACHED_M = 0.05  # a calibration pose the stopped arm is this far off is out 
 POSES = ((0.0, 0.0, 0.12), (-0.15, -0.25, 0.12), (0.15, -0.25, 0.12), (0.15, 0.22, 0.12), (-0.15, 0.22, 0.12))
 LOW_POSE = (0.0, -0.1, 0.03)  # near the table: where grasps happen
 REACH_STEP_M = 0.02  # how far out each probe of the reach at the table goes beyond the last
-REACHED_M = 0.01  # a probe the stopped grip site is within this of counts as reached (a sweep's margin)
 # heights above the table the inner reach is walked at (a grasp's, a carry's): the nearer is kept, so a
 # target refused there is out of reach at both (an iiwa's hand reaches 3 cm nearer low than 20 cm up)
 INNER_REACH_HEIGHTS_M = (TABLE_REACH_HEIGHT_M, 0.20)
 INNER_STEP_M = 0.01  # how far in each probe of the inner reach goes beyond the last
+# heights above the table the reach out is walked at: a grasp's, a carry's, an approach's, a lid's top
+REACH_HEIGHTS_M = (TABLE_REACH_HEIGHT_M, 0.13, 0.23, 0.33)
 
 
 def calibration(name: str, *, refresh: bool = False) -> Calibration:
@@ -105,6 +111,10 @@ def measure(name: str) -> Calibration:
         # the first probe stops short (Kinova3 read 0 m), and a reset may build a new sim
         table_reach = _Probe(env, reset=True).table_reach(arm["reach_m"])
         inner_reach = min(_Probe(env, reset=True).inner_reach(height) for height in INNER_REACH_HEIGHTS_M)
+        reach_by_height = tuple(
+            (height, _Probe(env, reset=True).first_stop(height, table_reach, arm["reach_m"]))
+            for height in REACH_HEIGHTS_M
+        )
     finally:
         env.close()
     return Calibration(
@@ -116,6 +126,7 @@ def measure(name: str) -> Calibration:
         **tracking,
         table_reach_m=table_reach,
         inner_reach_m=inner_reach,
+        reach_by_height=reach_by_height,
         table_top_z=round(float(env.table_top_z), 4),
         measured_with=f"robosuite {robosuite.__version__}, mujoco {mujoco.__version__}",
         seconds=round(time.perf_counter() - started, 2),
@@ -295,6 +306,22 @@ class _Probe:
                 break
             reached, distance = distance, distance + REACH_STEP_M
         return round(reached, 3)
+
+    def first_stop(self, height: float, start: float, stretched: float) -> float:
+        """How far from the base, on the table plane, the first probe ``height`` above the table that the
+        grip site stops short of lies: walked out from ``start`` (the reach at the table) in
+        REACH_STEP_M, or in from it where it is not reached there (inf: reached out to the stretch)."""
+        base, out = self._table_line()
+        distance = start
+        if not self._reaches(base + out * distance, height):
+            while distance - REACH_STEP_M > 0.0 and not self._reaches(base + out * (distance - REACH_STEP_M), height):
+                distance -= REACH_STEP_M
+            return round(distance, 3)
+        while distance + REACH_STEP_M <= stretched:
+            distance += REACH_STEP_M
+            if not self._reaches(base + out * distance, height):
+                return round(distance, 3)
+        return float("inf")
 
     def inner_reach(self, height: float) -> float:
         """How near the base, on the table plane, the grip site first stops short of a probe ``height``

@@ -20,7 +20,8 @@ from __future__ import annotations
 import json
 from dataclasses import asdict, dataclass
 
-CALIBRATION_VERSION = 8
+CALIBRATION_VERSION = 9
+REACHED_M = 0.01  # a probe the stopped grip site is within this of counts as reached (a sweep's margin)
 TABLE_REACH_HEIGHT_M = 0.03  # grip site above the table top for the reach at the table: a sweep's or grasp's height
 
 
@@ -61,6 +62,9 @@ class Calibration:
     # down, at every height walked (3 and 20 cm above the table): a long arm's elbow folds only so far (0: it
     # reached the table's near edge)
     inner_reach_m: float = 0.0
+    # (height above the table top, distance from the base on the table plane) of the nearest probe a walk
+    # out from the table reach first stopped short of, pointing down, at each height walked (inf: none)
+    reach_by_height: tuple[tuple[float, float], ...] = ()
     table_top_z: float = float("-inf")  # world height of the table top it was measured at (what objects rest on)
     # how far the closed gripper (a fist) reaches below the grip site, pointing down: linkage fingers
     # swing lower as they close, parallel ones do not
@@ -75,7 +79,7 @@ class Calibration:
     @classmethod
     def from_json(cls, text: str) -> Calibration:
         data = json.loads(text)
-        for key in ("joint_limits", "unreached"):
+        for key in ("joint_limits", "unreached", "reach_by_height"):
             data[key] = tuple(tuple(v) for v in data[key])
         for key in ("base_xyz", "grip_site_in_hand", "grasp_point", "hand_half_xy"):
             data[key] = tuple(data[key])
@@ -106,9 +110,25 @@ class Calibration:
             f"unreached poses   {unreached}",
             f"reach at table    {self.table_reach_m:.3f} m from the base ({TABLE_REACH_HEIGHT_M * 100:.0f} cm above the "
             f"table top at z = {self.table_top_z:.3f} m, pointing down)",
+            f"reach in the air  {self._in_the_air()}",
             f"dead zone         {self._dead_zone()}",
             f"measured with     {self.measured_with} in {self.seconds:.1f} s (calibration v{self.version})",
         ]
+
+    def reach_limits(self) -> tuple[tuple[float, float], ...]:
+        """(height above the table, distance from the base) beyond which the grip site, sent there pointing
+        down, stops farther short than it settles: the probe it first stopped short of lay at least
+        ``REACHED_M`` beyond what it reached, and a move may end within ``settle_tol_m`` of its goal."""
+        return tuple((h, d - REACHED_M + self.settle_tol_m) for h, d in self.reach_by_height)
+
+    def _in_the_air(self) -> str:
+        if not self.reach_by_height:
+            return "not measured"
+        stops = ", ".join(
+            f"{h * 100:.0f} cm up: {'beyond its stretch' if d == float('inf') else f'{d:.2f} m'}"
+            for h, d in self.reach_by_height
+        )
+        return f"first stops short (pointing down) at {stops}"
 
     def _dead_zone(self) -> str:
         if not self.inner_reach_m:
@@ -144,6 +164,9 @@ class Nominal:
     table_top_z: float = float("-inf")  # unknown: no floor under a fist
     fist_below_site_m: float = 0.0
     base_xyz: tuple[float, float, float] = (0.0, 0.0, 0.0)  # an API's base frame then sits at the world origin
+
+    def reach_limits(self) -> tuple[tuple[float, float], ...]:
+        return ()  # unknown: nothing is refused as out of reach in the air
 
 
 def _vec(values) -> str:

@@ -46,6 +46,11 @@ def test_calibration_reads_the_arm_the_ontology_reads_and_measures_the_rest(name
     assert np.linalg.norm(measured.base_xyz[:2]) < measured.table_reach_m < measured.reach_m
     # and pointing down it reaches the table's near half, where the tasks put objects (30 cm from the base)
     assert measured.inner_reach_m < 0.3
+    # walked out at each height, it first stops short within its stretch: at the table, one step past its reach
+    # there; higher up nearer or farther (a Jaco's hand 2 cm nearer 23 cm up)
+    (low, first), *higher = measured.reach_by_height
+    assert (low, first) == (pytest.approx(0.03), pytest.approx(measured.table_reach_m + 0.02))
+    assert all(0.03 < h and 0.5 < d <= measured.reach_m for h, d in higher)
 
 
 def test_the_hand_footprint_is_measured_from_the_grippers_own_geometry():
@@ -68,6 +73,19 @@ def test_every_embodiment_calibrates_consistently_with_the_ontology(name, ontolo
     assert np.linalg.norm(measured.base_xyz[:2]) < measured.table_reach_m < measured.reach_m
     # an iiwa's elbow folds to 120 degrees only: pointing down, its hand stops short 36 cm from its base
     assert (measured.inner_reach_m > 0.3) == (name in ("IIWA", "IIWAKRL"))
+    assert all(0.5 < d <= measured.reach_m for _, d in measured.reach_by_height)
+
+
+def test_the_reach_in_the_air_tells_a_short_arm_from_the_source():
+    """close_hinged_box's first move, 26 cm above the table and 0.79 m from the base: the Panda's hand
+    gets there, a Kinova3's stops 2.4 cm short (cannot track, every episode); its calibrated limit
+    at that height refuses it by name before the arm is sent."""
+    from lerobot_policy_recent.recent_plugin.insitu.checks import SceneFacts, reach_in_the_air
+
+    def limit(name: str, height: float) -> float:
+        return reach_in_the_air(SceneFacts(frozenset(), {}, reach_limits=calibration(name).reach_limits()), height)
+
+    assert limit("Kinova3", 0.26) < 0.78 < 0.79 < limit("Panda", 0.26)
 
 
 def test_a_tool_tip_a_robot_file_declares_is_the_one_the_calibration_measures(ontology):

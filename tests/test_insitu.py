@@ -272,6 +272,25 @@ def test_effect_and_reach_checks_read_the_observation():
         observed(cube=[0, 0, 0]), {"place_pos": [-0.18, 0.0, 0.94]}, release, frozenset(), {}, long_arm, UR5E
     )
     assert within_reach(near) is None
+    # in the air the hand pointing down reaches less far than stretched (calibrated at 3, 13, 23, 33 cm up)
+    short_arm = SceneFacts(
+        frozenset({"cube"}),
+        {"cube": (0.05, 0.05, 0.05)},
+        base_xy=(-0.56, 0.0),
+        table_top=0.8,
+        reach_limits=((0.03, 0.76), (0.13, 0.76), (0.23, 0.77), (0.33, 0.72)),
+    )
+
+    def sent_to(point):
+        return within_reach(
+            CheckInput(observed(cube=[0, 0, 0]), {"place_pos": point}, release, frozenset(), {}, short_arm, UR5E)
+        )
+
+    high = sent_to([0.21, 0.16, 1.06])  # 26 cm up: the farther of the limits at 23 and 33 cm
+    assert high.refuse and "0.79 m from the base, 26 cm above the table, beyond the 0.77 m" in high.observation
+    assert sent_to([0.19, 0.16, 1.06]) is None  # 0.77 m: within it
+    assert sent_to([0.21, 0.16, 0.815]) is None  # along the table (a push's goal): the block gets there first
+    assert sent_to([0.21, 0.16, 1.2]) is None  # above every height walked: not known
 
 
 def test_a_drift_within_sensing_noise_is_not_a_move():

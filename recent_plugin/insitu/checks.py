@@ -94,6 +94,9 @@ class SceneFacts:
     push_path: tuple[Waypoint, ...] = ()  # a push as its hand's path, for robots without one (the ontology's)
     table_reach: float = float("inf")  # metres from the base (table plane) the hand gets down to the table (calibrated)
     inner_reach: float = 0.0  # metres from the base (table plane) within which the hand, pointing down, stops short
+    # (height above the table, metres from the base) beyond which the hand sent there pointing down stops
+    # farther short than a move settles (calibrated at a few heights; see reach_in_the_air)
+    reach_limits: tuple[tuple[float, float], ...] = ()
     table_top: float = float("-inf")  # world height of the table top (the workcell's, as calibration measured it)
     closing_axis: tuple[float, float, float] | None = None  # grip-site frame, one pad to the other (calibrated)
     hand_half_xy: tuple[float, float] | None = None  # metres, the open hand's half footprint along the grip site's x, y
@@ -662,6 +665,11 @@ def within_reach(inp: CheckInput) -> Violation | None:
             why = f"{inp.scene.table_top - target[2]:.2f} m below the table top: what it was read from left the table"
         elif distance > inp.scene.reach:
             why = f"{distance:.2f} m from the base, beyond the arm's {inp.scene.reach:.2f} m reach"
+        elif distance > (limit := reach_in_the_air(inp.scene, float(target[2]) - inp.scene.table_top)):
+            why = (
+                f"{distance:.2f} m from the base, {(target[2] - inp.scene.table_top) * 100:.0f} cm above the table, "
+                f"beyond the {limit:.2f} m the hand reaches pointing down there (calibrated)"
+            )
         elif distance <= inp.scene.inner_reach:
             why = (
                 f"{distance:.2f} m from the base, where the hand, pointing down, stops short (calibrated: within "
@@ -671,6 +679,20 @@ def within_reach(inp: CheckInput) -> Violation | None:
             continue
         return Violation("within_reach", f"{where} {why}", refuse=True)
     return None
+
+
+def reach_in_the_air(scene: SceneFacts, height: float) -> float:
+    """How far from the base a target ``height`` above the table may lie before the hand, pointing
+    down, stops farther short of it than a move settles: the farther of the calibrated limits at the
+    heights walked either side (the reach bulges between them by under 2 mm); inf outside them (a
+    push's goal along the table may lie past the hand's reach: the block gets there first), or
+    where nothing was measured."""
+    limits = sorted(scene.reach_limits)
+    if not limits or not limits[0][0] <= height <= limits[-1][0]:
+        return float("inf")
+    below = [d for h, d in limits if h <= height][-1]
+    above = next(d for h, d in limits if h >= height)
+    return max(below, above)
 
 
 def _moved_objects(inp: CheckInput) -> list[str]:

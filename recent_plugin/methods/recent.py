@@ -52,6 +52,7 @@ class Recent(Method):
             reach=a.target.arm.reach,
             table_reach=a.calibration.table_reach_m,  # how far out the hand gets down to the table, measured
             inner_reach=a.calibration.inner_reach_m,  # how near the base it stops short, measured
+            reach_limits=a.calibration.reach_limits(),  # how far out it gets in the air, measured
             table_top=a.calibration.table_top_z,
             push_path=a.ontology.path_of("push_object"),
             closing_axis=a.calibration.closing_axis,
