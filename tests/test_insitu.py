@@ -290,6 +290,7 @@ def test_effect_and_reach_checks_read_the_observation():
     assert high.refuse and "0.79 m from the base, 26 cm above the table, beyond the 0.77 m" in high.observation
     assert sent_to([0.19, 0.16, 1.06]) is None  # 0.77 m: within it
     assert sent_to([0.21, 0.16, 0.815]) is None  # along the table (a push's goal): the block gets there first
+    assert sent_to([0.21, 0.16, 0.87]) is None  # 7 cm up, carrying a rake: an xArm 7 got 0.75 m out there
     assert sent_to([0.21, 0.16, 1.2]) is None  # above every height walked: not known
 
 
