@@ -45,8 +45,9 @@ REACH_STEP_M = 0.02  # how far out each probe of the reach at the table goes bey
 # target refused there is out of reach at both (an iiwa's hand reaches 3 cm nearer low than 20 cm up)
 INNER_REACH_HEIGHTS_M = (TABLE_REACH_HEIGHT_M, 0.20)
 INNER_STEP_M = 0.01  # how far in each probe of the inner reach goes beyond the last
-# heights above the table the reach out is walked at: a grasp's, a carry's, an approach's, a lid's top
-REACH_HEIGHTS_M = (TABLE_REACH_HEIGHT_M, 0.13, 0.23, 0.33)
+# heights above the table the reach out is walked at, in the air (a carry's, an approach's, a lid's top):
+# at the table the reach walk above already found its first stop, one step past table_reach_m
+REACH_HEIGHTS_M = (0.13, 0.23, 0.33)
 
 
 def calibration(name: str, *, refresh: bool = False) -> Calibration:

@@ -63,7 +63,8 @@ class Calibration:
     # reached the table's near edge)
     inner_reach_m: float = 0.0
     # (height above the table top, distance from the base on the table plane) of the nearest probe a walk
-    # out from the table reach first stopped short of, pointing down, at each height walked (inf: none)
+    # out from the table reach first stopped short of, pointing down, at each height walked in the air
+    # (inf: none)
     reach_by_height: tuple[tuple[float, float], ...] = ()
     table_top_z: float = float("-inf")  # world height of the table top it was measured at (what objects rest on)
     # how far the closed gripper (a fist) reaches below the grip site, pointing down: linkage fingers

@@ -646,7 +646,6 @@ def _push_calls(inp: CheckInput, start: np.ndarray, goal: np.ndarray) -> tuple[s
     )
 
 
-IN_THE_AIR_M = 0.10  # the reach walked from this height up bounds targets between those heights (13 to 33 cm)
 POSITION_ROLES = ("grasp_target", "release_target", "motion_target", "push_start", "push_goal", "handle_target")
 
 
@@ -685,11 +684,11 @@ def within_reach(inp: CheckInput) -> Violation | None:
 def reach_in_the_air(scene: SceneFacts, height: float) -> float:
     """How far from the base a target ``height`` above the table may lie before the hand, pointing
     down, stops farther short of it than a move settles: the farther of the calibrated limits at the
-    heights walked either side (the reach bulges between them by under 2 mm), from ``IN_THE_AIR_M``
-    up; inf outside them, or where nothing was measured. Nearer the table the walk's first stop is
-    no bound: a push's goal may lie past the hand (the block gets there first), and an xArm 7
-    carried a rake 0.75 m out, 7 cm up, beyond the 0.72 m its walk first stopped short of."""
-    limits = sorted((h, d) for h, d in scene.reach_limits if h >= IN_THE_AIR_M)
+    heights walked either side (the reach bulges between them by under 2 mm); inf outside them, or
+    where nothing was measured. Nearer the table no walk bounds a target: a push's goal may lie
+    past the hand (the block gets there first), and an xArm 7 carried a rake 0.75 m out, 7 cm up,
+    beyond the 0.72 m the walk at the table first stopped short of."""
+    limits = sorted(scene.reach_limits)
     if not limits or not limits[0][0] <= height <= limits[-1][0]:
         return float("inf")
     below = [d for h, d in limits if h <= height][-1]
