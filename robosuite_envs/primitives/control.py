@@ -396,9 +396,10 @@ def actuate_gripper(
     a fixed rate, and a close left on winds on past the object, which a later open must unwind before
     a finger moves (a slow hand's for seconds). A fast gripper's fingers stop first, and its command,
     wound to its end within its short stroke, stays as it is. A slow hand squeezes for
-    ``SQUEEZE_SHARE`` of its calibrated close where that is longer: its grip grows with how far the
-    command winds past the object, and ``SQUEEZE_STEPS`` is a whole stroke of a 0.5 s jaw but 8 % of
-    the Jaco's 6.35 s three fingers, which read a 4 cm block held and let it slip out on the lift.
+    ``SQUEEZE_SHARE`` of its calibrated close where that is longer: ``SQUEEZE_STEPS`` is a whole
+    stroke of a 0.5 s jaw but 8 % of the Jaco's 6.35 s three fingers, which go on settling around a
+    block for a second after it first reads held (their opening still changing); lifted 10 steps
+    after that, a 4 cm block came up in all three and slipped out at the top of the lift.
     """
     if max_duration_s is None:
         max_duration_s = max(GRIPPER_WAIT_S, STROKE_MARGIN * stroke_seconds(session, command))
