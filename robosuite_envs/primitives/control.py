@@ -408,7 +408,7 @@ def actuate_gripper(
     hold = np.array(session.obs.eef_pos)
     min_steps = max(1, int(duration_s * CONTROL_FREQ))
     previous, still, squeezed = session.obs.gripper_opening, 0, 0
-    squeeze = max(SQUEEZE_STEPS, int(SQUEEZE_SHARE * stroke_seconds(session, command) * CONTROL_FREQ))
+    squeeze = squeeze_steps(session)
     for step in range(max(min_steps, int(max_duration_s * CONTROL_FREQ))):
         yield servo_action(session, hold)
         opening = session.obs.gripper_opening
@@ -420,6 +420,12 @@ def actuate_gripper(
             break  # stopped (on an object, at the limit); a full open also reads open (fingers on an object stall first)
     if hold_closed and squeezed >= squeeze:
         session.gripper_command = 0.0  # squeezed: a rate command is wound on far enough to hold the grip
+
+
+def squeeze_steps(session: RobotSession) -> int:
+    """Control steps a close goes on squeezing what it holds before its command is held
+    (:func:`actuate_gripper`): ``SQUEEZE_STEPS``, or ``SQUEEZE_SHARE`` of a slow hand's calibrated close."""
+    return max(SQUEEZE_STEPS, int(SQUEEZE_SHARE * stroke_seconds(session, 1.0) * CONTROL_FREQ))
 
 
 def opened(session: RobotSession, fraction: float = OPEN_ENOUGH) -> bool:
