@@ -374,34 +374,6 @@ def test_an_arm_folded_by_a_stretch_breaks_away_from_its_stall_and_arrives(monke
 
 
 @pytest.mark.slow
-def test_a_slow_hand_squeezes_long_enough_to_lift_what_it_closed_on(monkeypatch):
-    """tower_of_three, dev seed 3, on the Jaco (three fingers, 6.35 s to close): green is stacked on
-    red, then blue (4 cm) is taken. The fingers, partly closed since the release, reach blue within
-    a second; squeezed for a fixed 10 steps, the grip read held and blue slipped out on the lift.
-    Squeezed for a quarter of the hand's calibrated close, blue comes up with the hand."""
-    from lerobot_policy_recent.robosuite_envs.calibrate import calibration
-
-    def stack_then_take_blue(arm: _Arm) -> None:
-        arm.session = RobotSession("Jaco", arm.session.obs, calibration("Jaco"))
-        raw, _ = arm.env.reset(seed=3)
-        arm.session.update(arm._decode(raw))
-        arm.run(control.grasp_at(arm.session, arm.position("green")))
-        arm.run(control.release_at(arm.session, arm.position("red") + [0.0, 0.0, 0.05]))
-        arm.run(control.grasp_at(arm.session, arm.position("blue")))
-
-    arm = _Arm("end_effector/tower_of_three", "Jaco")
-    try:
-        with monkeypatch.context() as patch:
-            patch.setattr(control, "SQUEEZE_SHARE", 0.0)  # a fixed SQUEEZE_STEPS, as for a fast jaw
-            with pytest.raises(PrimitiveFailure, match="nothing is held"):
-                stack_then_take_blue(arm)
-        stack_then_take_blue(arm)
-        assert arm.session.obs.held() == "blue"
-    finally:
-        arm.env.close()
-
-
-@pytest.mark.slow
 def test_a_fist_sent_below_the_table_slides_just_above_it():
     """XArm7's closed fingers reach 2.6 cm below its grip site (a Panda's 1.4 cm). Sent to a sweep's
     height, 1.5 cm above the table, with its calibration the fist stops just above the table and

@@ -47,7 +47,6 @@ STROKE_MARGIN = 1.5  # a full stroke may take this multiple of its calibrated ti
 UNFOLD_SHORT = 0.05  # metres short of its goal a stopped arm counts as trapped, not off by its tracking error
 SQUARE_S = 2.0  # longest a grasp turns its jaw square to the object before it descends anyway
 SQUEEZE_STEPS = 10  # control steps a closing gripper keeps closing on what it holds before its command is held
-SQUEEZE_SHARE = 0.25  # of a full close's calibrated time: a slow hand squeezes that long, where it is longer
 
 
 def servo_action(
@@ -395,11 +394,7 @@ def actuate_gripper(
     for ``SQUEEZE_STEPS`` (fingers on an object may jitter and never read still): its command steps at
     a fixed rate, and a close left on winds on past the object, which a later open must unwind before
     a finger moves (a slow hand's for seconds). A fast gripper's fingers stop first, and its command,
-    wound to its end within its short stroke, stays as it is. A slow hand squeezes for
-    ``SQUEEZE_SHARE`` of its calibrated close where that is longer: ``SQUEEZE_STEPS`` is a whole
-    stroke of a 0.5 s jaw but 8 % of the Jaco's 6.35 s three fingers, which go on settling around a
-    block for a second after it first reads held (their opening still changing); lifted 10 steps
-    after that, a 4 cm block came up in all three and slipped out at the top of the lift.
+    wound to its end within its short stroke, stays as it is.
     """
     if max_duration_s is None:
         max_duration_s = max(GRIPPER_WAIT_S, STROKE_MARGIN * stroke_seconds(session, command))
@@ -408,24 +403,17 @@ def actuate_gripper(
     hold = np.array(session.obs.eef_pos)
     min_steps = max(1, int(duration_s * CONTROL_FREQ))
     previous, still, squeezed = session.obs.gripper_opening, 0, 0
-    squeeze = squeeze_steps(session)
     for step in range(max(min_steps, int(max_duration_s * CONTROL_FREQ))):
         yield servo_action(session, hold)
         opening = session.obs.gripper_opening
         still = still + 1 if abs(opening - previous) < 1e-3 else 0
         squeezed = squeezed + 1 if hold_closed and session.obs.held() is not None else 0
         previous = opening
-        stopped = still >= 3 or squeezed >= squeeze
+        stopped = still >= 3 or squeezed >= SQUEEZE_STEPS
         if step + 1 >= min_steps and stopped and (command > -1.0 or opened(session)):
             break  # stopped (on an object, at the limit); a full open also reads open (fingers on an object stall first)
-    if hold_closed and squeezed >= squeeze:
+    if hold_closed and squeezed >= SQUEEZE_STEPS:
         session.gripper_command = 0.0  # squeezed: a rate command is wound on far enough to hold the grip
-
-
-def squeeze_steps(session: RobotSession) -> int:
-    """Control steps a close goes on squeezing what it holds before its command is held
-    (:func:`actuate_gripper`): ``SQUEEZE_STEPS``, or ``SQUEEZE_SHARE`` of a slow hand's calibrated close."""
-    return max(SQUEEZE_STEPS, int(SQUEEZE_SHARE * stroke_seconds(session, 1.0) * CONTROL_FREQ))
 
 
 def opened(session: RobotSession, fraction: float = OPEN_ENOUGH) -> bool:
