@@ -343,6 +343,78 @@ def test_a_cup_lowered_onto_a_button_presses_it_until_the_cap_bottoms_out():
             arm.env.close()
 
 
+def test_a_push_withdraws_up_and_back_along_its_line():
+    """Away from what it pushed, and not past where it was sent; a push in place withdraws straight up."""
+    begin, end = np.array([-0.1, 0.2, 0.82]), np.array([0.1, 0.2, 0.82])
+    withdrawn = control._withdrawal(begin, end)
+    assert np.allclose(withdrawn, end + [-control.PUSH_BACK_OFF, 0.0, control.APPROACH_HEIGHT])
+    assert np.allclose(control._withdrawal(end, end), end + [0.0, 0.0, control.APPROACH_HEIGHT])
+
+
+def _jaco(task: str, seed: int = 0) -> _Arm:
+    """A Jaco with its calibration, its scene reset with ``seed`` (what it perceives, and where)."""
+    from lerobot_policy_recent.robosuite_envs.calibrate import calibration
+
+    arm = _Arm(task, "Jaco")
+    raw, _ = arm.env.reset(seed=seed)
+    arm.session = RobotSession("Jaco", arm._decode(raw), calibration("Jaco"))
+    return arm
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("back_off", [True, False], ids=["withdrawn back", "straight up"])
+def test_a_jaco_wiping_at_its_reach_comes_back_for_the_next_stroke(monkeypatch, back_off):
+    """The wipe's first stroke ends 0.72 m from the Jaco's base. Withdrawn straight up there, its
+    elbow unbends past straight, its wrist comes to its limit, and it stops 13 cm short of the next
+    stroke's start, going back by the table's middle too; withdrawn back along the push as it
+    rises, it comes back."""
+    if not back_off:
+        monkeypatch.setattr(control, "PUSH_BACK_OFF", 0.0)
+    arm = _jaco("kinematic/wipe_table")
+    try:
+        area = arm.position("stain")
+        arm.run(control.push_to(arm.session, area + [-0.09, -0.045, 0.02], area + [0.09, -0.045, 0.02]))
+        next_start = area + [-0.09, -0.015, 0.02 + control.APPROACH_HEIGHT]
+        if back_off:
+            arm.run(control.move_to(arm.session, next_start, timeout_s=10.0, settle=True))
+            assert np.linalg.norm(arm.session.obs.eef_pos - next_start) < arm.session.calibration.settle_tol_m
+        else:
+            with pytest.raises(PrimitiveFailure, match="the same after going back by the table's middle"):
+                arm.run(control.move_to(arm.session, next_start, timeout_s=10.0, settle=True))
+    finally:
+        arm.env.close()
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("rise", [True, False], ids=["risen", "not risen"])
+def test_a_jaco_trapped_by_a_far_grasp_rises_and_carries_the_block_to_the_bin(monkeypatch, rise):
+    """The block lies 0.72 m from the Jaco's base; taken by a hand that comes from the bin's first
+    corner, the elbow bends past straight, and the carry to the next corner stops some 4.5 cm short,
+    touching nothing: more than twice the Jaco's
+    calibrated steady-state error (18 mm), so trapped. Risen before it goes back by the table's
+    middle, it carries the block there; without the rise it stops again."""
+    if not rise:
+        monkeypatch.setattr(control, "UNFOLD_RISE", 0.0)
+    arm = _jaco("kinematic/clear_counter", seed=3)  # the block perceived at (0.121, -0.207)
+    try:
+        block, bin_pos = arm.position("block"), arm.position("bin")
+        arm.run(control.move_to(arm.session, bin_pos + [-0.045, -0.045, 0.2], timeout_s=6.0))  # the cube's corner
+        arm.run(control.move_to(arm.session, block + [0.0, 0.0, 0.12], timeout_s=6.0))
+        arm.run(control.grasp_at(arm.session, block))
+        arm.run(control.move_to(arm.session, [block[0], block[1], bin_pos[2] + 0.2], timeout_s=6.0))
+        assert arm.session.obs.held() == "block"
+        corner = bin_pos + [-0.045, 0.045, 0.2]
+        if rise:
+            arm.run(control.move_to(arm.session, corner, timeout_s=6.0))
+            assert np.linalg.norm(arm.session.obs.eef_pos - corner) < control.POS_TOL
+            assert arm.session.obs.held() == "block"
+        else:
+            with pytest.raises(PrimitiveFailure, match="the same after going back by the table's middle"):
+                arm.run(control.move_to(arm.session, corner, timeout_s=6.0))
+    finally:
+        arm.env.close()
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("load", [False, True], ids=["empty", "carrying"])
 def test_an_arm_folded_by_a_stretch_breaks_away_from_its_stall_and_arrives(monkeypatch, load):

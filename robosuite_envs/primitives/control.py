@@ -39,11 +39,13 @@ DRAG_TOL = 0.025
 DRIVEN = 0.01  # change of an object's perceived state (m, rad, share) that shows the hand drove its mechanism
 SET_DOWN_GAP = 0.02  # metres above its target a grip site may stop once the held object rests on the surface
 APPROACH_HEIGHT = 0.10
+PUSH_BACK_OFF = 0.04  # metres a push's fist withdraws back along the push as it rises (_withdrawal)
 TABLE_CLEARANCE = 0.805  # z below which the fingers would hit the table top (metres, world)
 FIST_FLOOR = 0.001  # metres above the table top a closed, empty hand's lowest point is kept
 GRIPPER_WAIT_S = 3.0  # longest a gripper command is held by default (a slower calibrated stroke: longer)
 OPEN_ENOUGH = 0.8  # fraction of its calibrated stroke a gripper must open to let go
 STROKE_MARGIN = 1.5  # a full stroke may take this multiple of its calibrated time (under load, against friction)
+UNFOLD_RISE = 0.12  # metres a trapped arm rises before it goes back by the table's middle (_unfold)
 UNFOLD_SHORT = 0.05  # metres short of its goal a stopped arm counts as trapped, not off by its tracking error
 SQUARE_S = 2.0  # longest a grasp turns its jaw square to the object before it descends anyway
 SQUEEZE_STEPS = 10  # control steps a closing gripper keeps closing on what it holds before its command is held
@@ -244,8 +246,9 @@ def _slides(session: RobotSession, goal: np.ndarray) -> bool:
 def _planned(session: RobotSession, goal: np.ndarray, timeout_s: float, final: dict) -> Steps:
     """:func:`move_to` along the planner's path over perceived boxes; held up on the way, climb once
     over what the hand or its load meets there and plan again from above it; stopped far short with
-    nothing in the way, go back by the table's middle and plan again, once (failing so again, the
-    first stop is the failure named: beyond reach stays ``cannot_track``). Each leg (climb, pass,
+    nothing in the way, rise, go back by the table's middle and plan again; once more without the
+    rise (failing so again, the first stop is the failure named: beyond reach stays
+    ``cannot_track``). Each leg (climb, pass,
     descent) has the move's ``timeout_s``: a detour is never cut short by a budget set for a line.
     An empty hand that slides from behind a box it is against into it pushes it
     (:func:`clearance.pushed`): it keeps to the line, as the end-effector APIs' moves do, and never
@@ -256,7 +259,7 @@ def _planned(session: RobotSession, goal: np.ndarray, timeout_s: float, final: d
         pushing = clearance.pushed(session.obs.eef_pos, goal, clearance.boxes(session.obs), sweep)
     if pushing:  # bent, a sweep's fist sideswiped its block and climbed over it when the block stalled
         final = {**final, "straight": True}
-    climbed, trapped = False, None
+    climbed, trapped, rises = False, None, iter((UNFOLD_RISE, 0.0))
     while True:
         path = clearance.path_over(session.obs.eef_pos, goal, clearance.boxes(session.obs), sweep)
         try:
@@ -268,12 +271,13 @@ def _planned(session: RobotSession, goal: np.ndarray, timeout_s: float, final: d
             return
         except PrimitiveFailure as failure:
             if _trapped(session, goal, failure):
-                if trapped is not None:  # the same again: the first stop says why (beyond reach, a trap)
+                rise = next(rises, None)
+                if rise is None:  # the same again: the first stop says why (beyond reach, a trap)
                     raise PrimitiveFailure(
                         trapped.kind, f"{trapped.message}; the same after going back by the table's middle"
                     ) from failure
-                trapped = failure
-                yield from _unfold(session, goal, timeout_s, sweep)
+                trapped = trapped or failure
+                yield from _unfold(session, goal, timeout_s, sweep, rise)
                 continue
             climb = None if climbed or failure.kind != "waypoint_blocked" else _climb(session, goal, sweep, pushing)
             if climb is None:
@@ -283,22 +287,35 @@ def _planned(session: RobotSession, goal: np.ndarray, timeout_s: float, final: d
 
 
 def _trapped(session: RobotSession, goal: np.ndarray, failure: PrimitiveFailure) -> bool:
-    """The arm stopped, or crept, far short of its goal with nothing in its way (no contact). A
-    redundant arm folded by a stretch can sit where operational-space control no longer moves it
-    towards a goal it reaches at once from a posture nearer the middle of the table."""
+    """The arm stopped, or crept, far short of its goal with nothing in its way (no contact): more
+    than ``UNFOLD_SHORT``, or than twice its calibrated steady-state error (a Jaco, whose error is
+    18 mm, stopped 4.3-4.7 cm short with its elbow bent past straight). A redundant arm folded by
+    a stretch can sit where operational-space control no longer moves it towards a goal it reaches
+    at once from a posture nearer the middle of the table."""
     if failure.kind not in ("cannot_track", "timeout") or session.obs.eef_contact:
         return False
-    return float(np.linalg.norm(goal - session.obs.eef_pos)) > UNFOLD_SHORT
+    short = min(UNFOLD_SHORT, 2 * session.calibration.tracking_error_m)
+    return float(np.linalg.norm(goal - session.obs.eef_pos)) > short
 
 
-def _unfold(session: RobotSession, goal: np.ndarray, timeout_s: float, sweep: clearance.Sweep) -> Steps:
-    """Back over the middle of the table, at the higher of the grip site's and the goal's heights,
-    over the perceived boxes: from there an arm takes its ordinary posture. Not reached either, the
-    move is planned again from wherever the arm got to."""
+def _unfold(
+    session: RobotSession, goal: np.ndarray, timeout_s: float, sweep: clearance.Sweep, rise: float = 0.0
+) -> Steps:
+    """Up by ``rise``, then back over the middle of the table, at the higher of the grip site's
+    and the goal's heights, over the perceived boxes: from there an arm takes its ordinary posture.
+    Not reached either, the move is planned again from wherever the arm got to. The rise: a Jaco
+    that took a block at 0.72 m from its base had its elbow bent past straight, its wrist at its
+    limit, and moved neither inwards nor to the middle until it had risen 12 cm; then it carried
+    the block to the bin. Where a rise does not free it, :func:`_planned` tries once without."""
     here = np.asarray(session.obs.eef_pos, dtype=float)
     middle = np.array([*TABLE_OFFSET[:2], max(here[2], goal[2])])
+    if rise > 0.0:
+        try:
+            yield from move_to(session, here + [0.0, 0.0, rise], timeout_s=timeout_s, tol=VIA_TOL, plan=False)
+        except PrimitiveFailure:
+            pass  # an arm at the top of its reach goes to the middle from where it is
     try:
-        for via in clearance.path_over(here, middle, clearance.boxes(session.obs), sweep):
+        for via in clearance.path_over(session.obs.eef_pos, middle, clearance.boxes(session.obs), sweep):
             yield from move_to(session, via, timeout_s=timeout_s, tol=VIA_TOL, plan=False)
     except PrimitiveFailure:
         return
@@ -564,7 +581,19 @@ def push_to(session: RobotSession, start: Sequence[float], goal: Sequence[float]
         yield from move_to(session, begin + above, timeout_s=timeout_s, settle=True)
         yield from move_to(session, begin, timeout_s=timeout_s / 2, settle=True)
     yield from move_to(session, end, timeout_s=timeout_s, tol=0.015, straight=True, plan=False)
-    yield from move_to(session, end + np.array([0.0, 0.0, APPROACH_HEIGHT]), timeout_s=timeout_s / 2, tol=0.02)
+    yield from move_to(session, _withdrawal(begin, end), timeout_s=timeout_s / 2, tol=0.02)
+
+
+def _withdrawal(begin: np.ndarray, end: np.ndarray) -> np.ndarray:
+    """Where a push's fist goes once it has slid to ``end``: ``APPROACH_HEIGHT`` up and
+    ``PUSH_BACK_OFF`` back along the push, away from what it pushed. Straight up at the edge of
+    an arm's reach unbends its elbow towards straight: a Jaco wiping at 0.72 m from its base then
+    could not come back for the next stroke (its wrist at its limit), and came back once withdrawn
+    2 cm back."""
+    line = np.r_[end[:2] - begin[:2], 0.0]
+    length = float(np.linalg.norm(line))
+    back = line / length * min(PUSH_BACK_OFF, length) if length > 1e-6 else np.zeros(3)
+    return end - back + np.array([0.0, 0.0, APPROACH_HEIGHT])
 
 
 def _behind(session: RobotSession, start: np.ndarray, goal: np.ndarray) -> np.ndarray:
