@@ -390,9 +390,9 @@ def test_a_jaco_wiping_at_its_reach_comes_back_for_the_next_stroke(monkeypatch, 
 def test_a_jaco_trapped_by_a_far_grasp_rises_and_carries_the_block_to_the_bin(monkeypatch, rise):
     """The block lies 0.72 m from the Jaco's base; taken by a hand that comes from the bin's first
     corner, the elbow bends past straight, and the carry to the next corner stops some 4.5 cm short,
-    touching nothing: more than twice the Jaco's
-    calibrated steady-state error (18 mm), so trapped. Risen before it goes back by the table's
-    middle, it carries the block there; without the rise it stops again."""
+    touching nothing: more than twice the Jaco's calibrated steady-state error, so trapped. Risen
+    before it goes back by the table's middle, it carries the block there; without the rise it
+    stops again."""
     if not rise:
         monkeypatch.setattr(control, "UNFOLD_RISE", 0.0)
     arm = _jaco("kinematic/clear_counter", seed=3)  # the block perceived at (0.121, -0.207)

@@ -248,8 +248,8 @@ def _planned(session: RobotSession, goal: np.ndarray, timeout_s: float, final: d
     over what the hand or its load meets there and plan again from above it; stopped far short with
     nothing in the way, rise, go back by the table's middle and plan again; once more without the
     rise (failing so again, the first stop is the failure named: beyond reach stays
-    ``cannot_track``). Each leg (climb, pass,
-    descent) has the move's ``timeout_s``: a detour is never cut short by a budget set for a line.
+    ``cannot_track``). Each leg (climb, pass, descent) has the move's ``timeout_s``: a detour is
+    never cut short by a budget set for a line.
     An empty hand that slides from behind a box it is against into it pushes it
     (:func:`clearance.pushed`): it keeps to the line, as the end-effector APIs' moves do, and never
     climbs over what it pushes."""
@@ -288,10 +288,10 @@ def _planned(session: RobotSession, goal: np.ndarray, timeout_s: float, final: d
 
 def _trapped(session: RobotSession, goal: np.ndarray, failure: PrimitiveFailure) -> bool:
     """The arm stopped, or crept, far short of its goal with nothing in its way (no contact): more
-    than ``UNFOLD_SHORT``, or than twice its calibrated steady-state error (a Jaco, whose error is
-    18 mm, stopped 4.3-4.7 cm short with its elbow bent past straight). A redundant arm folded by
-    a stretch can sit where operational-space control no longer moves it towards a goal it reaches
-    at once from a posture nearer the middle of the table."""
+    than ``UNFOLD_SHORT``, or than twice its calibrated steady-state error, which a slow-tracking
+    arm with its elbow bent past straight may stop within. A redundant arm folded by a stretch can
+    sit where operational-space control no longer moves it towards a goal it reaches at once from
+    a posture nearer the middle of the table."""
     if failure.kind not in ("cannot_track", "timeout") or session.obs.eef_contact:
         return False
     short = min(UNFOLD_SHORT, 2 * session.calibration.tracking_error_m)
@@ -303,10 +303,10 @@ def _unfold(
 ) -> Steps:
     """Up by ``rise``, then back over the middle of the table, at the higher of the grip site's
     and the goal's heights, over the perceived boxes: from there an arm takes its ordinary posture.
-    Not reached either, the move is planned again from wherever the arm got to. The rise: a Jaco
-    that took a block at 0.72 m from its base had its elbow bent past straight, its wrist at its
-    limit, and moved neither inwards nor to the middle until it had risen 12 cm; then it carried
-    the block to the bin. Where a rise does not free it, :func:`_planned` tries once without."""
+    Not reached either, the move is planned again from wherever the arm got to. The rise: an arm
+    whose elbow a far grasp bent past straight, its wrist at its limit, moves neither inwards nor
+    to the middle until it has risen (a Jaco's, history "Transfer, part 14"). Where a rise does not
+    free it, :func:`_planned` tries once without."""
     here = np.asarray(session.obs.eef_pos, dtype=float)
     middle = np.array([*TABLE_OFFSET[:2], max(here[2], goal[2])])
     if rise > 0.0:
@@ -587,9 +587,8 @@ def push_to(session: RobotSession, start: Sequence[float], goal: Sequence[float]
 def _withdrawal(begin: np.ndarray, end: np.ndarray) -> np.ndarray:
     """Where a push's fist goes once it has slid to ``end``: ``APPROACH_HEIGHT`` up and
     ``PUSH_BACK_OFF`` back along the push, away from what it pushed. Straight up at the edge of
-    an arm's reach unbends its elbow towards straight: a Jaco wiping at 0.72 m from its base then
-    could not come back for the next stroke (its wrist at its limit), and came back once withdrawn
-    2 cm back."""
+    an arm's reach unbends its elbow towards straight, and past it on the way back the wrist comes
+    to its limit (a Jaco's wipe, history "Transfer, part 14")."""
     line = np.r_[end[:2] - begin[:2], 0.0]
     length = float(np.linalg.norm(line))
     back = line / length * min(PUSH_BACK_OFF, length) if length > 1e-6 else np.zeros(3)
